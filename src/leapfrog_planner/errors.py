@@ -1,0 +1,17 @@
+"""Exceptions. Each subclasses the built-in it refines, so callers may catch either."""
+
+
+class LeapfrogError(Exception):
+    """Base class of every error the planner raises on purpose."""
+
+
+class ModelError(LeapfrogError, ValueError):
+    """A vehicle model that Pontryagin's principle cannot be applied to as required."""
+
+
+class ScenarioError(LeapfrogError, ValueError):
+    """A scenario (file or object) with a missing, malformed or inconsistent value."""
+
+
+class SettingsError(LeapfrogError, ValueError):
+    """An unknown option, or an option with a value outside its range."""

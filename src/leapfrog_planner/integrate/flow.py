@@ -1,0 +1,214 @@
+"""The flow of the canonical system, with exact sensitivities, as a Python object.
+
+``Flow(problem, settings)(t0, z0, t1, sensitivity=...)`` integrates ``zdot = G(z)`` with
+``z = (x, lambda)``, the running cost as a quadrature state and, on request, the variational
+equations ``Sdot = DG(z) S`` for the columns of ``S`` that the caller needs: the costate columns
+(``dz(t1)/dlambda(t0)``, what simple shooting needs) or all of ``Phi = dz(t1)/dz(t0)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline
+
+from ..codegen import load_kernels
+from ..errors import SettingsError
+from ..problem import OptimalControlProblem
+from .tableaux import get_tableau
+
+
+class FlowStatus(IntEnum):
+    OK = 0
+    NON_FINITE = 1
+    MAX_STEPS = 2
+    STEP_TOO_SMALL = 3
+
+
+@dataclass(frozen=True)
+class IntegratorSettings:
+    """How to integrate. ``method``: ``rk4`` (fixed ``steps``), ``dp5`` or ``dop853`` (adaptive)."""
+
+    method: str = "dop853"
+    rtol: float = 1e-10
+    atol: float = 1e-10
+    steps: int = 200
+    max_steps: int = 100_000
+
+    def __post_init__(self):
+        get_tableau(self.method)
+        if not (0 < self.rtol < 1) or not (self.atol > 0):
+            raise SettingsError(f"integrator tolerances must be rtol in (0, 1) and atol > 0, got {self.rtol}, {self.atol}")
+        if int(self.steps) != self.steps or self.steps < 1:
+            raise SettingsError(f"integrator steps must be a positive integer, got {self.steps}")
+        if int(self.max_steps) != self.max_steps or self.max_steps < 1:
+            raise SettingsError(f"integrator max_steps must be a positive integer, got {self.max_steps}")
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A sampled extremal: times, states, costates, controls and the accumulated cost."""
+
+    t: np.ndarray
+    x: np.ndarray  # (N, nx)
+    lam: np.ndarray  # (N, nx)
+    u: np.ndarray  # (N, nu)
+    cost: np.ndarray  # (N,) running cost integrated from t[0]
+    hamiltonian: np.ndarray  # (N,)
+    dH_du: np.ndarray  # (N, nu), zero up to rounding on an extremal
+
+
+@dataclass(frozen=True)
+class FlowResult:
+    status: FlowStatus
+    t0: float
+    t1: float
+    z: np.ndarray  # (2 nx,) state and costate at t1
+    cost: float  # integral of the running cost over [t0, t1]
+    sensitivity: np.ndarray | None  # (2 nx, k): dz(t1)/d(seed), see Flow.__call__
+    steps: int
+    rejected: int
+    trajectory: Trajectory | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.status == FlowStatus.OK
+
+    @property
+    def x(self) -> np.ndarray:
+        return self.z[: self.z.size // 2]
+
+    @property
+    def lam(self) -> np.ndarray:
+        return self.z[self.z.size // 2 :]
+
+
+_SEEDS = (None, "costate", "full")
+
+
+class Flow:
+    """Compiled flow of one problem; cheap to call many times (obstacles are arrays, not code)."""
+
+    def __init__(self, problem: OptimalControlProblem, settings: IntegratorSettings | None = None):
+        self.problem = problem
+        self.settings = settings or IntegratorSettings()
+        self.tableau = get_tableau(self.settings.method)
+        self.kernels = load_kernels(problem.model)
+        self.nx = problem.model.nx
+        self.nz = 2 * self.nx
+        self._p = np.asarray(problem.parameters, dtype=np.float64)
+        self._obs = np.ascontiguousarray(problem.obstacles)
+        self._w = float(problem.penalty.weight)
+        self._n = int(problem.penalty.exponent)
+        self._e3 = self.tableau.e3 if self.tableau.e3 is not None else np.zeros(0)
+        self._no_T = np.zeros(0)
+        self._no_Z = np.zeros((0, self.nz + 1))
+        eye = np.eye(self.nz)
+        self._seed = {None: eye[:, :0], "costate": eye[:, self.nx :], "full": eye}
+
+    def with_settings(self, settings: IntegratorSettings) -> Flow:
+        return Flow(self.problem, settings)
+
+    def _run(self, t0, z0, t1, seed, T_out, Z_out):
+        nz = self.nz
+        k = seed.shape[1]
+        Y0 = np.empty(nz + 1 + nz * k)
+        Y0[:nz] = z0
+        Y0[nz] = 0.0
+        Y0[nz + 1 :] = seed.ravel()
+        K = self.kernels
+        tab = self.tableau
+        if tab.adaptive:
+            s = self.settings
+            Y, status, acc, rej = K.erk_adaptive(
+                Y0, t0, t1, k, tab.A, tab.b, tab.e, self._e3, tab.error_order, s.rtol, s.atol,
+                s.max_steps, self._p, self._obs, self._w, self._n, T_out, Z_out,
+            )
+        else:
+            n = self.settings.steps
+            Y, status, acc = K.erk_fixed(
+                Y0, t0, t1, n, k, tab.A, tab.b, self._p, self._obs, self._w, self._n, T_out, Z_out
+            )
+            rej = 0
+        return Y, FlowStatus(status), acc, rej
+
+    def __call__(
+        self,
+        t0: float,
+        z0,
+        t1: float,
+        *,
+        sensitivity: str | None | np.ndarray = None,
+        samples: int = 0,
+    ) -> FlowResult:
+        """Integrate from ``(t0, z0)`` to ``t1``.
+
+        ``sensitivity``: ``None`` (flow only), ``"costate"`` (``dz(t1)/dlambda(t0)``, shape
+        ``(2nx, nx)``), ``"full"`` (``Phi = dz(t1)/dz(t0)``) or an explicit seed matrix ``(2nx, k)``.
+        ``samples > 0`` also returns a trajectory: the integrator's own steps, and for a dense
+        view ``samples`` uniform times interpolated by cubic Hermite splines between steps.
+        """
+        if isinstance(sensitivity, np.ndarray):
+            seed = np.ascontiguousarray(sensitivity, dtype=np.float64).reshape(self.nz, -1)
+        elif sensitivity in _SEEDS:
+            seed = self._seed[sensitivity]
+        else:
+            raise SettingsError(f"sensitivity must be one of {_SEEDS} or an array, got {sensitivity!r}")
+        z0 = np.asarray(z0, dtype=np.float64)
+        if samples:
+            cap = (self.settings.steps if not self.tableau.adaptive else self.settings.max_steps) + 1
+            T_out = np.empty(cap)
+            Z_out = np.empty((cap, self.nz + 1))
+        else:
+            T_out, Z_out = self._no_T, self._no_Z
+        Y, status, acc, rej = self._run(float(t0), z0, float(t1), seed, T_out, Z_out)
+        nz = self.nz
+        k = seed.shape[1]
+        traj = None
+        if samples and status == FlowStatus.OK:
+            traj = self._trajectory(T_out[: acc + 1], Z_out[: acc + 1], samples)
+        return FlowResult(
+            status=status,
+            t0=float(t0),
+            t1=float(t1),
+            z=Y[:nz].copy(),
+            cost=float(Y[nz]),
+            sensitivity=Y[nz + 1 :].reshape(nz, k).copy() if k else None,
+            steps=int(acc),
+            rejected=int(rej),
+            trajectory=traj,
+        )
+
+    def _trajectory(self, T, Z, samples) -> Trajectory:
+        if samples > 1 and T.size > 1:
+            dZ = np.empty_like(Z)
+            self.kernels.rhs_along(Z, self._p, self._obs, self._w, self._n, dZ)
+            spline = CubicHermiteSpline(T, Z, dZ, axis=0)
+            t = np.unique(np.concatenate([np.linspace(T[0], T[-1], samples), T]))
+            if T[-1] < T[0]:
+                t = t[::-1]
+            Zs = spline(t)
+            Zs[np.searchsorted(t, T) if T[-1] > T[0] else []] = Z  # exact values at the steps
+        else:
+            t, Zs = T.copy(), Z.copy()
+        return self.evaluate(t, Zs[:, : self.nz], Zs[:, self.nz])
+
+    def evaluate(self, t, Z, cost=None) -> Trajectory:
+        """Controls, H and dH/du along given rows ``Z = (x, lambda)``."""
+        Z = np.ascontiguousarray(Z, dtype=np.float64)
+        nu = self.problem.model.nu
+        U = np.empty((Z.shape[0], nu))
+        H = np.empty(Z.shape[0])
+        dHdu = np.empty((Z.shape[0], nu))
+        self.kernels.along_path(Z, self._p, self._obs, self._w, self._n, U, H, dHdu)
+        return Trajectory(
+            t=np.asarray(t, dtype=float),
+            x=Z[:, : self.nx].copy(),
+            lam=Z[:, self.nx :].copy(),
+            u=U,
+            cost=np.zeros(Z.shape[0]) if cost is None else np.asarray(cost, dtype=float),
+            hamiltonian=H,
+            dH_du=dHdu,
+        )

@@ -1,0 +1,260 @@
+# Explicit Runge-Kutta flow of the canonical system with its variational equations.
+#
+# This file is a template, not an importable module: leapfrog_planner.codegen appends it to the
+# code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
+# controls, hamiltonian_model and dH_du. Keeping the integrator in the same module as the model lets numba inline and
+# cache everything (functions passed as arguments would not be cached on disk).
+#
+# The augmented state is Y = [z (NZ), cost (1), S (NZ x k, row-major)], with z = (x, lambda),
+# S = dz/d(seed) and k sensitivity columns (k = 0: flow only). A method is just its tableau
+# (A, b, c, and for embedded pairs the error weights e, e3 over s + 1 stages, the last being
+# f(y_new)); the step-size controller follows Hairer, Norsett and Wanner (and SciPy's solve_ivp).
+
+# Integrator status codes (mirrored by leapfrog_planner.integrate.flow.FlowStatus).
+OK = 0
+NON_FINITE = 1
+MAX_STEPS = 2
+STEP_TOO_SMALL = 3
+
+
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
+def aug_rhs(Y, k, p, obs, weight, exponent, out):
+    """Right-hand side of the augmented system: canonical system, cost rate, sensitivities."""
+    base = NZ + 1
+    model_augmented(Y, p, Y[base:], k, out)
+    if obs.shape[0] == 0:
+        return
+    P, Px, Py, Pxx, Pxy, Pyy = penalty_terms(Y[0], Y[1], obs, weight, exponent, k > 0)
+    out[NX] -= Px
+    out[NX + 1] -= Py
+    out[NZ] += P
+    if k > 0:
+        rx = base + NX * k
+        ry = base + (NX + 1) * k
+        for c in range(k):
+            s0 = Y[base + c]
+            s1 = Y[base + k + c]
+            out[rx + c] -= Pxx * s0 + Pxy * s1
+            out[ry + c] -= Pxy * s0 + Pyy * s1
+
+
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
+def _stage_states(Y, K, A, i, h, Yt):
+    n = Y.size
+    for m in range(n):
+        Yt[m] = Y[m]
+    for j in range(i):
+        a = h * A[i, j]
+        if a != 0.0:
+            for m in range(n):
+                Yt[m] += a * K[j, m]
+
+
+# Finiteness is tested on the bits (exponent all ones = inf or NaN): under fast math LLVM may
+# assume that no float is NaN or inf and fold a floating-point test away, even after inlining.
+_EXP_MASK = np.int64(0x7FF0000000000000)
+
+
+@njit(cache=True, error_model="numpy", inline=INLINE)
+def _all_finite(Y, n):
+    bits = Y.view(np.int64)
+    for m in range(n):
+        if (bits[m] & _EXP_MASK) == _EXP_MASK:
+            return False
+    return True
+
+
+@njit(cache=True, error_model="numpy", inline=INLINE)
+def _finite(x):
+    box = np.empty(1)
+    box[0] = x
+    return _all_finite(box, 1)
+
+
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+def erk_fixed(Y0, t0, t1, nsteps, k, A, b, p, obs, weight, exponent, T_out, Z_out):
+    """``nsteps`` equal steps; returns (Y1, status). Records (t, z, cost) if T_out has room."""
+    n = Y0.size
+    s = b.size
+    K = np.empty((s, n))
+    Y = Y0.copy()
+    Yt = np.empty(n)
+    h = (t1 - t0) / nsteps
+    record = T_out.size > nsteps
+    if record:
+        T_out[0] = t0
+        Z_out[0, :] = Y[: NZ + 1]
+    for step in range(nsteps):
+        for i in range(s):
+            _stage_states(Y, K, A, i, h, Yt)
+            aug_rhs(Yt, k, p, obs, weight, exponent, K[i])
+        for i in range(s):
+            w = h * b[i]
+            if w != 0.0:
+                for m in range(n):
+                    Y[m] += w * K[i, m]
+        if not _all_finite(Y, NZ + 1):
+            return Y, NON_FINITE, step + 1
+        if record:
+            T_out[step + 1] = t0 + (step + 1) * h
+            Z_out[step + 1, :] = Y[: NZ + 1]
+    return Y, OK, nsteps
+
+
+@njit(cache=True, error_model="numpy")
+def _error_norm(K, h, e, e3, Y, Ynew, rtol, atol, n_err):
+    """Hairer's RMS error norm on the first n_err components; DOP853's 5th/3rd order blend if e3."""
+    s1 = K.shape[0]
+    err5 = 0.0
+    err3 = 0.0
+    use3 = e3.size > 0
+    for m in range(n_err):
+        scale = atol + rtol * max(abs(Y[m]), abs(Ynew[m]))
+        a = 0.0
+        b3 = 0.0
+        for i in range(s1):
+            a += e[i] * K[i, m]
+            if use3:
+                b3 += e3[i] * K[i, m]
+        err5 += (a / scale) ** 2
+        err3 += (b3 / scale) ** 2
+    if not use3:
+        return abs(h) * math.sqrt(err5 / n_err)
+    if err5 == 0.0 and err3 == 0.0:
+        return 0.0
+    return abs(h) * err5 / math.sqrt((err5 + 0.01 * err3) * n_err)
+
+
+@njit(cache=True, error_model="numpy")
+def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent, n_err):
+    """Hairer's starting step size (as in SciPy's select_initial_step)."""
+    n = Y.size
+    d0 = 0.0
+    d1 = 0.0
+    for m in range(n_err):
+        scale = atol + abs(Y[m]) * rtol
+        d0 += (Y[m] / scale) ** 2
+        d1 += (f0[m] / scale) ** 2
+    d0 = math.sqrt(d0 / n_err)
+    d1 = math.sqrt(d1 / n_err)
+    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
+    h0 = min(h0, abs(t1 - t0))
+    Y1 = np.empty(n)
+    for m in range(n):
+        Y1[m] = Y[m] + h0 * f0[m]
+    f1 = np.empty(n)
+    aug_rhs(Y1, k, p, obs, weight, exponent, f1)
+    d2 = 0.0
+    for m in range(n_err):
+        scale = atol + abs(Y[m]) * rtol
+        d2 += ((f1[m] - f0[m]) / scale) ** 2
+    d2 = math.sqrt(d2 / n_err) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return min(100 * h0, h1, abs(t1 - t0))
+
+
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+def erk_adaptive(
+    Y0, t0, t1, k, A, b, e, e3, error_order, rtol, atol, max_steps, p, obs, weight, exponent,
+    T_out, Z_out,
+):
+    """Embedded pair with error control on (z, cost). Returns (Y1, status, accepted, rejected).
+
+    The sensitivities ride along on the accepted steps: the Jacobian returned is then the exact
+    derivative of the discrete flow for that step sequence ("internal differentiation").
+    """
+    n = Y0.size
+    s = b.size
+    n_err = NZ + 1
+    K = np.empty((s + 1, n))
+    Y = Y0.copy()
+    Ynew = np.empty(n)
+    Yt = np.empty(n)
+    record = T_out.size > 0
+    if record:
+        T_out[0] = t0
+        Z_out[0, :] = Y[:n_err]
+    aug_rhs(Y, k, p, obs, weight, exponent, K[0])
+    if not (_all_finite(Y, n) and _all_finite(K[0], n)):
+        return Y, NON_FINITE, 0, 0
+    direction = 1.0 if t1 >= t0 else -1.0
+    h = _initial_step(Y, K[0], t0, t1, k, error_order, rtol, atol, p, obs, weight, exponent, n_err)
+    expo = -1.0 / (error_order + 1.0)
+    t = t0
+    accepted = 0
+    rejected = 0
+    while direction * (t1 - t) > 0.0:
+        if accepted >= max_steps or (record and accepted + 1 >= T_out.size):
+            return Y, MAX_STEPS, accepted, rejected
+        min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
+        h = min(h, abs(t1 - t))
+        step_rejected = False
+        while True:
+            if h < min_step:
+                return Y, STEP_TOO_SMALL, accepted, rejected
+            hs = h * direction
+            for i in range(1, s):
+                _stage_states(Y, K, A, i, hs, Yt)
+                aug_rhs(Yt, k, p, obs, weight, exponent, K[i])
+            for m in range(n):
+                Ynew[m] = Y[m]
+            for i in range(s):
+                w = hs * b[i]
+                if w != 0.0:
+                    for m in range(n):
+                        Ynew[m] += w * K[i, m]
+            aug_rhs(Ynew, k, p, obs, weight, exponent, K[s])
+            err = _error_norm(K, hs, e, e3, Y, Ynew, rtol, atol, n_err)
+            if not _finite(err):
+                # A blow-up inside the step: shrink hard and retry, as for a large error.
+                h *= 0.2
+                rejected += 1
+                step_rejected = True
+                continue
+            if err < 1.0:
+                if err == 0.0:
+                    factor = 10.0
+                else:
+                    factor = min(10.0, 0.9 * err**expo)
+                if step_rejected:
+                    factor = min(1.0, factor)
+                t_new = t + hs
+                if direction * (t_new - t1) > -min_step:
+                    t_new = t1
+                t = t_new
+                h *= factor
+                break
+            h *= max(0.2, 0.9 * err**expo)
+            rejected += 1
+            step_rejected = True
+        for m in range(n):
+            Y[m] = Ynew[m]
+            K[0, m] = K[s, m]
+        accepted += 1
+        if not _all_finite(Y, n_err):
+            return Y, NON_FINITE, accepted, rejected
+        if record:
+            T_out[accepted] = t
+            Z_out[accepted, :] = Y[:n_err]
+    return Y, OK, accepted, rejected
+
+
+@njit(cache=True, error_model="numpy")
+def along_path(Z, p, obs, weight, exponent, U, H, dHdu):
+    """Controls, Hamiltonian and dH/du (at the computed controls) at each row of Z = (x, lambda)."""
+    for r in range(Z.shape[0]):
+        z = Z[r, :NZ]
+        controls(z, p, U[r])
+        P, Px, Py, Pxx, Pxy, Pyy = penalty_terms(z[0], z[1], obs, weight, exponent, False)
+        H[r] = hamiltonian_model(z, p) + P
+        dH_du(z, U[r], p, dHdu[r])
+
+
+@njit(cache=True, error_model="numpy")
+def rhs_along(Z, p, obs, weight, exponent, dZ):
+    """Time derivative of (z, cost) at each row of Z, for Hermite interpolation between steps."""
+    for r in range(Z.shape[0]):
+        aug_rhs(Z[r], 0, p, obs, weight, exponent, dZ[r])
