@@ -125,6 +125,21 @@ def model_source(model: VehicleModel) -> str:
         "# Inline the hot kernels into the integrator loops (numba IR inlining).",
         'INLINE = "always"',
     ])
+    # Linearisation data for the affine costate guess: f, df/dx, df/du and d2L/du2 at (x, u).
+    xu_names = _Names(model.states, model.parameters, model.controls)
+    xu_names.values_source = [(n, src.replace("z[", "x[")) for n, src in xu_names.values_source]
+    fx = sp.Matrix(model.dynamics).jacobian(sp.Matrix(model.states))
+    fu = sp.Matrix(model.dynamics).jacobian(sp.Matrix(model.controls))
+    Luu = sp.hessian(model.running_cost, model.controls)
+    nu = model.nu
+    lin_exprs = [*model.dynamics, *fx, *fu, *Luu]
+    lin_targets = (
+        [f"f[{i}] = {{expr}}" for i in range(nx)]
+        + [f"A[{i}, {j}] = {{expr}}" for i in range(nx) for j in range(nx)]
+        + [f"B[{i}, {j}] = {{expr}}" for i in range(nx) for j in range(nu)]
+        + [f"R[{i}, {j}] = {{expr}}" for i in range(nu) for j in range(nu)]
+    )
+
     parts = [
         header,
         _function("canonical_jac", ["z", "p", "J"], [jac[i, j] for i, j in nonzero],
@@ -135,6 +150,7 @@ def model_source(model: VehicleModel) -> str:
                   [f"u[{i}] = {{expr}}" for i in range(model.nu)], names),
         _function("hamiltonian_model", ["z", "p"], [sysm.hamiltonian_on_extremal()], ["return {expr}"], names),
         _function("dH_du", ["z", "u", "p", "out"], dHdu, [f"out[{i}] = {{expr}}" for i in range(model.nu)], names_u),
+        _function("linearize", ["x", "u", "p", "f", "A", "B", "R"], lin_exprs, lin_targets, xu_names),
     ]
     return "\n\n\n".join(parts) + "\n"
 

@@ -32,8 +32,9 @@ class IntegratorSettings:
     """How to integrate. ``method``: ``rk4`` (fixed ``steps``), ``dp5`` or ``dop853`` (adaptive)."""
 
     method: str = "dop853"
-    rtol: float = 1e-10
-    atol: float = 1e-10
+    # Two orders below the shooting tolerance (1e-10), so that Newton never chases integrator noise.
+    rtol: float = 1e-12
+    atol: float = 1e-12
     steps: int = 200
     max_steps: int = 100_000
 
@@ -58,6 +59,7 @@ class Trajectory:
     cost: np.ndarray  # (N,) running cost integrated from t[0]
     hamiltonian: np.ndarray  # (N,)
     dH_du: np.ndarray  # (N, nu), zero up to rounding on an extremal
+    at_step: np.ndarray  # (N,) bool: rows computed by the integrator itself (not interpolated)
 
 
 @dataclass(frozen=True)
@@ -190,12 +192,15 @@ class Flow:
             if T[-1] < T[0]:
                 t = t[::-1]
             Zs = spline(t)
-            Zs[np.searchsorted(t, T) if T[-1] > T[0] else []] = Z  # exact values at the steps
+            at_step = np.zeros(t.size, dtype=bool)
+            idx = np.searchsorted(t, T) if T[-1] > T[0] else np.searchsorted(-t, -T)
+            Zs[idx] = Z  # exact values at the steps
+            at_step[idx] = True
         else:
-            t, Zs = T.copy(), Z.copy()
-        return self.evaluate(t, Zs[:, : self.nz], Zs[:, self.nz])
+            t, Zs, at_step = T.copy(), Z.copy(), np.ones(T.size, dtype=bool)
+        return self.evaluate(t, Zs[:, : self.nz], Zs[:, self.nz], at_step)
 
-    def evaluate(self, t, Z, cost=None) -> Trajectory:
+    def evaluate(self, t, Z, cost=None, at_step=None) -> Trajectory:
         """Controls, H and dH/du along given rows ``Z = (x, lambda)``."""
         Z = np.ascontiguousarray(Z, dtype=np.float64)
         nu = self.problem.model.nu
@@ -211,4 +216,5 @@ class Flow:
             cost=np.zeros(Z.shape[0]) if cost is None else np.asarray(cost, dtype=float),
             hamiltonian=H,
             dH_du=dHdu,
+            at_step=np.ones(Z.shape[0], dtype=bool) if at_step is None else at_step,
         )

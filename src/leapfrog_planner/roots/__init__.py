@@ -1,0 +1,20 @@
+"""Newton-type root solvers: one loop, interchangeable step strategies."""
+
+from .loop import RootSettings, solve_root
+from .result import RootResult, RootStatus
+from .steps import STRATEGIES, ModifiedNewtonStep, NewtonStep, NleqErrStep, get_strategy
+from .system import FunctionSystem, RootSystem
+
+__all__ = [
+    "STRATEGIES",
+    "FunctionSystem",
+    "ModifiedNewtonStep",
+    "NewtonStep",
+    "NleqErrStep",
+    "RootResult",
+    "RootSettings",
+    "RootStatus",
+    "RootSystem",
+    "get_strategy",
+    "solve_root",
+]

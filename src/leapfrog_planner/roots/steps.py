@@ -1,0 +1,174 @@
+"""Step strategies. The iteration loop (:mod:`.loop`) is shared; a method is one of these.
+
+Each ``step`` gets the current iterate with its residual ``F``, Jacobian ``J`` and the LU
+factors of ``J``, and returns a :class:`Step`: the next iterate, its residual (and Jacobian) if
+the strategy already evaluated them, and the damping factor used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import lu_solve
+
+from ..errors import SettingsError
+from .result import RootStatus
+
+
+@dataclass
+class Step:
+    x: np.ndarray
+    lam: float
+    F: np.ndarray | None = None
+    J: np.ndarray | None = None
+    failed: RootStatus | None = None  # set when the strategy cannot produce a next iterate
+    message: str = ""
+
+
+class _Evaluator:
+    """Counts evaluations for the loop; handed to strategies for their trial points."""
+
+    def __init__(self, system):
+        self.system = system
+        self.f_evals = 0
+        self.jac_evals = 0
+
+    def __call__(self, x, jacobian=False):
+        self.f_evals += 1
+        self.jac_evals += bool(jacobian)
+        F, J = self.system.evaluate(x, jacobian)
+        if F is not None and not np.all(np.isfinite(F)):
+            F, J = None, None
+        return F, J
+
+
+@dataclass(frozen=True)
+class NewtonStep:
+    """Classical Newton: the full step ``x+ = x - DF(x)^-1 F(x)``, never damped."""
+
+    name = "newton"
+
+    def start(self):
+        return None
+
+    def step(self, evaluate, x, F, J, lu, cond, memo) -> Step:
+        return Step(x - lu_solve(lu, F), 1.0)
+
+
+@dataclass(frozen=True)
+class ModifiedNewtonStep:
+    """Stoer and Bulirsch's modified Newton method (section 5.4), exactly as the paper states it.
+
+    ``d = DF^-1 F``, ``gamma = 1/cond(DF)``, ``h(s) = F^T F``. Find the smallest ``m >= 0`` with
+    ``h(x - 2^-m d) <= h(x) - 2^-m (gamma/4) |d| |Dh(x)|``, then take, among ``2^-k`` for
+    ``0 <= k <= m``, the step with the smallest ``h``. Hence ``h`` never increases.
+    """
+
+    max_halvings: int = 30
+    name = "modified-newton"
+
+    def __post_init__(self):
+        if self.max_halvings < 1:
+            raise SettingsError("max_halvings must be >= 1")
+
+    def start(self):
+        return None
+
+    def step(self, evaluate, x, F, J, lu, cond, memo) -> Step:
+        d = lu_solve(lu, F)
+        gamma = 1.0 / cond
+        h0 = float(F @ F)
+        slope = 0.25 * gamma * np.linalg.norm(d) * np.linalg.norm(2.0 * (J.T @ F))
+        best = None
+        for m in range(self.max_halvings + 1):
+            lam = 2.0**-m
+            xt = x - lam * d
+            # The full step is usually accepted near a solution: fetch its Jacobian too, so the
+            # loop need not evaluate there again.
+            Ft, Jt = evaluate(xt, jacobian=(m == 0))
+            h = float(Ft @ Ft) if Ft is not None else np.inf
+            if best is None or h < best[0]:
+                best = (h, Step(xt, lam, Ft, Jt))
+            if h <= h0 - lam * slope:
+                return best[1]
+        return Step(x, 0.0, failed=RootStatus.LINE_SEARCH_FAILED,
+                    message=f"no step 2^-m, m <= {self.max_halvings}, decreased |F|^2 enough")
+
+
+@dataclass
+class _NleqMemo:
+    lam: float
+    dx_prev: np.ndarray | None = None  # previous ordinary Newton correction
+    dxbar: np.ndarray | None = None  # simplified correction at the current iterate
+    lam_prev: float = 1.0
+
+
+@dataclass(frozen=True)
+class NleqErrStep:
+    """Deuflhard's affine-invariant damped Newton method, NLEQ-ERR (error-oriented).
+
+    Damping is judged by the simplified Newton correction ``dxbar = -J_k^-1 F(x_k + lam dx)``,
+    which reuses the LU factors of ``J_k``. The predictor ``lam = min(1, mu)`` uses the previous
+    step's contraction; the corrector ``mu' = |dx| lam^2 / (2 |dxbar - (1 - lam) dx|)`` replaces a
+    trial that fails the restricted monotonicity test ``theta < 1 - lam/4``.
+    """
+
+    initial_damping: float = 1.0
+    min_damping: float = 1e-8
+    xtol: float = 1e-12  # a full step whose simplified correction is below xtol (1 + |x|) is final
+    name = "nleq-err"
+
+    def __post_init__(self):
+        if not (0 < self.min_damping < self.initial_damping <= 1):
+            raise SettingsError("need 0 < min_damping < initial_damping <= 1")
+
+    def start(self):
+        return _NleqMemo(lam=self.initial_damping)
+
+    def step(self, evaluate, x, F, J, lu, cond, memo: _NleqMemo) -> Step:
+        dx = -lu_solve(lu, F)
+        ndx = np.linalg.norm(dx)
+        lam = memo.lam
+        if memo.dx_prev is not None and memo.dxbar is not None:
+            denom = np.linalg.norm(memo.dxbar - dx) * ndx
+            mu = np.inf if denom == 0 else (np.linalg.norm(memo.dx_prev) * np.linalg.norm(memo.dxbar) / denom) * memo.lam_prev
+            lam = min(1.0, mu)
+        while True:
+            if lam < self.min_damping:
+                return Step(x, 0.0, failed=RootStatus.LINE_SEARCH_FAILED,
+                            message=f"damping factor fell below {self.min_damping:g}")
+            xt = x + lam * dx
+            Ft, Jt = evaluate(xt, jacobian=(lam == 1.0))
+            if Ft is None:
+                lam = lam / 2  # outside the domain of F (the flow blew up): shorten the step
+                continue
+            dxbar = -lu_solve(lu, Ft)
+            if lam == 1.0 and np.linalg.norm(dxbar) <= self.xtol * (1.0 + np.linalg.norm(xt)):
+                # Converged in Deuflhard's sense; the monotonicity test would only measure noise.
+                memo.dx_prev, memo.dxbar, memo.lam_prev, memo.lam = dx, dxbar, lam, lam
+                return Step(xt, lam, Ft, Jt)
+            theta = np.linalg.norm(dxbar) / ndx if ndx > 0 else 0.0
+            denom = np.linalg.norm(dxbar - (1.0 - lam) * dx)
+            mu_c = np.inf if denom == 0 else 0.5 * ndx * lam * lam / denom
+            if theta >= 1.0 - lam / 4.0:
+                lam = min(mu_c, lam / 2.0)
+                continue
+            lam_c = min(1.0, mu_c)
+            if lam_c >= 4.0 * lam and lam < 1.0:
+                lam = lam_c
+                continue
+            memo.dx_prev, memo.dxbar, memo.lam_prev, memo.lam = dx, dxbar, lam, lam
+            return Step(xt, lam, Ft, Jt)
+
+
+STRATEGIES = {"newton": NewtonStep, "modified-newton": ModifiedNewtonStep, "nleq-err": NleqErrStep}
+
+
+def get_strategy(method) -> NewtonStep | ModifiedNewtonStep | NleqErrStep:
+    if not isinstance(method, str):
+        return method
+    try:
+        return STRATEGIES[method]()
+    except KeyError:
+        raise SettingsError(f"unknown method {method!r} (known: {', '.join(STRATEGIES)})") from None

@@ -1,0 +1,219 @@
+"""Simple shooting for the Pontryagin boundary value problem.
+
+The unknown is the initial costate ``s = lambda(t0)``. ``F(s) = x(t1; x0, s) - x1`` and its
+Jacobian ``DF = dx(t1)/dlambda(t0)`` comes from the variational equations (the costate block of
+``Phi``), never from finite differences.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import expm, solve
+
+from .errors import ScenarioError
+from .integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
+from .penalty import penalty_terms
+from .problem import OptimalControlProblem
+from .roots import RootResult, RootSettings, RootStatus, solve_root
+
+
+@dataclass(frozen=True)
+class ShootingSettings:
+    method: str = "modified-newton"
+    root: RootSettings = field(default_factory=RootSettings)
+    integrator: IntegratorSettings = field(default_factory=IntegratorSettings)
+    samples: int = 201  # points of the dense trajectory returned; 0 for none
+
+
+@dataclass(frozen=True)
+class ShootingResult:
+    status: RootStatus
+    message: str
+    t0: float
+    t1: float
+    x0: np.ndarray
+    x1: np.ndarray  # the target
+    costate0: np.ndarray  # lambda(t0), the shooting unknown
+    costate1: np.ndarray  # lambda(t1)
+    cost: float
+    end_state_error: float  # |x(t1) - x1| of the returned costate
+    max_dH_du: float  # Pontryagin's stationarity condition along the trajectory
+    hamiltonian_variation: float  # max |H - H(t0)|: H is constant on an extremal
+    trajectory: Trajectory | None
+    root: RootResult
+
+    @property
+    def success(self) -> bool:
+        return self.status is RootStatus.CONVERGED
+
+
+class ShootingSystem:
+    """``F(s) = x(t1; x0, s) - x1`` and ``DF(s)`` for the root solvers."""
+
+    def __init__(self, flow: Flow, t0, x0, t1, x1):
+        self.flow, self.t0, self.t1 = flow, float(t0), float(t1)
+        self.x0 = np.asarray(x0, dtype=float)
+        self.x1 = np.asarray(x1, dtype=float)
+        self.nx = self.x0.size
+        self._z0 = np.empty(2 * self.nx)
+        self._z0[: self.nx] = self.x0
+        self.last = None  # (s, FlowResult) of the latest evaluation, reused for the result
+
+    def evaluate(self, s, jacobian):
+        self._z0[self.nx :] = s
+        r = self.flow(self.t0, self._z0, self.t1, sensitivity="costate" if jacobian else None)
+        self.last = (np.array(s, dtype=float), r)
+        if r.status != FlowStatus.OK:
+            return None, None
+        F = r.z[: self.nx] - self.x1
+        return F, (r.sensitivity[: self.nx] if jacobian else None)
+
+
+def affine_costate_guess(
+    problem: OptimalControlProblem, t0, x0, t1, x1, *, reverse: bool = False, flow: Flow | None = None
+) -> np.ndarray:
+    r"""Initial costate of the affine (linear-quadratic) approximation of the local problem.
+
+    The model is linearised about a nominal motion along the chord from ``x0`` to ``x1``: the
+    midpoint state with its heading along the chord, and the control ``u_bar`` that moves along
+    the chord at the speed ``|chord| / T`` (least squares, so any model works). With
+    ``A = df/dx``, ``B = df/du``, ``c = f(x_bar, u_bar) - A x_bar - B u_bar``,
+    ``R = d2L/du2`` and ``q = grad P(x_bar)`` the local problem becomes
+
+        min int 1/2 u^T R u + q^T x dt,   xdot = A x + B u + c,   x(t0) = x0, x(t1) = x1,
+
+    whose extremals satisfy ``u = -R^-1 B^T lambda``, ``lambdadot = -A^T lambda - q``. With
+    ``T = t1 - t0``, ``M = [[A, -B R^-1 B^T], [0, -A^T]]`` and ``m = (c, -q)``, the flow is
+    ``z(T) = e^{MT} z(0) + int_0^T e^{M(T - tau)} m dtau``, both terms from one matrix exponential
+    of ``[[M, m], [0, 0]] T`` (Van Loan). Its upper-right block is ``-e^{AT} W`` with the
+    controllability Gramian ``W = int_0^T e^{-A tau} B R^-1 B^T e^{-A^T tau} dtau``, so
+
+        lambda(t0) = W^-1 (x0 + e^{-AT} (phi_x - x1)),   phi_x = (int_0^T e^{M(T - tau)} m dtau)_x,
+
+    which is solved as the linear system ``-e^{AT} W lambda0 = x1 - e^{AT} x0 - phi_x``.
+    ``reverse`` linearises about backward motion along the chord instead.
+    """
+    x0 = np.asarray(x0, dtype=float)
+    x1 = np.asarray(x1, dtype=float)
+    T = float(t1 - t0)
+    model = problem.model
+    nx, nu = model.nx, model.nu
+    K = (flow or Flow(problem)).kernels
+    p = np.asarray(problem.parameters, dtype=float)
+    chord = x1[:2] - x0[:2]
+    length = float(np.hypot(*chord))
+    xbar = 0.5 * (x0 + x1)
+    if length > 1e-9:
+        xbar[2] = np.arctan2(chord[1], chord[0]) + (np.pi if reverse else 0.0)
+        speed = length / T
+    else:  # no chord to follow: keep the mean heading and a small forward speed for controllability
+        speed = 1e-3 / T
+    target = np.zeros(nx)
+    target[0], target[1] = speed * np.cos(xbar[2]), speed * np.sin(xbar[2])
+    if reverse:
+        target[:2] *= -1
+    target[2:] = (x1[2:] - x0[2:]) / T
+    f = np.empty(nx)
+    A = np.empty((nx, nx))
+    B = np.empty((nx, nu))
+    R = np.empty((nu, nu))
+    u = np.zeros(nu)
+    for _ in range(3):  # Gauss-Newton for f(x_bar, u) = target (exact in one step for f affine in u)
+        K.linearize(xbar, u, p, f, A, B, R)
+        u = u + np.linalg.lstsq(B, target - f, rcond=None)[0]
+    K.linearize(xbar, u, p, f, A, B, R)
+    c = f - A @ xbar - B @ u
+    q = np.zeros(nx)
+    obs = problem.obstacles
+    if obs.shape[0]:
+        _, q[0], q[1], *_ = penalty_terms(xbar[0], xbar[1], obs, problem.penalty.weight, problem.penalty.exponent, False)
+    n2 = 2 * nx
+    big = np.zeros((n2 + 1, n2 + 1))
+    big[:nx, :nx] = A
+    big[:nx, nx:n2] = -B @ solve(R, B.T, assume_a="pos")
+    big[nx:n2, nx:n2] = -A.T
+    big[:nx, n2] = c
+    big[nx:n2, n2] = -q
+    E = expm(big * T)
+    rhs = x1 - E[:nx, :nx] @ x0 - E[:nx, n2]
+    return np.linalg.lstsq(E[:nx, nx:n2], rhs, rcond=None)[0]
+
+
+def _check_ends(x0, x1, nx):
+    for name, v in (("x0", x0), ("x1", x1)):
+        if v.shape != (nx,) or not np.all(np.isfinite(v)):
+            raise ScenarioError(f"{name} must be {nx} finite numbers, got {v.tolist()}")
+
+
+def solve_shooting(
+    problem: OptimalControlProblem,
+    t0: float,
+    x0,
+    t1: float,
+    x1,
+    *,
+    method: str | None = None,
+    guess=None,
+    settings: ShootingSettings | None = None,
+    flow: Flow | None = None,
+) -> ShootingResult:
+    """Solve the two-point problem from ``(t0, x0)`` to ``(t1, x1)`` by simple shooting.
+
+    ``guess`` is the initial costate ``lambda(t0)``; by default the affine approximation
+    (:func:`affine_costate_guess`). ``method``: ``newton``, ``modified-newton`` or ``nleq-err``.
+    """
+    settings = settings or ShootingSettings()
+    method = method or settings.method
+    x0 = np.asarray(x0, dtype=float)
+    x1 = np.asarray(x1, dtype=float)
+    nx = problem.model.nx
+    _check_ends(x0, x1, nx)
+    if not t1 > t0:
+        raise ScenarioError(f"need t1 > t0, got t0 = {t0}, t1 = {t1}")
+    flow = flow or Flow(problem, settings.integrator)
+    if guess is None:
+        s0 = affine_costate_guess(problem, t0, x0, t1, x1, flow=flow)
+    else:
+        s0 = np.asarray(guess, dtype=float)
+    system = ShootingSystem(flow, t0, x0, t1, x1)
+    root = solve_root(system, s0, method, settings.root)
+    return shooting_result(flow, t0, x0, t1, x1, root, settings.samples, system.last)
+
+
+def shooting_result(flow: Flow, t0, x0, t1, x1, root: RootResult, samples: int, last=None) -> ShootingResult:
+    """Package a root result with cost, trajectory and optimality checks.
+
+    The flow is integrated once more when a dense trajectory is wanted; otherwise ``last``, the
+    solver's own final evaluation ``(s, FlowResult)``, is reused when it was at ``root.x``.
+    """
+    nx = x0.size
+    if not samples and last is not None and np.array_equal(last[0], root.x):
+        r = last[1]
+    else:
+        r = flow(t0, np.concatenate([x0, root.x]), t1, samples=samples)
+    traj = r.trajectory
+    ok = r.status == FlowStatus.OK
+    if traj is not None:
+        max_dH_du = float(np.abs(traj.dH_du).max())
+        H = traj.hamiltonian[traj.at_step]  # interpolated rows carry interpolation error
+        Hvar = float(np.abs(H - H[0]).max())
+    else:
+        max_dH_du = Hvar = float("nan")
+    return ShootingResult(
+        status=root.status,
+        message=root.message,
+        t0=float(t0),
+        t1=float(t1),
+        x0=x0,
+        x1=x1,
+        costate0=root.x.copy(),
+        costate1=r.z[nx:].copy() if ok else np.full(nx, np.nan),
+        cost=r.cost if ok else float("nan"),
+        end_state_error=float(np.linalg.norm(r.z[:nx] - x1)) if ok else float("inf"),
+        max_dH_du=max_dH_du,
+        hamiltonian_variation=Hvar,
+        trajectory=traj,
+        root=root,
+    )
