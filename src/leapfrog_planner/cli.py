@@ -51,18 +51,53 @@ def derive(model):
 
 
 @cli.command()
-@click.option("--start", nargs=3, type=float, default=(-1.0, 2.0, float(np.pi / 2)), show_default=True,
-              help="start state x y heading (paper case 1 by default)")
-@click.option("--goal", nargs=3, type=float, default=(1.0, 2.0, float(np.pi / 2)), show_default=True,
-              help="goal state x y heading")
+@click.option(
+    "--start",
+    nargs=3,
+    type=float,
+    default=(-1.0, 2.0, float(np.pi / 2)),
+    show_default=True,
+    help="start state x y heading (paper case 1 by default)",
+)
+@click.option(
+    "--goal",
+    nargs=3,
+    type=float,
+    default=(1.0, 2.0, float(np.pi / 2)),
+    show_default=True,
+    help="goal state x y heading",
+)
 @click.option("--horizon", type=float, default=1.0, show_default=True, help="time horizon T")
-@click.option("--obstacle", "obstacles", nargs=3, type=float, multiple=True, metavar="CX CY R",
-              help="a disc obstacle (repeatable)")
+@click.option(
+    "--obstacle",
+    "obstacles",
+    nargs=3,
+    type=float,
+    multiple=True,
+    metavar="CX CY R",
+    help="a disc obstacle (repeatable)",
+)
 @click.option("--model", default="unicycle", show_default=True)
-@click.option("--method", type=click.Choice(["newton", "modified-newton", "nleq-err"]),
-              default="modified-newton", show_default=True)
-@click.option("--guess", nargs=3, type=float, default=None, help="initial costate (default: affine approximation)")
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None, help="write the result as JSON")
+@click.option(
+    "--method",
+    type=click.Choice(["newton", "modified-newton", "nleq-err"]),
+    default="modified-newton",
+    show_default=True,
+)
+@click.option(
+    "--guess",
+    nargs=3,
+    type=float,
+    default=None,
+    help="initial costate (default: affine approximation)",
+)
+@click.option(
+    "--json",
+    "json_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="write the result as JSON",
+)
 def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
     """Solve one two-point problem by simple shooting (no Leapfrog)."""
     from .problem import OptimalControlProblem

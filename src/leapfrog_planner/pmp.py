@@ -11,7 +11,7 @@ evaluated by compiled loops, so the symbolic part only ever depends on the vehic
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 import sympy as sp
 
@@ -63,22 +63,39 @@ class CanonicalSystem:
                 for s, n, d in zip(m.parameters, m.parameter_names, m.defaults, strict=True)
             )
             lines.append(f"parameters: {pars}")
-        lines += ["", "Hamiltonian:", f"  H = {sp.sstr(self.hamiltonian)}", "", "control law (dH/du = 0):"]
-        lines += [f"  {u} = {sp.sstr(e)}" for u, e in zip(m.controls, self.control_law, strict=True)]
+        lines += [
+            "",
+            "Hamiltonian:",
+            f"  H = {sp.sstr(self.hamiltonian)}",
+            "",
+            "control law (dH/du = 0):",
+        ]
+        lines += [
+            f"  {u} = {sp.sstr(e)}" for u, e in zip(m.controls, self.control_law, strict=True)
+        ]
         lines += ["", "state equations:"]
-        lines += [f"  d{x}/dt = {sp.sstr(e)}" for x, e in zip(m.states, self.state_equations, strict=True)]
+        lines += [
+            f"  d{x}/dt = {sp.sstr(e)}" for x, e in zip(m.states, self.state_equations, strict=True)
+        ]
         lines += ["", "costate equations:"]
-        lines += [f"  d{l}/dt = {sp.sstr(e)}" for l, e in zip(self.costates, self.costate_equations, strict=True)]
-        lines += ["", "P(x, y) = sum_j W exp(-(|(x, y) - c_j|^2 / r_j^2)^n)  (obstacle penalty, compiled)"]
+        lines += [
+            f"  d{lam}/dt = {sp.sstr(e)}"
+            for lam, e in zip(self.costates, self.costate_equations, strict=True)
+        ]
+        lines += [
+            "",
+            "P(x, y) = sum_j W exp(-(|(x, y) - c_j|^2 / r_j^2)^n)  (obstacle penalty, compiled)",
+        ]
         return "\n".join(lines)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _derive_cached(model: VehicleModel) -> CanonicalSystem:
     xs, us = model.states, model.controls
     lams = tuple(sp.Symbol(f"lambda_{i + 1}", real=True) for i in range(len(xs)))
     penalty = sp.Function("P")(xs[0], xs[1])
-    H = model.running_cost + penalty + sum(l * f for l, f in zip(lams, model.dynamics, strict=True))
+    costate_terms = sum(lam * f for lam, f in zip(lams, model.dynamics, strict=True))
+    H = model.running_cost + penalty + costate_terms
 
     grad_u = [sp.diff(H, u) for u in us]
     hess_u = sp.hessian(H, us)
@@ -99,7 +116,7 @@ def _derive_cached(model: VehicleModel) -> CanonicalSystem:
 
     # No simplify here: it turns cos^2 into cos(2 theta), which reads worse and computes
     # slower; factor keeps the products of the control law visible.
-    xdot = tuple(sp.factor(sp.diff(H, l).subs(on_law)) for l in lams)
+    xdot = tuple(sp.factor(sp.diff(H, lam).subs(on_law)) for lam in lams)
     ldot = tuple(sp.factor((-sp.diff(H, x)).subs(on_law)) for x in xs)
     return CanonicalSystem(
         model=model,

@@ -88,7 +88,9 @@ class OptimalControlProblem:
     ) -> OptimalControlProblem:
         """Build a problem from plain values; ``parameters`` overrides model defaults by name."""
         model = get_model(model)
-        return cls(model, obstacle_penalty(obstacles, weight, exponent), model.parameter_values(parameters))
+        return cls(
+            model, obstacle_penalty(obstacles, weight, exponent), model.parameter_values(parameters)
+        )
 
     @property
     def obstacles(self) -> np.ndarray:

@@ -25,6 +25,9 @@ class ShootingSettings:
     root: RootSettings = field(default_factory=RootSettings)
     integrator: IntegratorSettings = field(default_factory=IntegratorSettings)
     samples: int = 201  # points of the dense trajectory returned; 0 for none
+    # Inexact Newton: integrate loosely while |F| is large (tolerance ~ 1e-4 |F|, never looser
+    # than 1e-6); the final iterations, and so the converged residual, use the full tolerance.
+    inexact: bool = True
 
 
 @dataclass(frozen=True)
@@ -52,8 +55,11 @@ class ShootingResult:
 class ShootingSystem:
     """``F(s) = x(t1; x0, s) - x1`` and ``DF(s)`` for the root solvers."""
 
-    def __init__(self, flow: Flow, t0, x0, t1, x1):
+    def __init__(self, flow: Flow, t0, x0, t1, x1, inexact: bool = False):
         self.flow, self.t0, self.t1 = flow, float(t0), float(t1)
+        self.inexact = inexact and flow.tableau.adaptive
+        self._base = (flow.settings.rtol, flow.settings.atol)
+        self._norm = np.inf  # |F| of the latest evaluation, sets the next tolerance
         self.x0 = np.asarray(x0, dtype=float)
         self.x1 = np.asarray(x1, dtype=float)
         self.nx = self.x0.size
@@ -63,16 +69,39 @@ class ShootingSystem:
 
     def evaluate(self, s, jacobian):
         self._z0[self.nx :] = s
-        r = self.flow(self.t0, self._z0, self.t1, sensitivity="costate" if jacobian else None)
-        self.last = (np.array(s, dtype=float), r)
+        rtol, atol = self._base
+        if self.inexact:
+            loose = min(1e-6, 1e-4 * self._norm)
+            rtol, atol = max(rtol, loose), max(atol, loose)
+        sens = "costate" if jacobian else None
+        r = self.flow(self.t0, self._z0, self.t1, sensitivity=sens, rtol=rtol, atol=atol)
         if r.status != FlowStatus.OK:
+            self.last = None
             return None, None
         F = r.z[: self.nx] - self.x1
+        norm = float(np.linalg.norm(F))
+        if rtol > self._base[0] and norm <= 1e3 * rtol:
+            # Too close to the integration error to trust: redo at the full tolerance.
+            r = self.flow(self.t0, self._z0, self.t1, sensitivity=sens)
+            if r.status != FlowStatus.OK:
+                self.last = None
+                return None, None
+            F = r.z[: self.nx] - self.x1
+            norm = float(np.linalg.norm(F))
+        self._norm = min(self._norm, norm)
+        self.last = (np.array(s, dtype=float), r)
         return F, (r.sensitivity[: self.nx] if jacobian else None)
 
 
 def affine_costate_guess(
-    problem: OptimalControlProblem, t0, x0, t1, x1, *, reverse: bool = False, flow: Flow | None = None
+    problem: OptimalControlProblem,
+    t0,
+    x0,
+    t1,
+    x1,
+    *,
+    reverse: bool = False,
+    flow: Flow | None = None,
 ) -> np.ndarray:
     r"""Initial costate of the affine (linear-quadratic) approximation of the local problem.
 
@@ -120,7 +149,9 @@ def affine_costate_guess(
     B = np.empty((nx, nu))
     R = np.empty((nu, nu))
     u = np.zeros(nu)
-    for _ in range(3):  # Gauss-Newton for f(x_bar, u) = target (exact in one step for f affine in u)
+    for _ in range(
+        3
+    ):  # Gauss-Newton for f(x_bar, u) = target (exact in one step for f affine in u)
         K.linearize(xbar, u, p, f, A, B, R)
         u = u + np.linalg.lstsq(B, target - f, rcond=None)[0]
     K.linearize(xbar, u, p, f, A, B, R)
@@ -128,7 +159,9 @@ def affine_costate_guess(
     q = np.zeros(nx)
     obs = problem.obstacles
     if obs.shape[0]:
-        _, q[0], q[1], *_ = penalty_terms(xbar[0], xbar[1], obs, problem.penalty.weight, problem.penalty.exponent, False)
+        _, q[0], q[1], *_ = penalty_terms(
+            xbar[0], xbar[1], obs, problem.penalty.weight, problem.penalty.exponent, False
+        )
     n2 = 2 * nx
     big = np.zeros((n2 + 1, n2 + 1))
     big[:nx, :nx] = A
@@ -177,12 +210,14 @@ def solve_shooting(
         s0 = affine_costate_guess(problem, t0, x0, t1, x1, flow=flow)
     else:
         s0 = np.asarray(guess, dtype=float)
-    system = ShootingSystem(flow, t0, x0, t1, x1)
+    system = ShootingSystem(flow, t0, x0, t1, x1, settings.inexact)
     root = solve_root(system, s0, method, settings.root)
     return shooting_result(flow, t0, x0, t1, x1, root, settings.samples, system.last)
 
 
-def shooting_result(flow: Flow, t0, x0, t1, x1, root: RootResult, samples: int, last=None) -> ShootingResult:
+def shooting_result(
+    flow: Flow, t0, x0, t1, x1, root: RootResult, samples: int, last=None
+) -> ShootingResult:
     """Package a root result with cost, trajectory and optimality checks.
 
     The flow is integrated once more when a dense trajectory is wanted; otherwise ``last``, the

@@ -41,11 +41,15 @@ class IntegratorSettings:
     def __post_init__(self):
         get_tableau(self.method)
         if not (0 < self.rtol < 1) or not (self.atol > 0):
-            raise SettingsError(f"integrator tolerances must be rtol in (0, 1) and atol > 0, got {self.rtol}, {self.atol}")
+            raise SettingsError(
+                f"integrator tolerances need 0 < rtol < 1, atol > 0; got {self.rtol}, {self.atol}"
+            )
         if int(self.steps) != self.steps or self.steps < 1:
             raise SettingsError(f"integrator steps must be a positive integer, got {self.steps}")
         if int(self.max_steps) != self.max_steps or self.max_steps < 1:
-            raise SettingsError(f"integrator max_steps must be a positive integer, got {self.max_steps}")
+            raise SettingsError(
+                f"integrator max_steps must be a positive integer, got {self.max_steps}"
+            )
 
 
 @dataclass(frozen=True)
@@ -113,7 +117,7 @@ class Flow:
     def with_settings(self, settings: IntegratorSettings) -> Flow:
         return Flow(self.problem, settings)
 
-    def _run(self, t0, z0, t1, seed, T_out, Z_out):
+    def _run(self, t0, z0, t1, seed, T_out, Z_out, rtol=None, atol=None):
         nz = self.nz
         k = seed.shape[1]
         Y0 = np.empty(nz + 1 + nz * k)
@@ -125,8 +129,24 @@ class Flow:
         if tab.adaptive:
             s = self.settings
             Y, status, acc, rej = K.erk_adaptive(
-                Y0, t0, t1, k, tab.A, tab.b, tab.e, self._e3, tab.error_order, s.rtol, s.atol,
-                s.max_steps, self._p, self._obs, self._w, self._n, T_out, Z_out,
+                Y0,
+                t0,
+                t1,
+                k,
+                tab.A,
+                tab.b,
+                tab.e,
+                self._e3,
+                tab.error_order,
+                rtol or s.rtol,
+                atol or s.atol,
+                s.max_steps,
+                self._p,
+                self._obs,
+                self._w,
+                self._n,
+                T_out,
+                Z_out,
             )
         else:
             n = self.settings.steps
@@ -144,28 +164,35 @@ class Flow:
         *,
         sensitivity: str | None | np.ndarray = None,
         samples: int = 0,
+        rtol: float | None = None,
+        atol: float | None = None,
     ) -> FlowResult:
         """Integrate from ``(t0, z0)`` to ``t1``.
 
         ``sensitivity``: ``None`` (flow only), ``"costate"`` (``dz(t1)/dlambda(t0)``, shape
-        ``(2nx, nx)``), ``"full"`` (``Phi = dz(t1)/dz(t0)``) or an explicit seed matrix ``(2nx, k)``.
+        ``(2nx, nx)``), ``"full"`` (``Phi = dz(t1)/dz(t0)``) or a seed matrix ``(2nx, k)``.
         ``samples > 0`` also returns a trajectory: the integrator's own steps, and for a dense
         view ``samples`` uniform times interpolated by cubic Hermite splines between steps.
+        ``rtol``, ``atol`` override the settings' tolerances for this call (adaptive methods).
         """
         if isinstance(sensitivity, np.ndarray):
             seed = np.ascontiguousarray(sensitivity, dtype=np.float64).reshape(self.nz, -1)
         elif sensitivity in _SEEDS:
             seed = self._seed[sensitivity]
         else:
-            raise SettingsError(f"sensitivity must be one of {_SEEDS} or an array, got {sensitivity!r}")
+            raise SettingsError(
+                f"sensitivity must be one of {_SEEDS} or an array, got {sensitivity!r}"
+            )
         z0 = np.asarray(z0, dtype=np.float64)
         if samples:
-            cap = (self.settings.steps if not self.tableau.adaptive else self.settings.max_steps) + 1
+            cap = (
+                self.settings.steps if not self.tableau.adaptive else self.settings.max_steps
+            ) + 1
             T_out = np.empty(cap)
             Z_out = np.empty((cap, self.nz + 1))
         else:
             T_out, Z_out = self._no_T, self._no_Z
-        Y, status, acc, rej = self._run(float(t0), z0, float(t1), seed, T_out, Z_out)
+        Y, status, acc, rej = self._run(float(t0), z0, float(t1), seed, T_out, Z_out, rtol, atol)
         nz = self.nz
         k = seed.shape[1]
         traj = None

@@ -2,8 +2,9 @@
 #
 # This file is a template, not an importable module: leapfrog_planner.codegen appends it to the
 # code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
-# controls, hamiltonian_model and dH_du. Keeping the integrator in the same module as the model lets numba inline and
-# cache everything (functions passed as arguments would not be cached on disk).
+# controls, hamiltonian_model and dH_du. Keeping the integrator in the same module as the
+# model lets numba inline and cache everything (functions passed as arguments would not be
+# cached on disk).
 #
 # The augmented state is Y = [z (NZ), cost (1), S (NZ x k, row-major)], with z = (x, lambda),
 # S = dz/d(seed) and k sensitivity columns (k = 0: flow only). A method is just its tableau
@@ -158,8 +159,24 @@ def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent,
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH)
 def erk_adaptive(
-    Y0, t0, t1, k, A, b, e, e3, error_order, rtol, atol, max_steps, p, obs, weight, exponent,
-    T_out, Z_out,
+    Y0,
+    t0,
+    t1,
+    k,
+    A,
+    b,
+    e,
+    e3,
+    error_order,
+    rtol,
+    atol,
+    max_steps,
+    p,
+    obs,
+    weight,
+    exponent,
+    T_out,
+    Z_out,
 ):
     """Embedded pair with error control on (z, cost). Returns (Y1, status, accepted, rejected).
 

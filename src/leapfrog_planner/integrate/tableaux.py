@@ -81,6 +81,4 @@ def get_tableau(name: str) -> ButcherTableau:
     try:
         return TABLEAUX[name]
     except KeyError:
-        raise SettingsError(
-            f"unknown integrator {name!r} (known: {', '.join(TABLEAUX)})"
-        ) from None
+        raise SettingsError(f"unknown integrator {name!r} (known: {', '.join(TABLEAUX)})") from None

@@ -37,7 +37,9 @@ class VehicleModel:
                 f"model {self.name!r}: {len(self.dynamics)} dynamics for {len(self.states)} states"
             )
         if not (len(self.parameters) == len(self.defaults) == len(self.parameter_names)):
-            raise ModelError(f"model {self.name!r}: parameters, defaults and names differ in length")
+            raise ModelError(
+                f"model {self.name!r}: parameters, defaults and names differ in length"
+            )
         known = set(self.states) | set(self.controls) | set(self.parameters)
         free = set().union(*(e.free_symbols for e in self.dynamics), self.running_cost.free_symbols)
         if free - known:
@@ -55,7 +57,7 @@ class VehicleModel:
         return len(self.controls)
 
     def parameter_values(self, overrides: dict[str, float] | None = None) -> tuple[float, ...]:
-        """Default parameter values with ``overrides`` (by name) applied; unknown names are errors."""
+        """Default parameter values with ``overrides`` (by name); unknown names are errors."""
         overrides = dict(overrides or {})
         unknown = set(overrides) - set(self.parameter_names)
         if unknown:
@@ -64,7 +66,8 @@ class VehicleModel:
                 f" (known: {', '.join(self.parameter_names) or 'none'})"
             )
         return tuple(
-            float(overrides.get(n, d)) for n, d in zip(self.parameter_names, self.defaults, strict=True)
+            float(overrides.get(n, d))
+            for n, d in zip(self.parameter_names, self.defaults, strict=True)
         )
 
     def fingerprint(self) -> str:

@@ -26,14 +26,18 @@ class RootSettings:
         if not self.tol > 0:
             raise SettingsError(f"tol must be > 0, got {self.tol}")
         if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
-            raise SettingsError(f"max_iterations must be a positive integer, got {self.max_iterations}")
+            raise SettingsError(
+                f"max_iterations must be a positive integer, got {self.max_iterations}"
+            )
         if not self.max_cond > 1:
             raise SettingsError(f"max_cond must be > 1, got {self.max_cond}")
         if not self.divergence > 1:
             raise SettingsError(f"divergence must be > 1, got {self.divergence}")
 
 
-def solve_root(system, x0, method="modified-newton", settings: RootSettings | None = None) -> RootResult:
+def solve_root(
+    system, x0, method="modified-newton", settings: RootSettings | None = None
+) -> RootResult:
     """Find ``x`` with ``F(x) = 0``. ``method``: a name or a step strategy object."""
     settings = settings or RootSettings()
     strategy = get_strategy(method)
@@ -47,9 +51,15 @@ def solve_root(system, x0, method="modified-newton", settings: RootSettings | No
 
     def done(status, message):
         return RootResult(
-            x=x, F=F if F is not None else np.full(x.shape, np.nan), status=status, message=message,
-            iterations=len(lams), f_evals=evaluate.f_evals, jac_evals=evaluate.jac_evals,
-            residual_norms=np.array(norms), step_sizes=np.array(lams),
+            x=x,
+            F=F if F is not None else np.full(x.shape, np.nan),
+            status=status,
+            message=message,
+            iterations=len(lams),
+            f_evals=evaluate.f_evals,
+            jac_evals=evaluate.jac_evals,
+            residual_norms=np.array(norms),
+            step_sizes=np.array(lams),
         )
 
     if F is None:
@@ -57,7 +67,10 @@ def solve_root(system, x0, method="modified-newton", settings: RootSettings | No
     for it in range(settings.max_iterations + 1):
         norms.append(float(np.linalg.norm(F)))
         if norms[-1] <= settings.tol:
-            return done(RootStatus.CONVERGED, f"|F| = {norms[-1]:.3g} <= {settings.tol:g} after {it} iterations")
+            return done(
+                RootStatus.CONVERGED,
+                f"|F| = {norms[-1]:.3g} <= {settings.tol:g} after {it} iterations",
+            )
         if it == settings.max_iterations:
             break
         if J is None:
@@ -67,7 +80,9 @@ def solve_root(system, x0, method="modified-newton", settings: RootSettings | No
         sv = np.linalg.svd(J, compute_uv=False)
         cond = sv[0] / sv[-1] if sv[-1] > 0 else np.inf
         if not cond <= settings.max_cond:
-            return done(RootStatus.SINGULAR_JACOBIAN, f"cond(DF) = {cond:.3g} > {settings.max_cond:g}")
+            return done(
+                RootStatus.SINGULAR_JACOBIAN, f"cond(DF) = {cond:.3g} > {settings.max_cond:g}"
+            )
         step = strategy.step(evaluate, x, F, J, lu_factor(J, check_finite=False), cond, memo)
         if step.failed is not None:
             return done(step.failed, step.message)
@@ -75,9 +90,14 @@ def solve_root(system, x0, method="modified-newton", settings: RootSettings | No
         lams.append(step.lam)
         if not np.all(np.isfinite(x)) or np.linalg.norm(x) > bound:
             F = F if F is not None else np.full(x.shape, np.nan)
-            return done(RootStatus.DIVERGED, f"|x| = {np.linalg.norm(x):.3g} left the bound {bound:.3g}")
+            return done(
+                RootStatus.DIVERGED, f"|x| = {np.linalg.norm(x):.3g} left the bound {bound:.3g}"
+            )
         if F is None:
             F, J = evaluate(x, jacobian=True)
             if F is None:
                 return done(RootStatus.NON_FINITE, f"F is not finite after step {it + 1}")
-    return done(RootStatus.MAX_ITERATIONS, f"|F| = {norms[-1]:.3g} after {settings.max_iterations} iterations")
+    return done(
+        RootStatus.MAX_ITERATIONS,
+        f"|F| = {norms[-1]:.3g} after {settings.max_iterations} iterations",
+    )

@@ -3,21 +3,18 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
 
-class RootStatus(str, Enum):
+class RootStatus(StrEnum):
     CONVERGED = "converged"
     MAX_ITERATIONS = "max-iterations"
     SINGULAR_JACOBIAN = "singular-jacobian"
     LINE_SEARCH_FAILED = "line-search-failed"
     NON_FINITE = "non-finite"
     DIVERGED = "diverged"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 @dataclass(frozen=True)

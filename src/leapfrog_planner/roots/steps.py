@@ -92,8 +92,12 @@ class ModifiedNewtonStep:
                 best = (h, Step(xt, lam, Ft, Jt))
             if h <= h0 - lam * slope:
                 return best[1]
-        return Step(x, 0.0, failed=RootStatus.LINE_SEARCH_FAILED,
-                    message=f"no step 2^-m, m <= {self.max_halvings}, decreased |F|^2 enough")
+        return Step(
+            x,
+            0.0,
+            failed=RootStatus.LINE_SEARCH_FAILED,
+            message=f"no step 2^-m, m <= {self.max_halvings}, decreased |F|^2 enough",
+        )
 
 
 @dataclass
@@ -132,12 +136,21 @@ class NleqErrStep:
         lam = memo.lam
         if memo.dx_prev is not None and memo.dxbar is not None:
             denom = np.linalg.norm(memo.dxbar - dx) * ndx
-            mu = np.inf if denom == 0 else (np.linalg.norm(memo.dx_prev) * np.linalg.norm(memo.dxbar) / denom) * memo.lam_prev
+            mu = (
+                np.inf
+                if denom == 0
+                else (np.linalg.norm(memo.dx_prev) * np.linalg.norm(memo.dxbar) / denom)
+                * memo.lam_prev
+            )
             lam = min(1.0, mu)
         while True:
             if lam < self.min_damping:
-                return Step(x, 0.0, failed=RootStatus.LINE_SEARCH_FAILED,
-                            message=f"damping factor fell below {self.min_damping:g}")
+                return Step(
+                    x,
+                    0.0,
+                    failed=RootStatus.LINE_SEARCH_FAILED,
+                    message=f"damping factor fell below {self.min_damping:g}",
+                )
             xt = x + lam * dx
             Ft, Jt = evaluate(xt, jacobian=(lam == 1.0))
             if Ft is None:

@@ -9,7 +9,9 @@ import numpy as np
 
 
 class RootSystem(Protocol):
-    def evaluate(self, x: np.ndarray, jacobian: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
+    def evaluate(
+        self, x: np.ndarray, jacobian: bool
+    ) -> tuple[np.ndarray | None, np.ndarray | None]:
         """``(F(x), DF(x) or None)``; ``F`` is ``None`` where it cannot be evaluated (e.g. the
         integrator blew up)."""
 
