@@ -1,10 +1,24 @@
 """leapfrog-planner: optimal mobile-robot trajectories by Pontryagin's principle and Leapfrog."""
 
+import importlib
+
 from .errors import LeapfrogError, ModelError, ScenarioError, SettingsError
 from .integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
-from .models import MODELS, VehicleModel, get_model
-from .pmp import CanonicalSystem, derive
+from .kernels import ModelInfo, model_info
+from .models import MODELS, get_model
 from .problem import ObstaclePenalty, OptimalControlProblem, obstacle_penalty
+from .scenario import Scenario, builtin_scenarios, load_scenario
+from .shooting import ShootingResult, ShootingSettings, affine_costate_guess, solve_shooting
+
+# SymPy-backed names load on first use, so that `import leapfrog_planner` stays fast.
+_LAZY = {"VehicleModel": ".models.base", "CanonicalSystem": ".pmp", "derive": ".pmp"}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module 'leapfrog_planner' has no attribute {name!r}")
+
 
 __version__ = "0.1.0"
 
@@ -16,14 +30,23 @@ __all__ = [
     "FlowStatus",
     "IntegratorSettings",
     "LeapfrogError",
+    "ModelInfo",
     "ModelError",
     "ObstaclePenalty",
     "OptimalControlProblem",
     "ScenarioError",
+    "Scenario",
     "SettingsError",
+    "ShootingResult",
+    "ShootingSettings",
     "Trajectory",
     "VehicleModel",
+    "affine_costate_guess",
+    "builtin_scenarios",
     "derive",
     "get_model",
+    "load_scenario",
+    "model_info",
     "obstacle_penalty",
+    "solve_shooting",
 ]

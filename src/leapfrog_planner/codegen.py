@@ -1,39 +1,21 @@
-"""Generate, cache on disk and load the compiled kernels of a vehicle model.
+"""Print a vehicle model's canonical system as numba code (SymPy is needed only here).
 
-The derived canonical system is printed as plain Python (with common subexpressions shared),
-joined to the Runge-Kutta template and written to a module in the user's cache directory. numba
-compiles it on first use and caches the machine code beside it, so each model compiles once per
-machine. Obstacles, end states and parameters are arguments, never constants of the code.
+The derived canonical system is printed as plain Python (with common subexpressions shared) and
+joined to the Runge-Kutta template; :mod:`.kernels` writes it to the disk cache and loads it.
+Obstacles, end states and parameters are arguments, never constants of the code.
 """
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
-import os
-import sys
-import tempfile
-from functools import cache
 from pathlib import Path
-from types import ModuleType
 
-import numba
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
-from .models import VehicleModel, get_model
+from .models.base import VehicleModel
 
 CODEGEN_VERSION = "1"
-_TEMPLATE = Path(__file__).with_name("integrate") / "flow_template.py"
-
-
-def cache_dir() -> Path:
-    """Where generated modules live: ``$LEAPFROG_CACHE_DIR``, else the user's cache directory."""
-    env = os.environ.get("LEAPFROG_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "leapfrog-planner"
+TEMPLATE = Path(__file__).with_name("integrate") / "flow_template.py"
 
 
 class _Printer(PythonCodePrinter):
@@ -129,6 +111,14 @@ def model_source(model: VehicleModel) -> str:
             f"NX = {nx}",
             f"NZ = {nz}",
             f"NU = {model.nu}",
+            "# Model metadata, so that a warm start never needs SymPy.",
+            f"MODEL_NAME = {model.name!r}",
+            f"STATE_NAMES = {tuple(str(x) for x in model.states)!r}",
+            f"CONTROL_NAMES = {tuple(model.control_names)!r}",
+            f"PARAMETER_NAMES = {tuple(model.parameter_names)!r}",
+            f"PARAMETER_DEFAULTS = {tuple(float(d) for d in model.defaults)!r}",
+            f"PARAMETER_POSITIVE = {tuple(bool(p.is_positive) for p in model.parameters)!r}",
+            f"DESCRIPTION = {model.description!r}",
             "# Fast math in the hot kernels; finiteness is tested on the bits, which fast math",
             "# cannot assume away, so NaN and inf are still caught.",
             "FASTMATH = True",
@@ -215,61 +205,4 @@ def _augmented_function(rhs, cost, jac, nonzero, nz, names):
 
 
 def module_text(model: VehicleModel) -> str:
-    return model_source(model) + "\n\n" + _TEMPLATE.read_text()
-
-
-def _key(model: VehicleModel) -> str:
-    h = hashlib.sha256()
-    # Everything that shapes the generated text: model, generator, derivation, template.
-    sources = [
-        Path(__file__).read_text(),
-        (Path(__file__).parent / "pmp.py").read_text(),
-        _TEMPLATE.read_text(),
-    ]
-    for part in (CODEGEN_VERSION, numba.__version__, model.fingerprint(), *sources):
-        h.update(part.encode())
-        h.update(b"\0")
-    return h.hexdigest()[:16]
-
-
-def _safe(name: str) -> str:
-    return "".join(ch if ch.isalnum() else "_" for ch in name)
-
-
-def _writable_dir() -> Path:
-    d = cache_dir() / "models"
-    try:
-        d.mkdir(parents=True, exist_ok=True)
-        probe = d / f".probe-{os.getpid()}"
-        probe.write_text("")
-        probe.unlink()
-        return d
-    except OSError:  # read-only home (e.g. some clusters): fall back to the temp directory
-        d = Path(tempfile.gettempdir()) / "leapfrog-planner" / "models"
-        d.mkdir(parents=True, exist_ok=True)
-        return d
-
-
-@cache
-def load_kernels(model: str | VehicleModel) -> ModuleType:
-    """The compiled kernel module of ``model``, generated on first use and cached on disk.
-
-    Deriving the canonical system with SymPy happens only when the module is not cached yet.
-    """
-    model = get_model(model)
-    key = _key(model)
-    mod_name = f"lfp_{_safe(model.name)}_{key}"
-    if mod_name in sys.modules:
-        return sys.modules[mod_name]
-    path = _writable_dir() / f"{mod_name}.py"
-    if not path.exists():
-        text = module_text(model)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)  # atomic: concurrent processes write identical text
-    spec = importlib.util.spec_from_file_location(mod_name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[mod_name] = module
-    spec.loader.exec_module(module)
-    return module
+    return model_source(model) + "\n\n" + TEMPLATE.read_text()

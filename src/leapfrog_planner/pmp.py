@@ -16,7 +16,8 @@ from functools import cache
 import sympy as sp
 
 from .errors import ModelError
-from .models import VehicleModel, get_model
+from .models import get_model
+from .models.base import VehicleModel
 
 
 @dataclass(frozen=True)

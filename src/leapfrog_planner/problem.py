@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import ScenarioError
-from .models import VehicleModel, get_model
+from .kernels import ModelInfo, model_info
 from .penalty import as_obstacle_array, clearance
 
 
@@ -61,12 +61,12 @@ def obstacle_penalty(obstacles=(), weight: float = 100.0, exponent: int = 2) -> 
 class OptimalControlProblem:
     """``min int L_u(x, u) + P(x, y) dt`` subject to the model's dynamics."""
 
-    model: VehicleModel
+    model: ModelInfo  # a built-in name or a VehicleModel is accepted and converted
     penalty: ObstaclePenalty = field(default_factory=ObstaclePenalty)
     parameters: tuple[float, ...] = ()
 
     def __post_init__(self):
-        model = get_model(self.model)
+        model = model_info(self.model)
         object.__setattr__(self, "model", model)
         if not self.parameters:
             object.__setattr__(self, "parameters", model.parameter_values())
@@ -79,7 +79,7 @@ class OptimalControlProblem:
     @classmethod
     def create(
         cls,
-        model: str | VehicleModel = "unicycle",
+        model="unicycle",
         obstacles=(),
         *,
         weight: float = 100.0,
@@ -87,7 +87,7 @@ class OptimalControlProblem:
         parameters: dict[str, float] | None = None,
     ) -> OptimalControlProblem:
         """Build a problem from plain values; ``parameters`` overrides model defaults by name."""
-        model = get_model(model)
+        model = model_info(model)
         return cls(
             model, obstacle_penalty(obstacles, weight, exponent), model.parameter_values(parameters)
         )
@@ -99,3 +99,22 @@ class OptimalControlProblem:
     @property
     def nx(self) -> int:
         return self.model.nx
+
+    def __reduce__(self):
+        # Pickle by model definition (a name for built-ins), not by the loaded kernel module.
+        return (
+            _rebuild,
+            (
+                self.model.definition,
+                self.penalty.obstacles,
+                self.penalty.weight,
+                self.penalty.exponent,
+                self.parameters,
+            ),
+        )
+
+
+def _rebuild(definition, obstacles, weight, exponent, parameters):
+    return OptimalControlProblem(
+        definition, ObstaclePenalty(obstacles, weight, exponent), parameters
+    )

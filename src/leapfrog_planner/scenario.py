@@ -28,7 +28,7 @@ numbers, and integers are accepted wherever a real number is expected::
     exponent = 2                   # n, an integer >= 1, default 2
 
     [solver]                       # optional, see below
-    method = "mnm"
+    method = "modified-newton"
     partitions = 8
 
     [[obstacles]]                  # zero or more discs
@@ -69,7 +69,7 @@ Optional additions beyond the spec's contract:
 ``[solver]``
     Planner settings stored with the scenario, passed through unchanged to the planner, which
     validates their ranges. Allowed keys and types are :data:`SOLVER_KEYS`:
-    ``method`` (string, e.g. ``"mnm"``), ``partitions`` (integer), ``initial_paths`` (integer),
+    ``method`` (string, e.g. ``"modified-newton"``), ``partitions`` (integer), ``initial_paths`` (integer),
     ``tolerance`` (number), ``max_sweeps`` (integer). Unknown keys and wrong types are errors.
 
 Every problem raises :class:`~leapfrog_planner.errors.ScenarioError` (a ``ValueError``) with a
@@ -94,7 +94,8 @@ from typing import Any, NoReturn
 import numpy as np
 
 from .errors import ScenarioError
-from .models import MODELS, get_model
+from .kernels import model_info
+from .models import MODELS
 from .problem import OptimalControlProblem
 
 __all__ = [
@@ -365,18 +366,17 @@ class Scenario:
         model = c.string(self.model, "robot.model")
         if model not in MODELS:
             c.fail("robot.model", f"unknown model {model!r} (known: {', '.join(MODELS)})")
-        vm = get_model(model)
+        info = model_info(model)
         given = {} if self.model_parameters is None else c.table(self.model_parameters, "robot")
-        symbols = dict(zip(vm.parameter_names, vm.parameters, strict=True))
-        c.known_keys(given, ("model", *vm.parameter_names), "robot", f" for model {model!r}")
+        positive = dict(zip(info.parameters, info.positive, strict=True))
+        c.known_keys(given, ("model", *info.parameters), "robot", f" for model {model!r}")
         checked = {}
         for k, v in given.items():
             if k == "model":  # only reachable by direct construction
                 c.fail("robot.model", "give the model as Scenario.model, not a parameter")
-            positive = bool(symbols[k].is_positive)
-            checked[k] = c.number(v, _key_path("robot", k), gt=0 if positive else None)
-        values = vm.parameter_values(checked)
-        return model, dict(zip(vm.parameter_names, values, strict=True))
+            checked[k] = c.number(v, _key_path("robot", k), gt=0 if positive[k] else None)
+        values = info.parameter_values(checked)
+        return model, dict(zip(info.parameters, values, strict=True))
 
     def _check_solver(self, c: _Check) -> dict[str, Any]:
         table = c.table({} if self.solver is None else self.solver, "solver")

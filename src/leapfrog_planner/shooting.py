@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import expm, solve
 
+from ._blas import blas_single_threaded
 from .errors import ScenarioError
 from .integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
 from .penalty import penalty_terms
@@ -93,6 +94,7 @@ class ShootingSystem:
         return F, (r.sensitivity[: self.nx] if jacobian else None)
 
 
+@blas_single_threaded
 def affine_costate_guess(
     problem: OptimalControlProblem,
     t0,
@@ -180,6 +182,7 @@ def _check_ends(x0, x1, nx):
             raise ScenarioError(f"{name} must be {nx} finite numbers, got {v.tolist()}")
 
 
+@blas_single_threaded
 def solve_shooting(
     problem: OptimalControlProblem,
     t0: float,

@@ -12,9 +12,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline
 
-from ..codegen import load_kernels
 from ..errors import SettingsError
 from ..problem import OptimalControlProblem
 from .tableaux import get_tableau
@@ -101,7 +99,7 @@ class Flow:
         self.problem = problem
         self.settings = settings or IntegratorSettings()
         self.tableau = get_tableau(self.settings.method)
-        self.kernels = load_kernels(problem.model)
+        self.kernels = problem.model.kernels
         self.nx = problem.model.nx
         self.nz = 2 * self.nx
         self._p = np.asarray(problem.parameters, dtype=np.float64)
@@ -212,6 +210,8 @@ class Flow:
 
     def _trajectory(self, T, Z, samples) -> Trajectory:
         if samples > 1 and T.size > 1:
+            from scipy.interpolate import CubicHermiteSpline  # slow to import; only needed here
+
             dZ = np.empty_like(Z)
             self.kernels.rhs_along(Z, self._p, self._obs, self._w, self._n, dZ)
             spline = CubicHermiteSpline(T, Z, dZ, axis=0)

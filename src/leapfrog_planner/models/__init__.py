@@ -1,23 +1,45 @@
-"""Built-in vehicle models, by name."""
+"""Built-in vehicle models, by name. SymPy is imported only when a model is built."""
 
-from collections.abc import Callable
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import ModelError
-from .base import VehicleModel
-from .diff_drive import diff_drive
-from .unicycle import unicycle
 
-MODELS: dict[str, Callable[[], VehicleModel]] = {"unicycle": unicycle, "diff-drive": diff_drive}
+if TYPE_CHECKING:
+    from .base import VehicleModel
+
+# name -> module in this package defining a function of the same name (with _ for -)
+_BUILTIN = {"unicycle": "unicycle", "diff-drive": "diff_drive"}
+MODELS: tuple[str, ...] = tuple(_BUILTIN)
 
 
-def get_model(name: str | VehicleModel) -> VehicleModel:
-    """The built-in model called ``name`` (a :class:`VehicleModel` is returned as it is)."""
-    if isinstance(name, VehicleModel):
+def _check(name: str) -> str:
+    if name not in _BUILTIN:
+        raise ModelError(f"unknown model {name!r} (known: {', '.join(MODELS)})")
+    return _BUILTIN[name]
+
+
+def get_model(name) -> VehicleModel:
+    """The built-in model called ``name``, as SymPy expressions (a model is returned as it is)."""
+    if not isinstance(name, str):
         return name
-    try:
-        return MODELS[name]()
-    except KeyError:
-        raise ModelError(f"unknown model {name!r} (known: {', '.join(MODELS)})") from None
+    module = _check(name)
+    return getattr(importlib.import_module(f".{module}", __name__), module)()
 
 
-__all__ = ["MODELS", "VehicleModel", "diff_drive", "get_model", "unicycle"]
+def builtin_source(name: str) -> str:
+    """Source text that defines the built-in model ``name`` (its cache key)."""
+    return (Path(__file__).parent / f"{_check(name)}.py").read_text()
+
+
+def __getattr__(attr):  # lazy, so that importing the package does not import SymPy
+    if attr in ("VehicleModel", "unicycle", "diff_drive"):
+        module = "base" if attr == "VehicleModel" else attr
+        return getattr(importlib.import_module(f".{module}", __name__), attr)
+    raise AttributeError(attr)
+
+
+__all__ = ["MODELS", "VehicleModel", "builtin_source", "get_model"]

@@ -1,0 +1,332 @@
+"""The Leapfrog algorithm of Kaya and Noakes, as the paper uses it (spec section 2).
+
+The piecewise-optimal trajectory is kept as ``q`` arcs between junctions ``(t_i, z_i)``; each arc
+is an extremal with known initial and final costate and cost. A sweep visits ``i = 1 .. q-1``
+(Gauss-Seidel): it solves the local problem from junction ``i-1`` to ``i+1`` by simple shooting,
+warm-started with the costate of arc ``i-1``, and moves junction ``i`` to the middle time of that
+local extremal. The two new arcs replace the old ones only if they are not more expensive, so the
+cost never increases (a local solve may land on a worse extremal; that is counted as a rejection).
+
+Rule for reducing ``q`` (documented defaults in :class:`LeapfrogSettings`): after a sweep, ``q`` is
+halved (every other junction kept) when the sweep lowered the cost by less than ``reduce_tol``
+(relative), or the largest costate jump at the junctions fell below ``jump_tol`` (relative to the
+costate size), or ``sweeps_per_level`` sweeps were made at this ``q``. At ``q = 2`` the final
+simple shooting over the whole horizon runs from the costate of the first arc; if it fails, a
+multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over.
+
+Local failures: on the initial path, a segment whose two-point problem fails is split at its
+middle (up to ``max_split_depth`` times). In a sweep, a failed local problem (retried once from
+the affine guess) leaves its junction where it is, so the arcs and the cost stay defined.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ._blas import blas_single_threaded
+from .errors import SettingsError
+from .integrate.flow import Flow
+from .multiple_shooting import MultipleShootingSystem
+from .problem import OptimalControlProblem
+from .roots import STRATEGIES, RootResult, solve_root
+from .shooting import ShootingResult, ShootingSettings, solve_shooting
+
+log = logging.getLogger(__name__)
+
+FINAL_MODES = ("auto", "shooting", "multiple-shooting")
+
+
+@dataclass(frozen=True)
+class LeapfrogSettings:
+    method: str = "modified-newton"  # local solver: newton, modified-newton or nleq-err
+    partitions: int = 8  # initial q
+    max_sweeps: int = 60  # over all levels
+    sweeps_per_level: int = 10
+    reduce_tol: float = 1e-3
+    jump_tol: float = 1e-6
+    final: str = "auto"
+    max_split_depth: int = 4
+    shooting: ShootingSettings = field(default_factory=lambda: ShootingSettings(samples=0))
+
+    def __post_init__(self):
+        if self.method not in STRATEGIES:
+            raise SettingsError(f"unknown method {self.method!r} (known: {', '.join(STRATEGIES)})")
+        if int(self.partitions) != self.partitions or self.partitions < 2:
+            raise SettingsError(f"partitions must be an integer >= 2, got {self.partitions}")
+        for name in ("max_sweeps", "sweeps_per_level"):
+            v = getattr(self, name)
+            if int(v) != v or v < 1:
+                raise SettingsError(f"{name} must be a positive integer, got {v}")
+        if not (self.reduce_tol > 0 and self.jump_tol > 0):
+            raise SettingsError("reduce_tol and jump_tol must be > 0")
+        if self.final not in FINAL_MODES:
+            raise SettingsError(
+                f"final must be one of {', '.join(FINAL_MODES)}, got {self.final!r}"
+            )
+        if int(self.max_split_depth) != self.max_split_depth or self.max_split_depth < 0:
+            raise SettingsError(
+                f"max_split_depth must be an integer >= 0, got {self.max_split_depth}"
+            )
+
+
+@dataclass(frozen=True)
+class SweepRecord:
+    sweep: int
+    q: int
+    cost: float  # of the piecewise-optimal trajectory after the sweep
+    max_costate_jump: float
+    newton_iterations: int
+    f_evals: int
+    failures: int  # local problems that did not converge
+    rejected: int  # converged local problems whose arcs would have cost more
+    time_s: float
+    t: np.ndarray  # junction times after the sweep
+    X: np.ndarray  # junction states after the sweep
+
+
+@dataclass(frozen=True)
+class LeapfrogRun:
+    """What the algorithm produced for one initial path (before validation)."""
+
+    success: bool
+    message: str
+    costate0: np.ndarray | None  # lambda(0) of the final extremal
+    final_solver: str | None  # "shooting" or "multiple-shooting"
+    initial_cost: float
+    history: tuple[SweepRecord, ...]
+    newton_iterations: int
+    f_evals: int
+    cost_increases: int  # sweeps whose piecewise cost rose (should stay 0)
+    sweep_time_s: float
+    final_time_s: float
+    final_root: RootResult | None
+
+
+@dataclass
+class _Arcs:
+    """The piecewise-optimal trajectory: arc i runs from (t[i], X[i]) to (t[i+1], X[i+1])."""
+
+    t: np.ndarray
+    X: np.ndarray
+    lam0: np.ndarray  # (q, nx) costate at the start of each arc
+    lam1: np.ndarray  # (q, nx) costate at the end of each arc
+    cost: np.ndarray  # (q,)
+
+    @property
+    def q(self) -> int:
+        return self.t.size - 1
+
+    def max_jump(self) -> float:
+        if self.q < 2:
+            return 0.0
+        jumps = np.linalg.norm(self.lam1[:-1] - self.lam0[1:], axis=1)
+        scale = max(1.0, float(np.abs(self.lam0).max()))
+        return float(jumps.max() / scale)
+
+    def halved(self) -> _Arcs:
+        keep = list(range(0, self.q, 2)) + [self.q]
+        if keep[-2] == keep[-1]:
+            keep.pop()
+        starts, ends = keep[:-1], keep[1:]
+        return _Arcs(
+            t=self.t[keep].copy(),
+            X=self.X[keep].copy(),
+            lam0=self.lam0[starts].copy(),
+            lam1=self.lam1[[e - 1 for e in ends]].copy(),
+            cost=np.array([self.cost[a:b].sum() for a, b in zip(starts, ends, strict=True)]),
+        )
+
+
+class _Counter:
+    def __init__(self):
+        self.iterations = 0
+        self.f_evals = 0
+
+    def add(self, r: ShootingResult | RootResult):
+        root = r.root if isinstance(r, ShootingResult) else r
+        self.iterations += root.iterations
+        self.f_evals += root.f_evals
+
+
+@blas_single_threaded
+def leapfrog(
+    problem: OptimalControlProblem,
+    t: np.ndarray,
+    X: np.ndarray,
+    *,
+    curve: Callable[[float], np.ndarray] | None = None,
+    settings: LeapfrogSettings | None = None,
+    flow: Flow | None = None,
+    progress: Callable[[SweepRecord], None] | None = None,
+) -> LeapfrogRun:
+    """Run Leapfrog from the junctions ``(t, X)`` of a feasible path (``X[0]`` start, ``X[-1]`` goal).
+
+    ``curve(t)`` gives the feasible path's state at time ``t``; it is used to split a segment
+    whose two-point problem fails. ``progress`` is called after each sweep.
+    """
+    settings = settings or LeapfrogSettings()
+    flow = flow or Flow(problem, settings.shooting.integrator)
+    shoot_settings = replace(settings.shooting, samples=0, method=settings.method)
+    count = _Counter()
+
+    def solve(ta, xa, tb, xb, guess=None) -> ShootingResult | None:
+        r = solve_shooting(problem, ta, xa, tb, xb, guess=guess, settings=shoot_settings, flow=flow)
+        count.add(r)
+        return r if r.success else None
+
+    t = np.asarray(t, dtype=float)
+    X = np.asarray(X, dtype=float)
+    start, goal = X[0].copy(), X[-1].copy()
+    T0, T1 = float(t[0]), float(t[-1])
+
+    def fit(ta, xa, tb, xb, depth) -> list | None:
+        r = solve(ta, xa, tb, xb)
+        if r is not None:
+            return [(ta, xa, r.costate0, r.costate1, r.cost)]
+        if depth >= settings.max_split_depth or curve is None:
+            return None
+        tm = 0.5 * (ta + tb)
+        xm = np.asarray(curve(tm), dtype=float)
+        left = fit(ta, xa, tm, xm, depth + 1)
+        right = fit(tm, xm, tb, xb, depth + 1) if left is not None else None
+        return None if right is None else left + right
+
+    t_start = time.perf_counter()
+    pieces = []
+    for i in range(t.size - 1):
+        seg = fit(t[i], X[i], t[i + 1], X[i + 1], 0)
+        if seg is None:
+            return _failed(
+                f"the two-point problem of initial segment {i} failed even after splitting",
+                count,
+                np.inf,
+                (),
+                0,
+                time.perf_counter() - t_start,
+            )
+        pieces += seg
+    arcs = _Arcs(
+        t=np.array([p[0] for p in pieces] + [T1]),
+        X=np.array([p[1] for p in pieces] + [goal]),
+        lam0=np.array([p[2] for p in pieces]),
+        lam1=np.array([p[3] for p in pieces]),
+        cost=np.array([p[4] for p in pieces]),
+    )
+    initial_cost = float(arcs.cost.sum())
+    history: list[SweepRecord] = []
+    increases = 0
+    last_multi = arcs  # junctions for the multiple-shooting fallback
+    sweeps_here = 0
+    prev_cost = initial_cost
+    while arcs.q > 2 and len(history) < settings.max_sweeps:
+        t_sweep = time.perf_counter()
+        it0, fe0 = count.iterations, count.f_evals
+        failures = rejected = 0
+        for i in range(1, arcs.q):
+            ta, tb = arcs.t[i - 1], arcs.t[i + 1]
+            xa, xb = arcs.X[i - 1], arcs.X[i + 1]
+            r = solve(ta, xa, tb, xb, arcs.lam0[i - 1]) or solve(ta, xa, tb, xb)
+            if r is None:
+                failures += 1
+                continue
+            old = arcs.cost[i - 1] + arcs.cost[i]
+            if r.cost > old + 1e-10 * max(1.0, abs(old)):
+                rejected += 1
+                continue
+            tm = 0.5 * (ta + tb)
+            half = flow(ta, np.concatenate([xa, r.costate0]), tm)
+            arcs.t[i], arcs.X[i] = tm, half.x
+            arcs.lam0[i - 1], arcs.lam1[i - 1], arcs.cost[i - 1] = r.costate0, half.lam, half.cost
+            arcs.lam0[i], arcs.lam1[i], arcs.cost[i] = half.lam, r.costate1, r.cost - half.cost
+        cost = float(arcs.cost.sum())
+        increases += cost > prev_cost + 1e-9 * max(1.0, abs(prev_cost))
+        jump = arcs.max_jump()
+        rec = SweepRecord(
+            sweep=len(history) + 1,
+            q=arcs.q,
+            cost=cost,
+            max_costate_jump=jump,
+            newton_iterations=count.iterations - it0,
+            f_evals=count.f_evals - fe0,
+            failures=failures,
+            rejected=rejected,
+            time_s=time.perf_counter() - t_sweep,
+            t=arcs.t.copy(),
+            X=arcs.X.copy(),
+        )
+        history.append(rec)
+        log.debug("sweep %d: q=%d cost=%.10g jump=%.3g", rec.sweep, rec.q, cost, jump)
+        if progress is not None:
+            progress(rec)
+        sweeps_here += 1
+        decrease = (prev_cost - cost) / max(abs(cost), 1e-12)
+        prev_cost = cost
+        if (
+            decrease < settings.reduce_tol
+            or jump < settings.jump_tol
+            or sweeps_here >= settings.sweeps_per_level
+        ):
+            last_multi = arcs
+            arcs = arcs.halved()
+            sweeps_here = 0
+    sweep_time = time.perf_counter() - t_start
+
+    # Final step: simple shooting over the whole horizon from the first arc's costate.
+    t_final = time.perf_counter()
+    costate0, solver, root = None, None, None
+    if settings.final in ("auto", "shooting"):
+        r = solve_shooting(
+            problem, T0, start, T1, goal, guess=arcs.lam0[0], settings=shoot_settings, flow=flow
+        )
+        count.add(r)
+        root = r.root
+        if r.success:
+            costate0, solver = r.costate0, "shooting"
+    if costate0 is None and settings.final in ("auto", "multiple-shooting"):
+        ms = MultipleShootingSystem(flow, last_multi.t, start, goal)
+        Z = np.hstack([last_multi.X[:-1], last_multi.lam0])
+        root = solve_root(ms, ms.pack(last_multi.lam0[0], Z), settings.method, shoot_settings.root)
+        count.add(root)
+        if root.success:
+            costate0, solver = root.x[: start.size].copy(), "multiple-shooting"
+    final_time = time.perf_counter() - t_final
+    if costate0 is None:
+        msg = f"final solve failed ({root.status}: {root.message})" if root else "no final solve"
+    else:
+        msg = f"converged by {solver} after {len(history)} sweeps"
+    return LeapfrogRun(
+        success=costate0 is not None,
+        message=msg,
+        costate0=costate0,
+        final_solver=solver,
+        initial_cost=initial_cost,
+        history=tuple(history),
+        newton_iterations=count.iterations,
+        f_evals=count.f_evals,
+        cost_increases=increases,
+        sweep_time_s=sweep_time,
+        final_time_s=final_time,
+        final_root=root,
+    )
+
+
+def _failed(message, count, initial_cost, history, increases, sweep_time) -> LeapfrogRun:
+    return LeapfrogRun(
+        success=False,
+        message=message,
+        costate0=None,
+        final_solver=None,
+        initial_cost=initial_cost,
+        history=tuple(history),
+        newton_iterations=count.iterations,
+        f_evals=count.f_evals,
+        cost_increases=increases,
+        sweep_time_s=sweep_time,
+        final_time_s=0.0,
+        final_root=None,
+    )

@@ -1,0 +1,62 @@
+"""Multiple shooting over the Leapfrog junctions: the fallback for the final simple shooting.
+
+Unknowns ``w = (lambda_0, z_1, ..., z_{q-1})`` with ``z_j = (x_j, lambda_j)``; residuals are the
+continuity defects ``z(t_{j+1}; t_j, z_j) - z_{j+1}`` and the end-state error. Leapfrog gives an
+excellent starting point: its junctions and the costates of its piecewise-optimal arcs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .integrate.flow import Flow, FlowStatus
+
+
+class MultipleShootingSystem:
+    def __init__(self, flow: Flow, t: np.ndarray, x0: np.ndarray, x1: np.ndarray):
+        self.flow = flow
+        self.t = np.asarray(t, dtype=float)
+        self.x0 = np.asarray(x0, dtype=float)
+        self.x1 = np.asarray(x1, dtype=float)
+        self.nx = self.x0.size
+        self.q = self.t.size - 1
+
+    def pack(self, lam0, Z) -> np.ndarray:
+        """Unknown vector from the first costate and the interior junction states ``Z[1:q]``."""
+        return np.concatenate([np.asarray(lam0, float), np.asarray(Z, float)[1 : self.q].ravel()])
+
+    def unpack(self, w) -> np.ndarray:
+        """All junction values ``(q, 2 nx)``: ``z_j`` at the start of each arc."""
+        nx, nz = self.nx, 2 * self.nx
+        Z = np.empty((self.q, nz))
+        Z[0, :nx] = self.x0
+        Z[0, nx:] = w[:nx]
+        Z[1:] = w[nx:].reshape(self.q - 1, nz)
+        return Z
+
+    def evaluate(self, w, jacobian):
+        nx, nz, q = self.nx, 2 * self.nx, self.q
+        Z = self.unpack(w)
+        n = w.size
+        F = np.empty(n)
+        J = np.zeros((n, n)) if jacobian else None
+        for j in range(q):
+            r = self.flow(self.t[j], Z[j], self.t[j + 1], sensitivity="full" if jacobian else None)
+            if r.status != FlowStatus.OK:
+                return None, None
+            rows = slice(j * nz, (j + 1) * nz) if j < q - 1 else slice(j * nz, j * nz + nx)
+            target = Z[j + 1] if j < q - 1 else self.x1
+            end = r.z if j < q - 1 else r.z[:nx]
+            F[rows] = end - target
+            if jacobian:
+                Phi = r.sensitivity if j < q - 1 else r.sensitivity[:nx]
+                # Column block of z_j: lambda_0 only for the first arc, all of z_j afterwards.
+                if j == 0:
+                    J[rows, :nx] = Phi[:, nx:]
+                else:
+                    c = nx + (j - 1) * nz
+                    J[rows, c : c + nz] = Phi
+                if j < q - 1:
+                    c = nx + j * nz
+                    J[rows, c : c + nz] -= np.eye(nz)
+        return F, J
