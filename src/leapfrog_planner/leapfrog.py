@@ -14,9 +14,11 @@ costate size), or ``sweeps_per_level`` sweeps were made at this ``q``. At ``q = 
 simple shooting over the whole horizon runs from the costate of the first arc; if it fails, a
 multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over.
 
-Local failures: on the initial path, a segment whose two-point problem fails is split at its
-middle (up to ``max_split_depth`` times). In a sweep, a failed local problem (retried once from
-the affine guess) leaves its junction where it is, so the arcs and the cost stay defined.
+Local failures: on the initial path, each segment is first solved from the previous arc's final
+costate, then from the affine guess; if both fail, by continuation in the obstacle weight from 0
+to ``W`` (warm-starting each weight from the last); if that fails too, the segment is split at
+its middle (up to ``max_split_depth`` times). In a sweep, a failed local problem (retried once
+from the affine guess) leaves its junction where it is, so the arcs and the cost stay defined.
 """
 
 from __future__ import annotations
@@ -30,15 +32,16 @@ import numpy as np
 
 from ._blas import blas_single_threaded
 from .errors import SettingsError
-from .integrate.flow import Flow
+from .integrate.flow import Flow, IntegratorSettings
 from .multiple_shooting import MultipleShootingSystem
 from .problem import OptimalControlProblem
-from .roots import STRATEGIES, RootResult, solve_root
+from .roots import STRATEGIES, RootResult, RootSettings, solve_root
 from .shooting import ShootingResult, ShootingSettings, solve_shooting
 
 log = logging.getLogger(__name__)
 
 FINAL_MODES = ("auto", "shooting", "multiple-shooting")
+CONTINUATION = (0.0, 0.1, 0.3, 0.6, 1.0)  # fractions of the obstacle weight
 
 
 @dataclass(frozen=True)
@@ -51,7 +54,15 @@ class LeapfrogSettings:
     jump_tol: float = 1e-6
     final: str = "auto"
     max_split_depth: int = 4
-    shooting: ShootingSettings = field(default_factory=lambda: ShootingSettings(samples=0))
+    # Local problems are short and warm-started: a solve that needs more than 25 iterations, or
+    # a flow that needs more than 20000 steps, is failing, and is cut short (failures are handled).
+    shooting: ShootingSettings = field(
+        default_factory=lambda: ShootingSettings(
+            samples=0,
+            root=RootSettings(max_iterations=25, divergence=1e4),
+            integrator=IntegratorSettings(max_steps=20_000),
+        )
+    )
 
     def __post_init__(self):
         if self.method not in STRATEGIES:
@@ -184,22 +195,38 @@ def leapfrog(
     start, goal = X[0].copy(), X[-1].copy()
     T0, T1 = float(t[0]), float(t[-1])
 
-    def fit(ta, xa, tb, xb, depth) -> list | None:
-        r = solve(ta, xa, tb, xb)
+    def continuation(ta, xa, tb, xb, guess) -> ShootingResult | None:
+        """Solve with the obstacle weight raised from 0 to W, each solve warm-starting the next."""
+        r = None
+        for frac in CONTINUATION:
+            p = problem.with_weight(frac * problem.penalty.weight)
+            rr = solve_shooting(
+                p, ta, xa, tb, xb, guess=guess, settings=shoot_settings, flow=Flow(p, flow.settings)
+            )
+            count.add(rr)
+            if not rr.success:
+                return None
+            r, guess = rr, rr.costate0
+        return r
+
+    def fit(ta, xa, tb, xb, depth, guess) -> list | None:
+        r = (guess is not None and solve(ta, xa, tb, xb, guess)) or solve(ta, xa, tb, xb)
+        if r is None and problem.obstacles.shape[0] and problem.penalty.weight > 0:
+            r = continuation(ta, xa, tb, xb, guess)
         if r is not None:
             return [(ta, xa, r.costate0, r.costate1, r.cost)]
         if depth >= settings.max_split_depth or curve is None:
             return None
         tm = 0.5 * (ta + tb)
         xm = np.asarray(curve(tm), dtype=float)
-        left = fit(ta, xa, tm, xm, depth + 1)
-        right = fit(tm, xm, tb, xb, depth + 1) if left is not None else None
+        left = fit(ta, xa, tm, xm, depth + 1, guess)
+        right = fit(tm, xm, tb, xb, depth + 1, left[-1][3]) if left is not None else None
         return None if right is None else left + right
 
     t_start = time.perf_counter()
     pieces = []
     for i in range(t.size - 1):
-        seg = fit(t[i], X[i], t[i + 1], X[i + 1], 0)
+        seg = fit(t[i], X[i], t[i + 1], X[i + 1], 0, pieces[-1][3] if pieces else None)
         if seg is None:
             return _failed(
                 f"the two-point problem of initial segment {i} failed even after splitting",

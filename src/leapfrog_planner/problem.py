@@ -100,6 +100,13 @@ class OptimalControlProblem:
     def nx(self) -> int:
         return self.model.nx
 
+    def with_weight(self, weight: float) -> OptimalControlProblem:
+        """The same problem with another obstacle weight (for continuation; nothing recompiles)."""
+        pen = self.penalty
+        return OptimalControlProblem(
+            self.model, ObstaclePenalty(pen.obstacles, weight, pen.exponent), self.parameters
+        )
+
     def __reduce__(self):
         # Pickle by model definition (a name for built-ins), not by the loaded kernel module.
         return (

@@ -94,7 +94,7 @@ def erk_fixed(Y0, t0, t1, nsteps, k, A, b, p, obs, weight, exponent, T_out, Z_ou
             if w != 0.0:
                 for m in range(n):
                     Y[m] += w * K[i, m]
-        if not _all_finite(Y, NZ + 1):
+        if not _all_finite(Y, n):  # sensitivities too: a NaN Jacobian is a failure
             return Y, NON_FINITE, step + 1
         if record:
             T_out[step + 1] = t0 + (step + 1) * h
@@ -127,7 +127,7 @@ def _error_norm(K, h, e, e3, Y, Ynew, rtol, atol, n_err):
 
 
 @njit(cache=True, error_model="numpy")
-def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent, n_err):
+def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent, n_err, direction):
     """Hairer's starting step size (as in SciPy's select_initial_step)."""
     n = Y.size
     d0 = 0.0
@@ -142,7 +142,7 @@ def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent,
     h0 = min(h0, abs(t1 - t0))
     Y1 = np.empty(n)
     for m in range(n):
-        Y1[m] = Y[m] + h0 * f0[m]
+        Y1[m] = Y[m] + direction * h0 * f0[m]
     f1 = np.empty(n)
     aug_rhs(Y1, k, p, obs, weight, exponent, f1)
     d2 = 0.0
@@ -198,7 +198,9 @@ def erk_adaptive(
     if not (_all_finite(Y, n) and _all_finite(K[0], n)):
         return Y, NON_FINITE, 0, 0
     direction = 1.0 if t1 >= t0 else -1.0
-    h = _initial_step(Y, K[0], t0, t1, k, error_order, rtol, atol, p, obs, weight, exponent, n_err)
+    h = _initial_step(
+        Y, K[0], t0, t1, k, error_order, rtol, atol, p, obs, weight, exponent, n_err, direction
+    )
     expo = -1.0 / (error_order + 1.0)
     t = t0
     accepted = 0
@@ -251,7 +253,7 @@ def erk_adaptive(
             Y[m] = Ynew[m]
             K[0, m] = K[s, m]
         accepted += 1
-        if not _all_finite(Y, n_err):
+        if not _all_finite(Y, n):  # sensitivities too: a NaN Jacobian is a failure
             return Y, NON_FINITE, accepted, rejected
         if record:
             T_out[accepted] = t

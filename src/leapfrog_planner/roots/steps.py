@@ -40,6 +40,8 @@ class _Evaluator:
         F, J = self.system.evaluate(x, jacobian)
         if F is not None and not np.all(np.isfinite(F)):
             F, J = None, None
+        if J is not None and not np.all(np.isfinite(J)):
+            F, J = None, None  # a NaN Jacobian makes the point as unusable as a NaN residual
         return F, J
 
 
@@ -65,7 +67,7 @@ class ModifiedNewtonStep:
     ``0 <= k <= m``, the step with the smallest ``h``. Hence ``h`` never increases.
     """
 
-    max_halvings: int = 30
+    max_halvings: int = 20  # 2^-20 ~ 1e-6: shorter steps only measure noise
     name = "modified-newton"
 
     def __post_init__(self):
@@ -119,8 +121,9 @@ class NleqErrStep:
     """
 
     initial_damping: float = 1.0
-    min_damping: float = 1e-8
+    min_damping: float = 1e-6
     xtol: float = 1e-12  # a full step whose simplified correction is below xtol (1 + |x|) is final
+    max_trials: int = 30  # damping trials per step
     name = "nleq-err"
 
     def __post_init__(self):
@@ -143,18 +146,14 @@ class NleqErrStep:
                 * memo.lam_prev
             )
             lam = min(1.0, mu)
-        while True:
+        reduced = False  # once reduced in this step, the corrector may not raise lambda again
+        for _ in range(self.max_trials):
             if lam < self.min_damping:
-                return Step(
-                    x,
-                    0.0,
-                    failed=RootStatus.LINE_SEARCH_FAILED,
-                    message=f"damping factor fell below {self.min_damping:g}",
-                )
+                break
             xt = x + lam * dx
             Ft, Jt = evaluate(xt, jacobian=(lam == 1.0))
             if Ft is None:
-                lam = lam / 2  # outside the domain of F (the flow blew up): shorten the step
+                lam, reduced = lam / 2, True  # outside the domain of F (the flow blew up)
                 continue
             dxbar = -lu_solve(lu, Ft)
             if lam == 1.0 and np.linalg.norm(dxbar) <= self.xtol * (1.0 + np.linalg.norm(xt)):
@@ -165,14 +164,20 @@ class NleqErrStep:
             denom = np.linalg.norm(dxbar - (1.0 - lam) * dx)
             mu_c = np.inf if denom == 0 else 0.5 * ndx * lam * lam / denom
             if theta >= 1.0 - lam / 4.0:
-                lam = min(mu_c, lam / 2.0)
+                lam, reduced = min(mu_c, lam / 2.0), True
                 continue
             lam_c = min(1.0, mu_c)
-            if lam_c >= 4.0 * lam and lam < 1.0:
+            if not reduced and lam_c >= 4.0 * lam and lam < 1.0:
                 lam = lam_c
                 continue
             memo.dx_prev, memo.dxbar, memo.lam_prev, memo.lam = dx, dxbar, lam, lam
             return Step(xt, lam, Ft, Jt)
+        return Step(
+            x,
+            0.0,
+            failed=RootStatus.LINE_SEARCH_FAILED,
+            message=f"no acceptable damping factor >= {self.min_damping:g}",
+        )
 
 
 STRATEGIES = {"newton": NewtonStep, "modified-newton": ModifiedNewtonStep, "nleq-err": NleqErrStep}

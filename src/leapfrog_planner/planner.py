@@ -1,0 +1,234 @@
+"""Plan a scenario: initial feasible paths, Leapfrog from each, the cheapest validated extremal.
+
+``plan(scenario)`` is the one-call entry point; :class:`Planner` keeps the compiled flow and the
+settings for reuse across scenarios with the same model (obstacles are data: nothing recompiles).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+
+from ._blas import single_threaded_blas
+from .errors import SettingsError
+from .initial_path import InitialPath, initial_paths
+from .integrate.flow import Flow
+from .leapfrog import LeapfrogRun, LeapfrogSettings, SweepRecord, leapfrog
+from .results import LeapfrogResult, PathOutcome, PlanStatus, validate
+from .scenario import Scenario, load_scenario
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class PlanEvent:
+    """Progress report: ``stage`` is "path" (a new initial path starts), "sweep" or "final"."""
+
+    stage: str
+    path_index: int
+    paths: int
+    label: str
+    sweep: SweepRecord | None = None
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    initial_paths: int = 3  # initial paths tried, in different homotopy classes
+    # Obstacle inflation of the initial paths: small, since optimal paths squeeze through gaps
+    # (paper case 3's optimum passes two obstacles 0.066 apart with 0.033 clearance).
+    margin: float = 0.02
+    samples: int = 1001  # points of the returned dense trajectory
+    leapfrog: LeapfrogSettings = LeapfrogSettings()
+
+    def __post_init__(self):
+        if int(self.initial_paths) != self.initial_paths or self.initial_paths < 1:
+            raise SettingsError(
+                f"initial_paths must be a positive integer, got {self.initial_paths}"
+            )
+        if not self.margin >= 0:
+            raise SettingsError(f"margin must be >= 0, got {self.margin}")
+        if int(self.samples) != self.samples or self.samples < 2:
+            raise SettingsError(f"samples must be an integer >= 2, got {self.samples}")
+
+    @classmethod
+    def from_options(cls, base: PlannerSettings | None = None, **options) -> PlannerSettings:
+        """Settings from flat options (``method``, ``partitions``, ``initial_paths``, ...).
+
+        Keys of :class:`LeapfrogSettings` and of this class are accepted; anything else is an error.
+        """
+        base = base or cls()
+        own = {f.name for f in fields(cls)} - {"leapfrog"}
+        lf = {f.name for f in fields(LeapfrogSettings)}
+        unknown = sorted(set(options) - own - lf)
+        if unknown:
+            raise SettingsError(
+                f"unknown option {unknown[0]!r} (known: {', '.join(sorted(own | lf))})"
+            )
+        lf_opts = {k: v for k, v in options.items() if k in lf}
+        return replace(
+            base,
+            leapfrog=replace(base.leapfrog, **lf_opts),
+            **{k: v for k, v in options.items() if k in own},
+        )
+
+
+# Scenario [solver] keys mapped to settings names.
+_SOLVER_KEY_MAP = {
+    "method": "method",
+    "partitions": "partitions",
+    "initial_paths": "initial_paths",
+    "max_sweeps": "max_sweeps",
+    "tolerance": "reduce_tol",
+}
+
+
+class Planner:
+    """Leapfrog planner for one scenario; reuse it to re-plan with other settings."""
+
+    def __init__(
+        self,
+        scenario: Scenario | str,
+        settings: PlannerSettings | None = None,
+        *,
+        progress: Callable[[PlanEvent], None] | None = None,
+        **options,
+    ):
+        self.scenario = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+        from_file = {_SOLVER_KEY_MAP[k]: v for k, v in self.scenario.solver.items()}
+        self.settings = PlannerSettings.from_options(settings, **{**from_file, **options})
+        self.problem = self.scenario.problem()
+        self.flow = Flow(self.problem, self.settings.leapfrog.shooting.integrator)
+        self.progress = progress
+
+    def initial_paths(self) -> list[InitialPath]:
+        s = self.scenario
+        return initial_paths(
+            s.start,
+            s.goal,
+            s.obstacles,
+            k=self.settings.initial_paths,
+            margin=self.settings.margin,
+            waypoints=s.waypoints,
+        )
+
+    def plan(self) -> LeapfrogResult:
+        with single_threaded_blas():
+            return self._plan()
+
+    def _plan(self) -> LeapfrogResult:
+        s, st = self.scenario, self.settings
+        t_begin = time.perf_counter()
+        paths = self.initial_paths()
+        t_paths = time.perf_counter() - t_begin
+        T0, T1 = 0.0, float(s.horizon)
+        runs: list[tuple[InitialPath, LeapfrogRun, tuple]] = []
+        for k, path in enumerate(paths):
+            self._emit(PlanEvent("path", k, len(paths), path.label))
+            t, X = path.junctions(st.leapfrog.partitions, s.horizon, T0)
+
+            def curve(tq, path=path):
+                xy, th = path.curve(np.array([(tq - T0) / (T1 - T0)]))
+                return np.array([xy[0, 0], xy[0, 1], th[0]])
+
+            def on_sweep(rec, k=k, path=path):
+                self._emit(PlanEvent("sweep", k, len(paths), path.label, rec))
+
+            run = leapfrog(
+                self.problem,
+                t,
+                X,
+                curve=curve,
+                settings=st.leapfrog,
+                flow=self.flow,
+                progress=on_sweep,
+            )
+            runs.append((path, run, (t, X)))
+            log.info("path %s: %s", path.label, run.message)
+        self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
+        t_val = time.perf_counter()
+        checked = []
+        for path, run, junctions in runs:
+            v = None
+            if run.success:
+                v = validate(
+                    self.problem, T0, s.start, T1, s.goal, run.costate0, samples=st.samples
+                )
+            checked.append((path, run, junctions, v))
+        ok = [c for c in checked if c[3] is not None and np.isfinite(c[3].cost)]
+        best = min(ok, key=lambda c: c[3].cost) if ok else checked[0]
+        t_val = time.perf_counter() - t_val
+        return self._result(best, checked, t_paths, t_val, time.perf_counter() - t_begin)
+
+    def _emit(self, event: PlanEvent):
+        if self.progress is not None:
+            self.progress(event)
+
+    def _result(self, best, checked, t_paths, t_val, wall) -> LeapfrogResult:
+        path, run, junctions, v = best
+        s = self.scenario
+        info = self.problem.model
+        status = (
+            PlanStatus.CONVERGED if v is not None and np.isfinite(v.cost) else PlanStatus.FAILED
+        )
+        nan = float("nan")
+        alternatives = tuple(
+            PathOutcome(
+                label=p.label,
+                status=PlanStatus.CONVERGED if vv is not None else PlanStatus.FAILED,
+                cost=vv.cost if vv is not None else nan,
+                initial_cost=r.initial_cost,
+                sweeps=len(r.history),
+                message=r.message,
+            )
+            for p, r, _, vv in checked
+            if p is not path
+        )
+        return LeapfrogResult(
+            status=status,
+            message=run.message if v is not None else f"{run.message} (initial path {path.label})",
+            scenario=s.name,
+            model=info.name,
+            state_names=info.states,
+            control_names=info.controls,
+            method=self.settings.leapfrog.method,
+            final_solver=run.final_solver,
+            initial_path=path.label,
+            costate0=run.costate0,
+            trajectory=v.trajectory if v else None,
+            cost=v.cost if v else nan,
+            energy=v.energy if v else nan,
+            penalty=v.penalty if v else nan,
+            clearance=v.clearance
+            if v
+            else self.problem.penalty.clearance(path.curve(np.linspace(0, 1, 501))[0]),
+            end_state_error=v.end_state_error if v else float("inf"),
+            max_costate_jump=run.history[-1].max_costate_jump if run.history else nan,
+            max_dH_du=v.max_dH_du if v else nan,
+            hamiltonian_variation=v.hamiltonian_variation if v else nan,
+            initial_cost=run.initial_cost,
+            history=run.history,
+            initial_junctions=junctions,
+            newton_iterations=sum(r.newton_iterations for _, r, _, _ in checked),
+            f_evals=sum(r.f_evals for _, r, _, _ in checked),
+            cost_increases=run.cost_increases,
+            time_initial_path_s=t_paths,
+            time_sweeps_s=sum(r.sweep_time_s for _, r, _, _ in checked),
+            time_final_s=sum(r.final_time_s for _, r, _, _ in checked),
+            time_validation_s=t_val,
+            wall_time_s=wall,
+            alternatives=alternatives,
+        )
+
+
+def plan(scenario: Scenario | str, *, progress=None, **options) -> LeapfrogResult:
+    """Plan ``scenario`` (an object, a file or a built-in name) with Leapfrog.
+
+    Options: ``method`` (``newton``, ``modified-newton``, ``nleq-err``), ``partitions``,
+    ``initial_paths``, ``final`` (``auto``, ``shooting``, ``multiple-shooting``), and the other
+    fields of :class:`PlannerSettings` and :class:`LeapfrogSettings`.
+    """
+    return Planner(scenario, progress=progress, **options).plan()

@@ -1,0 +1,400 @@
+"""Tests of the initial feasible paths: tangent graph, homotopy classes, smoothing, junctions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from leapfrog_planner.errors import ScenarioError, SettingsError
+from leapfrog_planner.initial_path import InitialPath, initial_paths, plot_initial_paths
+
+PI = math.pi
+
+# Spec section 5, typed in independently of the TOML files: (start, goal, obstacles).
+PAPER_CASES = {
+    "paper-case-1": ([-1.0, 2.0, PI / 2], [1.0, 2.0, PI / 2], []),
+    "paper-case-2": ([0.0, 0.0, 0.0], [3.5, 3.5, 0.0], [[1.0, 1.2, 0.5], [2.5, 2.2, 0.5]]),
+    "paper-case-3": (
+        [0.0, 0.0, PI / 4],
+        [1.0, 1.0, PI / 4],
+        [[0.5, 0.5, 0.15], [0.2, 0.6, 0.1], [0.75, 0.3, 0.1]],
+    ),
+    "paper-case-4": (
+        [0.0, 0.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [
+            [0.4, 0.05, 0.1],
+            [0.7, -0.15, 0.1],
+            [1.0, 0.1, 0.1],
+            [1.3, -0.1, 0.1],
+            [1.6, 0.12, 0.1],
+            [0.9, 0.4, 0.1],
+            [1.2, -0.45, 0.1],
+        ],
+    ),
+}
+
+# One big disc centred on the chord: the two sides are mirror images.
+SYMMETRIC = ([0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [[2.0, 0.0, 1.0]])
+
+
+def polyline_clearance(poly: np.ndarray, obstacles) -> float:
+    """Exact minimum distance of a polyline's segments to the obstacle edges."""
+    obs = np.asarray(obstacles, dtype=float).reshape(-1, 3)
+    a, b = poly[:-1], poly[1:]
+    ab = b - a
+    best = math.inf
+    for cx, cy, r in obs:
+        ac = np.array([cx, cy]) - a
+        t = np.clip(np.einsum("ij,ij->i", ac, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+        d = np.hypot(*(ac - t[:, None] * ab).T) - r
+        best = min(best, float(d.min()))
+    return best
+
+
+def dense_length(path: InitialPath, n: int = 20001) -> tuple[np.ndarray, np.ndarray]:
+    """Cumulative chord length of the curve sampled uniformly in its arclength parameter."""
+    s = np.linspace(0.0, 1.0, n)
+    xy, _ = path.curve(s)
+    return s, np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
+
+
+# --------------------------------------------------------------------------- straight path
+
+
+def test_straight_path_when_the_chord_is_free():
+    start, goal = [0.0, 0.0, 0.3], [2.0, 1.0, -0.2]
+    obstacles = [[1.0, 2.0, 0.5], [3.0, -1.0, 0.4]]
+    paths = initial_paths(start, goal, obstacles)
+    first = paths[0]
+    assert first.label == "straight"
+    np.testing.assert_array_equal(first.polyline, [[0.0, 0.0], [2.0, 1.0]])
+    assert first.signature == (0, 0)
+    assert first.min_clearance > 0.05
+    assert first.length >= math.hypot(2.0, 1.0)
+    for p in paths[1:]:
+        assert p.signature != first.signature
+
+
+def test_junctions_exact_ends_uniform_times_and_continuous_headings():
+    start, goal = [0.0, 0.0, 0.3], [2.0, 1.0, -0.2]
+    path = initial_paths(start, goal, [[1.0, 2.0, 0.5]], k=1)[0]
+    q, T, t0 = 16, 2.5, 0.5
+    t, X = path.junctions(q, T, t0)
+    assert t.shape == (q + 1,) and X.shape == (q + 1, 3)
+    np.testing.assert_array_equal(X[0], start)
+    np.testing.assert_array_equal(X[-1], goal)
+    assert t[0] == t0 and t[-1] == t0 + T
+    np.testing.assert_allclose(np.diff(t), T / q, rtol=1e-12)
+    assert np.max(np.abs(np.diff(X[:, 2]))) < PI / 4
+    # Junction points lie on the curve, uniformly in arclength.
+    s, cum = dense_length(path)
+    at = np.interp(np.arange(q + 1) / q, s, cum)
+    np.testing.assert_allclose(np.diff(at), path.length / q, rtol=1e-4)
+    xy, heading = path.curve(np.arange(q + 1) / q)
+    np.testing.assert_allclose(X[1:-1, :2], xy[1:-1], atol=1e-12)
+    np.testing.assert_allclose(X[1:-1, 2], heading[1:-1], atol=1e-12)
+
+
+def test_curve_is_parametrised_by_arclength_and_leaves_and_arrives_along_the_headings():
+    start, goal, obstacles = PAPER_CASES["paper-case-4"]
+    for path in initial_paths(start, goal, obstacles):
+        s, cum = dense_length(path)
+        assert cum[-1] == pytest.approx(path.length, rel=1e-6)
+        np.testing.assert_allclose(cum, s * path.length, atol=2e-5 * path.length)
+        xy, heading = path.curve([0.0, 1.0])
+        np.testing.assert_allclose(xy, [start[:2], goal[:2]], atol=1e-12)
+        np.testing.assert_allclose(heading, [start[2], goal[2]], atol=1e-9)
+        # Headings are the tangent directions of the curve.
+        s = np.linspace(0.1, 0.9, 9)
+        h = 1e-6
+        p1, _ = path.curve(s + h)
+        p0, _ = path.curve(s - h)
+        _, th = path.curve(s)
+        d = (p1 - p0) / (2 * h)
+        np.testing.assert_allclose(np.hypot(*d.T), path.length, rtol=1e-3)
+        np.testing.assert_allclose(np.arctan2(d[:, 1], d[:, 0]), th, atol=1e-5)
+
+
+def test_paper_case_1_is_a_smooth_s_curve_up_and_up():
+    start, goal, obstacles = PAPER_CASES["paper-case-1"]
+    paths = initial_paths(start, goal, obstacles)
+    assert len(paths) == 1 and paths[0].label == "straight"
+    assert paths[0].signature == () and paths[0].min_clearance == math.inf
+    xy, heading = paths[0].curve([0.0, 0.02, 0.5, 0.98, 1.0])
+    assert xy[1, 1] > 2.0 and xy[3, 1] < 2.0  # leaves upward, arrives upward from below
+    np.testing.assert_allclose(xy[2], [0.0, 2.0], atol=1e-9)  # point symmetric
+    np.testing.assert_allclose(heading[[0, -1]], PI / 2, atol=1e-9)
+    t, X = paths[0].junctions(16, 1.0)
+    assert np.max(np.abs(np.diff(X[:, 2]))) < PI / 4
+
+
+# --------------------------------------------------------------------------- homotopy classes
+
+
+@pytest.mark.parametrize("name", sorted(PAPER_CASES))
+def test_paper_cases(name):
+    start, goal, obstacles = PAPER_CASES[name]
+    paths = initial_paths(start, goal, obstacles, k=3)
+    assert 1 <= len(paths) <= 3
+    signatures = [p.signature for p in paths]
+    assert len(set(signatures)) == len(paths)
+    lengths = [p.length for p in paths]
+    assert lengths == sorted(lengths)
+    for p in paths:
+        assert p.min_clearance >= 0.0
+        assert len(p.signature) == len(obstacles)
+        np.testing.assert_array_equal(p.polyline[0], start[:2])
+        np.testing.assert_array_equal(p.polyline[-1], goal[:2])
+        if obstacles:
+            # The polyline keeps the margin up to the sampling of arcs (10 degree chords).
+            assert polyline_clearance(p.polyline, obstacles) > 0.05 - 0.005
+        t, X = p.junctions(16, 1.0)
+        np.testing.assert_array_equal(X[0], start)
+        np.testing.assert_array_equal(X[-1], goal)
+        assert np.max(np.abs(np.diff(X[:, 2]))) < PI / 2
+    if name in ("paper-case-2", "paper-case-3", "paper-case-4"):
+        assert len(paths) >= 2
+    if name == "paper-case-2":
+        assert len(paths) == 3
+
+
+def test_paper_case_3_gaps_open_with_a_smaller_margin():
+    # The reference optimum of case 3 passes a 0.066 wide gap; a margin of 0.05 closes it.
+    start, goal, obstacles = PAPER_CASES["paper-case-3"]
+    closed = {p.signature for p in initial_paths(start, goal, obstacles, margin=0.05)}
+    gaps = initial_paths(start, goal, obstacles, margin=0.02)
+    assert {(1, 0, 0), (-1, 0, 0)} <= {p.signature for p in gaps}
+    assert not closed & {(1, 0, 0), (-1, 0, 0)}
+    assert all(p.min_clearance >= 0.0 for p in gaps)
+
+
+def test_symmetric_obstacle_gives_one_path_per_side_of_equal_length():
+    start, goal, obstacles = SYMMETRIC
+    paths = initial_paths(start, goal, obstacles, k=3)
+    assert len(paths) == 2
+    assert {p.signature for p in paths} == {(1,), (-1,)}
+    assert paths[0].length == pytest.approx(paths[1].length, abs=1e-6)
+    mirrored = paths[1].polyline * [1.0, -1.0]
+    np.testing.assert_allclose(paths[0].polyline, mirrored, atol=1e-9)
+    # Above (clockwise round the centre) is -1, below is +1.
+    for p in paths:
+        y_mid = p.curve(0.5)[0][0, 1]
+        assert np.sign(y_mid) == -p.signature[0]
+        assert y_mid == pytest.approx(-p.signature[0] * 1.05, abs=2e-3)
+    # The exact shortest path round a disc: two tangents and an arc.
+    R = 1.05
+    exact = 2 * math.sqrt(2.0**2 - R**2) + R * (PI - 2 * math.acos(R / 2.0))
+    assert polyline_length(paths[0].polyline) == pytest.approx(exact, rel=1e-3)
+
+
+def polyline_length(poly: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(poly, axis=0).T).sum())
+
+
+def test_k_limits_the_number_of_paths_and_k1_gives_the_shortest():
+    start, goal, obstacles = PAPER_CASES["paper-case-4"]
+    three = initial_paths(start, goal, obstacles, k=3)
+    one = initial_paths(start, goal, obstacles, k=1)
+    assert len(one) == 1
+    assert one[0].signature == three[0].signature
+    np.testing.assert_array_equal(one[0].polyline, three[0].polyline)
+    five = initial_paths(start, goal, obstacles, k=5)
+    assert [p.signature for p in five[:3]] == [p.signature for p in three]
+    assert len({p.signature for p in five}) == len(five)
+
+
+def test_no_obstacles_gives_one_straight_path():
+    paths = initial_paths([0, 0, 0], [1, 1, PI / 2], [], k=3)
+    assert len(paths) == 1 and paths[0].label == "straight"
+    assert paths[0].signature == () and paths[0].min_clearance == math.inf
+
+
+def test_overlapping_obstacles_are_passed_as_one():
+    obstacles = [[2.0, 0.0, 0.5], [2.0, 0.6, 0.4], [2.0, -0.6, 0.4]]
+    paths = initial_paths([0, 0, 0], [4, 0, 0], obstacles, k=3)
+    assert len(paths) == 2
+    for p in paths:
+        assert p.min_clearance >= 0.0
+        assert polyline_clearance(p.polyline, obstacles) > 0.04
+
+
+def test_start_closer_to_an_obstacle_than_the_margin():
+    # The start is 0.02 from the first obstacle, and touches it in the second case.
+    for gap in (0.02, 0.0):
+        obstacles = [[0.0, 0.1 + gap, 0.1], [1.5, 0.0, 0.3]]
+        paths = initial_paths([0.0, 0.0, 0.0], [3.0, 0.0, 0.0], obstacles)
+        assert len(paths) == 2
+        for p in paths:
+            # Only that obstacle's inflation shrinks (to the start's distance from it).
+            assert p.min_clearance >= gap - 1e-5
+            np.testing.assert_array_equal(p.junctions(8, 1.0)[1][0], [0.0, 0.0, 0.0])
+
+
+# --------------------------------------------------------------------------- smoothing
+
+
+def test_heading_pointing_back_turns_round_without_a_cusp():
+    for heading in (PI, PI - 0.1, -PI + 0.05, 2.4, -2.0):
+        path = initial_paths([0.0, 0.0, heading], [2.0, 0.0, 0.0], [], k=1)[0]
+        t, X = path.junctions(32, 1.0)
+        assert np.max(np.abs(np.diff(X[:, 2]))) < PI / 4
+        s = np.linspace(0.0, 1.0, 2001)
+        _, th = path.curve(s)
+        curvature = np.abs(np.diff(th)) / (path.length / 2000)
+        assert np.max(curvature) < 10.0  # a turning arc of radius 2 / 4, not a cusp
+        # It turns towards the goal's side when that is ambiguous, else the short way.
+        if abs(math.sin(heading)) > 0.5:
+            assert np.sign(path.curve(0.05)[0][0, 1]) == np.sign(math.sin(heading))
+
+
+def test_extra_turns_of_the_goal_heading_are_spread_over_the_path():
+    path = initial_paths([0.0, 0.0, 0.0], [2.0, 0.0, 2 * PI], [], k=1)[0]
+    t, X = path.junctions(16, 1.0)
+    assert X[-1, 2] == 2 * PI
+    np.testing.assert_allclose(np.diff(X[:, 2]), 2 * PI / 16, atol=1e-9)
+
+
+def test_start_equal_to_goal_turns_on_the_spot():
+    path = initial_paths([1.0, 1.0, 0.0], [1.0, 1.0, PI / 2], [[3.0, 3.0, 1.0]])[0]
+    assert path.length == 0.0
+    t, X = path.junctions(4, 1.0)
+    np.testing.assert_allclose(X[:, :2], 1.0)
+    np.testing.assert_allclose(X[:, 2], np.linspace(0.0, PI / 2, 5), atol=1e-15)
+
+
+# --------------------------------------------------------------------------- waypoints
+
+
+def test_waypoints_give_the_only_path_through_the_points():
+    waypoints = [[0.8, 0.6], [1.6, 0.5]]
+    obstacles = [[1.0, 0.0, 0.3]]
+    paths = initial_paths([0, 0, 0], [2, 0, 0], obstacles, k=3, waypoints=waypoints)
+    assert len(paths) == 1
+    p = paths[0]
+    assert p.label == "waypoints"
+    np.testing.assert_array_equal(p.polyline, [[0, 0], *waypoints, [2, 0]])
+    xy, _ = p.curve(np.linspace(0.0, 1.0, 20001))
+    for w in waypoints:
+        assert np.min(np.hypot(*(xy - w).T)) < 1e-3
+    assert p.signature == (-1,)  # passes above the obstacle that sits on the chord
+    assert p.min_clearance > 0.0
+
+
+def test_waypoints_through_an_obstacle_are_kept_with_negative_clearance():
+    p = initial_paths([0, 0, 0], [2, 0, 0], [[1, 0, 0.2]], waypoints=[[1, 0.5], [1, -0.5]])[0]
+    assert p.min_clearance < -0.1
+    assert initial_paths([0, 0, 0], [2, 0, 0], [], waypoints=[])[0].label == "straight"
+
+
+def test_from_polyline():
+    p = InitialPath.from_polyline([[0, 0], [1, 1], [2, 0]], [0, 0, 0], [2, 0, 0], [[1, 0, 0.2]])
+    assert p.label == "custom" and p.signature == (-1,)
+    assert 0.3 < p.min_clearance < polyline_clearance(p.polyline, [[1, 0, 0.2]])
+    with pytest.raises(ScenarioError, match="not the goal position"):
+        InitialPath.from_polyline([[0, 0], [1, 1]], [0, 0, 0], [2, 0, 0])
+
+
+# --------------------------------------------------------------------------- determinism
+
+
+def test_deterministic():
+    start, goal, obstacles = PAPER_CASES["paper-case-4"]
+    a = initial_paths(start, goal, obstacles, k=4)
+    b = initial_paths(start, goal, obstacles, k=4)
+    assert [p.label for p in a] == [p.label for p in b]
+    assert [p.signature for p in a] == [p.signature for p in b]
+    for p, q in zip(a, b, strict=True):
+        np.testing.assert_array_equal(p.polyline, q.polyline)
+        assert p.length == q.length and p.min_clearance == q.min_clearance
+        for x, y in zip(p.junctions(12, 1.0), q.junctions(12, 1.0), strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_paths_are_immutable():
+    p = initial_paths([0, 0, 0], [1, 0, 0], [])[0]
+    with pytest.raises(ValueError):
+        p.polyline[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        p.length = 3.0
+
+
+# --------------------------------------------------------------------------- errors
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"start": [0.05, 0.0, 0.0]}, r"start: \[0.05, 0.0\] is inside obstacles\[0\]"),
+        ({"goal": [1.0, 1.0, 0.0]}, r"goal: \[1.0, 1.0\] is inside obstacles\[1\]"),
+        ({"start": [0.0, float("nan"), 0.0]}, "start: must be finite"),
+        ({"goal": [1.0, 0.0]}, "goal: expected 3 numbers"),
+        ({"obstacles": [[0.0, 0.0, float("inf")]]}, r"obstacles\[0\]: must be finite"),
+        ({"obstacles": [[0.0, 0.0, -1.0]]}, r"obstacles\[0\]: radius must be > 0"),
+        ({"obstacles": [[0.0, 0.0]]}, "obstacles: expected rows"),
+        ({"k": 0}, "k: expected an integer >= 1"),
+        ({"k": 2.0}, "k: expected an integer >= 1"),
+        ({"k": True}, "k: expected an integer >= 1"),
+        ({"margin": -0.1}, "margin: must be >= 0"),
+        ({"margin": float("nan")}, "margin: must be finite"),
+        ({"waypoints": [[0.5, float("inf")]]}, r"waypoints\[0\]: must be finite"),
+        ({"waypoints": [[1.0, 1.0]]}, r"waypoints\[0\]: \[1.0, 1.0\] is inside obstacles\[1\]"),
+    ],
+)
+def test_errors(kwargs, message):
+    args = {
+        "start": [-1.0, 0.0, 0.0],
+        "goal": [3.0, 0.0, 0.0],
+        "obstacles": [[0.0, 0.0, 0.1], [1.0, 1.0, 0.2]],
+    }
+    args.update(kwargs)
+    options = {key: args.pop(key) for key in ("k", "margin", "waypoints") if key in args}
+    with pytest.raises(ScenarioError, match=message) as info:
+        initial_paths(args["start"], args["goal"], args["obstacles"], **options)
+    assert "\n" not in str(info.value)
+
+
+def test_enclosed_start_has_no_path():
+    ring = [[math.cos(a), math.sin(a), 0.3] for a in np.linspace(0, 2 * PI, 13)[:-1]]
+    with pytest.raises(ScenarioError, match="no collision-free initial path") as info:
+        initial_paths([0.0, 0.0, 0.0], [3.0, 0.0, 0.0], ring)
+    assert "\n" not in str(info.value)
+
+
+def test_narrow_gaps_fall_back_to_a_smaller_margin():
+    # A ring with 0.02 wide gaps: margin 0.05 closes them, so a smaller margin is used.
+    r = math.sin(PI / 12) - 0.01
+    ring = [[math.cos(a), math.sin(a), r] for a in np.linspace(0, 2 * PI, 13)[:-1]]
+    paths = initial_paths([0.0, 0.0, 0.0], [3.0, 0.0, 0.0], ring, k=1)
+    assert "(margin 0.00625)" in paths[0].label
+    assert polyline_clearance(paths[0].polyline, ring) > 0.005
+
+
+def test_junction_errors():
+    p = initial_paths([0, 0, 0], [1, 0, 0], [])[0]
+    for q in (0, 1.5, True):
+        with pytest.raises(SettingsError, match="q:"):
+            p.junctions(q, 1.0)
+    with pytest.raises(SettingsError, match="horizon:"):
+        p.junctions(4, 0.0)
+    with pytest.raises(SettingsError, match="t0:"):
+        p.junctions(4, 1.0, float("inf"))
+    with pytest.raises(ValueError, match="s:"):
+        p.curve(1.5)
+
+
+def test_plot_initial_paths():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    start, goal, obstacles = PAPER_CASES["paper-case-2"]
+    fig, ax = plt.subplots()
+    try:
+        plot_initial_paths(ax, initial_paths(start, goal, obstacles), obstacles)
+        assert len(ax.patches) == 2 and len(ax.lines) == 6
+    finally:
+        plt.close(fig)

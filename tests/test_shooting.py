@@ -1,0 +1,389 @@
+"""Simple shooting (shooting.py) on a closed-form problem and on the paper's cases.
+
+The guesses hard-coded here were found as described next to them; every one is checked to
+still do what it is used for (converge, or make classical Newton fail).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import CASES, GOOD_GUESS, fd_jacobian, rel_err
+from leapfrog_planner import Flow, IntegratorSettings, OptimalControlProblem, ScenarioError
+from leapfrog_planner.roots import RootSettings, RootStatus, solve_root
+from leapfrog_planner.shooting import (
+    ShootingSettings,
+    ShootingSystem,
+    affine_costate_guess,
+    solve_shooting,
+)
+
+METHODS = ["newton", "modified-newton", "nleq-err"]
+NON_DEFAULT_DD = {"wheel_radius": 0.7, "axle_length": 1.3}
+# Keeps failing Newton runs short: a blown-up iterate then ends at 2e4 steps, not 1e5.
+SHORT = IntegratorSettings(max_steps=20_000)
+
+
+def shoot(case, guess=None, method=None, model="unicycle", parameters=None, weight=100.0, **kw):
+    """Solve paper case ``case`` by simple shooting; ``kw`` are ShootingSettings fields."""
+    c = CASES[case]
+    prob = c.problem(model, parameters=parameters, weight=weight)
+    return solve_shooting(
+        prob, 0.0, c.start, 1.0, c.goal, guess=guess, method=method,
+        settings=ShootingSettings(**kw),
+    )  # fmt: skip
+
+
+def non_increasing(norms) -> bool:
+    return bool(np.all(np.diff(norms) <= 0.0))
+
+
+# --------------------------------------------------------------------------- closed form
+
+T0, T1 = 0.5, 2.0
+XA = np.array([0.3, -1.0, 0.7])
+XB = np.array([2.0, 0.5, -0.4])
+
+
+def double_integrator_solution(t0, xa, t1, xb):
+    r"""Closed-form extremal of the test double integrator (conftest.double_integrator_model).
+
+    Model: ``x1' = x3``, ``x2' = u2``, ``x3' = u1``, cost ``int (u1^2 + u2^2)/2 dt``, both ends
+    fixed, ``T = t1 - t0``, ``tau = t - t0``, ``lambda(t0) = (a, b, c)``.
+
+    ``H = (u1^2 + u2^2)/2 + l1 x3 + l2 u2 + l3 u1``, so ``dH/du = 0`` gives ``u1 = -l3``,
+    ``u2 = -l2``, and ``l1' = -dH/dx1 = 0``, ``l2' = -dH/dx2 = 0``, ``l3' = -dH/dx3 = -l1``:
+
+        l1 = a,  l2 = b,  l3 = c - a tau.
+
+    Then ``x2' = -b``, ``x3' = -l3 = -c + a tau`` and ``x1' = x3``:
+
+        x2(T) = x2(0) - b T
+        x3(T) = x3(0) - c T + a T^2 / 2
+        x1(T) = x1(0) + x3(0) T - c T^2 / 2 + a T^3 / 6.
+
+    With ``dv = x3(T) - x3(0)`` and ``dp = x1(T) - x1(0) - x3(0) T`` the last two read
+    ``a T^2/2 - c T = dv`` and ``a T^3/6 - c T^2/2 = dp``. Subtracting ``T/2`` times the first
+    from the second: ``-a T^3 / 12 = dp - dv T / 2``, hence
+
+        a = 6 (dv T - 2 dp) / T^3,   c = a T / 2 - dv / T,   b = (x2(0) - x2(T)) / T,
+
+    and ``lambda(t1) = (a, b, c - a T)``. The cost is
+    ``int_0^T (l3^2 + b^2)/2 dtau = b^2 T / 2 + (c^2 T - a c T^2 + a^2 T^3 / 3) / 2``.
+    """
+    T = t1 - t0
+    dv = xb[2] - xa[2]
+    dp = xb[0] - xa[0] - xa[2] * T
+    a = 6.0 * (dv * T - 2.0 * dp) / T**3
+    b = (xa[1] - xb[1]) / T
+    c = a * T / 2.0 - dv / T
+    cost = b * b * T / 2.0 + (c * c * T - a * c * T**2 + a * a * T**3 / 3.0) / 2.0
+    return np.array([a, b, c]), np.array([a, b, c - a * T]), cost
+
+
+@pytest.fixture(scope="module")
+def double_integrator_problem(double_integrator):
+    return OptimalControlProblem(double_integrator)
+
+
+@pytest.mark.slow  # compiles the test model's kernels when the disk cache is cold (~10 s)
+@pytest.mark.parametrize("method", METHODS)
+def test_double_integrator_closed_form(double_integrator_problem, method):
+    lam0, lam1, cost = double_integrator_solution(T0, XA, T1, XB)
+    assert lam0 == pytest.approx([-5.244444444444, -1.0, -3.2], rel=1e-12)  # worked by hand
+    r = solve_shooting(double_integrator_problem, T0, XA, T1, XB, guess=np.zeros(3), method=method)
+    assert r.success, r.message
+    np.testing.assert_allclose(r.costate0, lam0, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(r.costate1, lam1, rtol=0, atol=1e-10)
+    assert r.cost == pytest.approx(cost, rel=1e-12)
+    assert r.end_state_error <= 1e-12
+    # A linear problem: Newton's first step is exact, the rest is rounding.
+    assert r.root.iterations <= 2
+    # The sampled trajectory is the closed form: u1 = -l3 = a tau - c, u2 = -l2 = -b.
+    tr = r.trajectory
+    tau = tr.t - T0
+    np.testing.assert_allclose(tr.u[:, 0], lam0[0] * tau - lam0[2], atol=1e-9)
+    np.testing.assert_allclose(tr.u[:, 1], -lam0[1], atol=1e-9)
+    np.testing.assert_allclose(
+        tr.x[:, 0], XA[0] + XA[2] * tau - lam0[2] * tau**2 / 2 + lam0[0] * tau**3 / 6, atol=1e-9
+    )
+
+
+@pytest.mark.slow  # shares the compile with the test above
+def test_affine_costate_guess_is_exact_for_a_linear_model(double_integrator_problem):
+    """The linearisation of a linear model is the model: the affine guess is the solution."""
+    lam0, _, _ = double_integrator_solution(T0, XA, T1, XB)
+    guess = affine_costate_guess(double_integrator_problem, T0, XA, T1, XB)
+    np.testing.assert_allclose(guess, lam0, rtol=0, atol=1e-11)
+    # Other end states too, including a zero chord (x1, x2 unchanged).
+    for xa, xb in [(np.zeros(3), np.array([1.0, 2.0, 3.0])), (XA, XA + [0.0, 0.0, 1.0])]:
+        guess = affine_costate_guess(double_integrator_problem, 0.0, xa, 1.3, xb)
+        np.testing.assert_allclose(guess, double_integrator_solution(0.0, xa, 1.3, xb)[0],
+                                   rtol=0, atol=1e-11)  # fmt: skip
+    # So shooting from the default guess converges at once.
+    r = solve_shooting(double_integrator_problem, T0, XA, T1, XB)
+    assert r.success and r.root.iterations <= 1
+    np.testing.assert_allclose(r.costate0, lam0, rtol=0, atol=1e-10)
+
+
+# --------------------------------------------------------------------------- paper cases
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_paper_case_1_from_a_good_guess(method):
+    r = shoot(1, GOOD_GUESS[1], method)
+    assert r.success, r.message
+    assert r.cost == pytest.approx(CASES[1].reference_cost, rel=1e-5)
+    assert r.cost == pytest.approx(10.3232019170, rel=1e-10)  # all methods: the same extremal
+    np.testing.assert_allclose(r.costate0, [-4.67610985, 3.21297400, 3.21297400], atol=1e-8)
+    assert r.end_state_error <= 1e-10
+    assert r.max_dH_du <= 1e-12
+
+
+def test_paper_case_1_agrees_with_the_direct_method():
+    """CasADi/IPOPT, RK4 multiple shooting, Richardson-extrapolated from meshes 100 and 200."""
+    pytest.importorskip("casadi")
+    from leapfrog_planner.direct import richardson, solve_direct
+
+    c = CASES[1]
+    costs = [solve_direct(c.start, c.goal, 1.0, intervals=n).cost for n in (100, 200)]
+    assert costs[0] > costs[1] > shoot(1, GOOD_GUESS[1]).cost  # O(h^2) from above
+    extrapolated = richardson(*costs)
+    indirect = shoot(1, GOOD_GUESS[1]).cost
+    assert extrapolated == pytest.approx(indirect, rel=1e-5)
+    assert abs(costs[1] - indirect) > 10 * abs(extrapolated - indirect)  # extrapolation helps
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_paper_case_4_reaches_the_reference(method, extremal):
+    r = shoot(4, GOOD_GUESS[4], method)
+    assert r.success, r.message
+    assert r.cost == pytest.approx(CASES[4].reference_cost, rel=1e-5)
+    assert r.cost == pytest.approx(extremal(4).cost, rel=1e-10)
+    # The spec's minimum clearance of this optimum, 0.008.
+    clearance = CASES[4].problem().penalty.clearance(r.trajectory.x[:, :2])
+    assert clearance.min() == pytest.approx(0.008, abs=1e-3)
+
+
+@pytest.mark.parametrize("case", [1, 4])
+def test_diff_drive_with_default_wheels_is_the_unicycle_at_twice_the_cost(case, extremal):
+    """r = 1, b = 2: (wR^2 + wL^2)/2 = v^2 + omega^2. With the penalty weight doubled too, the
+    diff-drive problem is the unicycle's times 2: same path, costates and cost doubled."""
+    r = shoot(case, 2.0 * GOOD_GUESS[case], model="diff-drive", weight=200.0)
+    assert r.success, r.message
+    assert r.cost == pytest.approx(2.0 * extremal(case).cost, rel=1e-9)
+    np.testing.assert_allclose(r.costate0, 2.0 * extremal(case).costate0, rtol=1e-8)
+
+
+# --------------------------------------------------------------------------- Jacobian
+
+
+JACOBIAN_CASES = {
+    "unicycle-case4": ("unicycle", None, GOOD_GUESS[4]),
+    "diff-drive-case4": ("diff-drive", NON_DEFAULT_DD, np.array([-8.0, 20.0, 3.0])),
+    "diff-drive-case1": ("diff-drive", NON_DEFAULT_DD, GOOD_GUESS[1]),
+}
+
+
+@pytest.mark.parametrize("name", list(JACOBIAN_CASES))
+def test_shooting_jacobian_matches_finite_differences(name):
+    model, parameters, s = JACOBIAN_CASES[name]
+    case = 1 if name.endswith("case1") else 4
+    c = CASES[case]
+    prob = c.problem(model, parameters=parameters)
+    flow = Flow(prob, IntegratorSettings(method="rk4", steps=400))
+    system = ShootingSystem(flow, 0.0, c.start, 1.0, c.goal)
+    F, J = system.evaluate(s, True)
+    F_only, none = system.evaluate(s, False)
+    assert none is None
+    np.testing.assert_allclose(F_only, F, rtol=1e-14, atol=1e-14)
+    J_fd = fd_jacobian(lambda q: system.evaluate(q, False)[0], s, 1e-6)
+    assert rel_err(J, J_fd) < 1e-6
+    # The adaptive (default) flow's DF is that of the exact flow to integration accuracy.
+    _, J_adaptive = ShootingSystem(Flow(prob), 0.0, c.start, 1.0, c.goal).evaluate(s, True)
+    fine = ShootingSystem(Flow(prob, IntegratorSettings("rk4", steps=4000)), 0.0, c.start,
+                          1.0, c.goal)  # fmt: skip
+    assert rel_err(J_adaptive, fine.evaluate(s, True)[1]) < 1e-6
+
+
+# --------------------------------------------------------------------------- Hamiltonian
+
+
+@pytest.mark.parametrize(
+    ("case", "model", "scale"),
+    [(1, "unicycle", 1.0), (4, "unicycle", 1.0), (1, "diff-drive", 2.0), (4, "diff-drive", 2.0)],
+)
+@pytest.mark.parametrize("method", ["dop853", "dp5"])
+def test_hamiltonian_is_constant_along_extremals(case, model, scale, method):
+    """H is conserved on extremals of the autonomous problem (relative 1e-8 asked, ~1e-11 seen).
+
+    The diff-drive runs use the default wheels and twice the penalty weight: the unicycle's
+    problem times 2 (see the test above), so its guesses, doubled, converge.
+    """
+    r = shoot(
+        case, scale * GOOD_GUESS[case], model=model, weight=100.0 * scale,
+        integrator=IntegratorSettings(method),
+    )  # fmt: skip
+    assert r.success, r.message
+    tr = r.trajectory
+    H = tr.hamiltonian[tr.at_step]  # rows computed by the integrator, not interpolated
+    assert np.all(np.isfinite(H)) and H.size > 10
+    H0 = H[0]
+    assert np.max(np.abs(H - H0)) <= 1e-8 * abs(H0)
+    assert r.hamiltonian_variation == pytest.approx(np.max(np.abs(H - H0)), rel=1e-12, abs=0)
+    assert r.hamiltonian_variation <= 1e-8 * abs(H0)
+    assert r.max_dH_du <= 1e-12
+    if case == 1:  # no obstacles: H = -L on the law, so H = -J / T
+        assert H0 == pytest.approx(-r.cost, rel=1e-10)
+    else:  # H = -L_u + P; constant, though L_u and P are not
+        assert H0 == pytest.approx(-1.794126 * scale, rel=1e-5)
+        assert np.ptp(tr.u[:, 0]) > 0.5
+
+
+# --------------------------------------------------------------------------- NM and MNM
+
+
+# Found by a deterministic grid search: guesses lambda* + k * step, k in {-2..2}^3 (step 1 for
+# case 1, 0.5 for case 4), solved with method="newton" and "modified-newton" (root: 40
+# iterations; integrator: max_steps 2e4), keeping those where Newton fails and MNM converges.
+NEWTON_FAILS_MNM_CONVERGES = {
+    # Case 1, lambda* + (-1, 0, -2): Newton blows up (non-finite after ~25 iterations); MNM
+    # converges in 7 iterations to the optimum itself.
+    1: (np.array([-5.68, 3.21, 1.21]), 10.3232019170),
+    # Case 4, lambda* + (0, 2, 2) * 0.5: Newton wanders (|F| up to 5e4) and ends non-finite after
+    # 46 iterations (max-iterations with the default max_steps); MNM converges in 10 iterations
+    # to a cheaper collision-free extremal than the spec's (cf. test_direct.py, ~4.586).
+    4: (np.array([1.02, 12.69, 2.6]), 4.585247900),
+}
+
+
+@pytest.mark.parametrize("case", [1, 4])
+def test_mnm_converges_where_newton_fails(case):
+    guess, cost = NEWTON_FAILS_MNM_CONVERGES[case]
+    nm = shoot(case, guess, "newton", integrator=SHORT, samples=0)
+    assert not nm.success
+    assert nm.status in (RootStatus.NON_FINITE, RootStatus.MAX_ITERATIONS)
+    assert nm.root.residual_norms.max() > 100.0 * nm.root.residual_norms[0]
+    mnm = shoot(case, guess, "modified-newton", integrator=SHORT, samples=0)
+    assert mnm.success, mnm.message
+    assert mnm.cost == pytest.approx(cost, rel=1e-9)
+    assert non_increasing(mnm.root.residual_norms)
+    assert mnm.root.iterations <= 15
+
+
+# A guess from the least-squares fit to the direct solution (see conftest.GOOD_GUESS), unrounded.
+CASE4_FITTED = np.array([1.02062246, 11.69486258, 1.59704749])
+
+
+@pytest.mark.parametrize(
+    ("case", "guess"),
+    [
+        (1, None),  # affine guess; MNM lands on the 22.95 extremal
+        (1, NEWTON_FAILS_MNM_CONVERGES[1][0]),
+        (2, None),  # affine guess; MNM creeps (max-iterations) but never climbs
+        (3, None),
+        (4, CASE4_FITTED),
+        (4, NEWTON_FAILS_MNM_CONVERGES[4][0]),
+    ],
+)
+def test_mnm_merit_never_increases_in_shooting(case, guess):
+    r = shoot(case, guess, "modified-newton", integrator=SHORT, samples=0)
+    norms = r.root.residual_norms
+    assert norms.size == r.root.iterations + 1 >= 3
+    assert non_increasing(norms)
+    assert norms[-1] < norms[0]
+    assert np.all((r.root.step_sizes > 0) & (r.root.step_sizes <= 1))
+
+
+# --------------------------------------------------------------------------- statuses
+
+
+def test_shooting_statuses():
+    # converged
+    assert shoot(1, GOOD_GUESS[1], samples=0).status is RootStatus.CONVERGED
+    # singular-jacobian: from zero costates the robot does not move (u = 0); to first order it
+    # can only move along its heading, so the position block of DF has rank 1 (spec section 5).
+    for case in (1, 2, 3, 4):
+        r = shoot(case, np.zeros(3), samples=0)
+        assert r.status is RootStatus.SINGULAR_JACOBIAN and r.root.iterations == 0
+        assert "cond(DF)" in r.message
+    # max-iterations
+    r = shoot(1, None, root=RootSettings(max_iterations=2), samples=0)
+    assert r.status is RootStatus.MAX_ITERATIONS and r.root.iterations == 2
+    # diverged: Newton from the guess above leaves |x| <= 100 (1 + |x0|)
+    r = shoot(
+        1, NEWTON_FAILS_MNM_CONVERGES[1][0], "newton", root=RootSettings(divergence=100),
+        integrator=SHORT, samples=0,
+    )  # fmt: skip
+    assert r.status is RootStatus.DIVERGED
+    assert np.linalg.norm(r.costate0) > 100 * (1 + np.linalg.norm(NEWTON_FAILS_MNM_CONVERGES[1][0]))
+    # line-search-failed: NLEQ-ERR's damping collapses on case 4 from this guess
+    r = shoot(4, NEWTON_FAILS_MNM_CONVERGES[4][0], "nleq-err", integrator=SHORT, samples=0)
+    assert r.status is RootStatus.LINE_SEARCH_FAILED
+    # non-finite: costates so large that the flow overflows at once
+    with np.errstate(over="ignore"):
+        for method in METHODS:
+            r = shoot(1, np.full(3, 1e200), method)
+            assert r.status is RootStatus.NON_FINITE and r.root.iterations == 0
+            assert np.isnan(r.cost) and r.end_state_error == np.inf and r.trajectory is None
+
+
+def test_bad_end_states_are_refused():
+    prob = CASES[1].problem()
+    with pytest.raises(ScenarioError, match="x0 must be 3 finite numbers"):
+        solve_shooting(prob, 0.0, [0.0, 0.0], 1.0, [1.0, 0.0, 0.0])
+    with pytest.raises(ScenarioError, match="x1"):
+        solve_shooting(prob, 0.0, [0.0, 0.0, 0.0], 1.0, [1.0, np.nan, 0.0])
+    with pytest.raises(ScenarioError, match="t1 > t0"):
+        solve_shooting(prob, 1.0, [0.0, 0.0, 0.0], 1.0, [1.0, 0.0, 0.0])
+
+
+def test_costates_that_overflow_the_sensitivities_give_a_status():
+    r = shoot(1, np.full(3, 1e4), integrator=IntegratorSettings("rk4", steps=200), samples=0)
+    assert r.status in (RootStatus.NON_FINITE, RootStatus.SINGULAR_JACOBIAN)
+
+
+class EvaluationBudgetExceeded(Exception):
+    pass
+
+
+class Budget:
+    """A root system that gives up (raises) after ``limit`` evaluations."""
+
+    def __init__(self, system, limit):
+        self.system, self.limit, self.count = system, limit, 0
+
+    def evaluate(self, x, jacobian):
+        self.count += 1
+        if self.count > self.limit:
+            raise EvaluationBudgetExceeded
+        return self.system.evaluate(x, jacobian)
+
+
+def test_nleq_err_terminates_on_case_2():
+    """``solve_shooting(case 2, method="nleq-err")`` with defaults, with an evaluation budget."""
+    c = CASES[2]
+    prob = c.problem()
+    guess = affine_costate_guess(prob, 0.0, c.start, 1.0, c.goal)
+    # Exactly what solve_shooting does (ShootingSettings.inexact is True by default).
+    system = ShootingSystem(Flow(prob), 0.0, c.start, 1.0, c.goal, inexact=True)
+    budget = Budget(system, 2000)
+    r = solve_root(budget, guess, "nleq-err")
+    assert r.status in set(RootStatus)
+    assert budget.count < 2000
+
+
+# --------------------------------------------------------------------------- determinism
+
+
+@pytest.mark.parametrize(("case", "method"), [(4, "modified-newton"), (1, "nleq-err")])
+def test_shooting_is_deterministic(case, method):
+    first = shoot(case, GOOD_GUESS[case], method)
+    second = shoot(case, GOOD_GUESS[case], method)
+    assert first.success and second.success
+    assert np.array_equal(first.costate0, second.costate0)
+    assert np.array_equal(first.costate1, second.costate1)
+    assert first.cost == second.cost
+    assert np.array_equal(first.root.residual_norms, second.root.residual_norms)
+    assert np.array_equal(first.trajectory.x, second.trajectory.x)
