@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import click
@@ -14,6 +13,7 @@ from rich.console import Console
 from rich.table import Table
 
 from .errors import LeapfrogError
+from .results import write_atomic
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -21,17 +21,19 @@ _console = Console()
 _err = Console(stderr=True)
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    """Write through a temporary file and a rename, so readers never see half a file."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+def _output_path(value: str | None, option: str) -> Path | None:
+    """Check an output path before any work is done, so bad input fails fast with exit 2."""
+    if value is None:
+        return None
+    path = Path(value)
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise click.UsageError(f"{option}: folder {str(parent)!r} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise click.UsageError(f"{option}: folder {str(parent)!r} is not writable")
+    if path.is_dir():
+        raise click.UsageError(f"{option}: {value!r} is a folder")
+    return path
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -128,8 +130,161 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
             "newton_iterations": res.root.iterations,
             "f_evals": res.root.f_evals,
         }
-        _write_atomic(Path(json_path), json.dumps(out, indent=2))
+        write_atomic(Path(json_path), json.dumps(out, indent=2))
     return EXIT_OK if res.success else EXIT_FAILED
+
+
+@cli.command()
+def scenarios():
+    """List the built-in scenarios."""
+    from .scenario import builtin_scenarios, load_scenario
+
+    table = Table(title="built-in scenarios")
+    for col in ("name", "start", "goal", "T", "obstacles"):
+        table.add_column(col)
+    for name in builtin_scenarios():
+        sc = load_scenario(name)
+        fmt = lambda v: "[" + ", ".join(f"{x:.4g}" for x in v) + "]"  # noqa: E731
+        table.add_row(name, fmt(sc.start), fmt(sc.goal), f"{sc.horizon:g}", str(len(sc.obstacles)))
+    _console.print(table)
+    return EXIT_OK
+
+
+@cli.command()
+@click.argument("scenario")
+@click.option(
+    "--method",
+    type=click.Choice(["newton", "modified-newton", "nleq-err"]),
+    default=None,
+    help="local Newton method  [default: modified-newton]",
+)
+@click.option(
+    "--partitions", type=click.IntRange(min=2), default=None, help="initial q  [default: 8]"
+)
+@click.option(
+    "--initial-paths",
+    type=click.IntRange(min=1),
+    default=None,
+    help="initial paths tried, in different homotopy classes  [default: 3]",
+)
+@click.option(
+    "--final",
+    type=click.Choice(["auto", "shooting", "multiple-shooting"]),
+    default=None,
+    help="final solve: simple shooting with multiple-shooting fallback (auto)  [default: auto]",
+)
+@click.option("--json", "json_path", default=None, help="write the result as JSON")
+@click.option("--npz", "npz_path", default=None, help="write the trajectory arrays as NPZ")
+@click.option("--plot", "plot_path", default=None, help="write the path figure (PNG, PDF or SVG)")
+@click.option("--quiet", is_flag=True, help="no progress bar and no table")
+def solve(
+    scenario, method, partitions, initial_paths, final, json_path, npz_path, plot_path, quiet
+):
+    """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm."""
+    from .planner import Planner
+    from .scenario import load_scenario
+
+    outputs = {
+        "json": _output_path(json_path, "--json"),
+        "npz": _output_path(npz_path, "--npz"),
+        "plot": _output_path(plot_path, "--plot"),
+    }
+    if outputs["plot"] is not None and outputs["plot"].suffix.lower() not in (
+        ".png",
+        ".pdf",
+        ".svg",
+    ):
+        raise click.UsageError("--plot: the file must end in .png, .pdf or .svg")
+    sc = load_scenario(scenario)
+    options = {
+        k: v
+        for k, v in [
+            ("method", method),
+            ("partitions", partitions),
+            ("initial_paths", initial_paths),
+            ("final", final),
+        ]
+        if v is not None
+    }
+    if quiet:
+        result = Planner(sc, **options).plan()
+    else:
+        result = _plan_with_progress(sc, options)
+    if outputs["json"]:
+        result.save_json(outputs["json"])
+    if outputs["npz"]:
+        result.save_npz(outputs["npz"])
+    if outputs["plot"]:
+        from .plots import plot_path as draw, save_figure
+
+        ax = draw(result, sc)
+        save_figure(ax.figure, outputs["plot"])
+    if not quiet:
+        _console.print(_summary(result))
+    elif not result.success:
+        _err.print(f"{sc.name}: {result.status}: {result.message}", highlight=False)
+    return EXIT_OK if result.success else EXIT_FAILED
+
+
+def _plan_with_progress(sc, options):
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from .planner import Planner
+
+    columns = [
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+    ]
+    with Progress(*columns, console=_err, transient=True) as bar:
+        planner = Planner(sc, **options)
+        task = bar.add_task(sc.name, total=planner.settings.initial_paths, info="initial paths")
+
+        def on_event(ev):
+            if ev.stage == "path":
+                bar.update(
+                    task,
+                    total=ev.paths,
+                    completed=ev.path_index,
+                    info=f"path {ev.path_index + 1}/{ev.paths} ({ev.label})",
+                )
+            elif ev.stage == "sweep":
+                r = ev.sweep
+                bar.update(
+                    task,
+                    info=f"path {ev.path_index + 1}/{ev.paths}: sweep {r.sweep}, q={r.q}, cost {r.cost:.6g}",
+                )
+            else:
+                bar.update(task, completed=ev.paths, info="validating")
+
+        planner.progress = on_event
+        return planner.plan()
+
+
+def _summary(r) -> Table:
+    table = Table(title=f"{r.scenario}: Leapfrog ({r.method})", show_header=False)
+    clearance = "n/a (no obstacles)" if r.min_clearance is None else f"{r.min_clearance:.4g}"
+    rows = [
+        ("status", str(r.status) + ("" if r.success else f": {r.message}")),
+        ("cost", f"{r.cost:.8g}  (energy {r.energy:.6g} + penalty {r.penalty:.6g})"),
+        ("min clearance", clearance),
+        ("end-state error", f"{r.end_state_error:.2e}"),
+        ("final solve", f"{r.final_solver} from initial path {r.initial_path}"),
+        ("sweeps", str(r.sweeps)),
+        ("Newton iterations", f"{r.newton_iterations}  ({r.f_evals} F evaluations)"),
+        (
+            "time",
+            f"{r.wall_time_s * 1e3:.0f} ms  (paths {r.time_initial_path_s * 1e3:.0f}, sweeps "
+            f"{r.time_sweeps_s * 1e3:.0f}, final {r.time_final_s * 1e3:.0f}, check "
+            f"{r.time_validation_s * 1e3:.0f})",
+        ),
+    ]
+    for a in r.alternatives:
+        rows.append((f"other path {a.label}", f"{a.status}, cost {a.cost:.8g}"))
+    for k, v in rows:
+        table.add_row(k, v)
+    return table
 
 
 def main(argv=None) -> None:
