@@ -3,7 +3,8 @@
 The library only multiplies and factors tiny matrices (3x3 to about 40x40). For those, OpenBLAS's
 worker threads only add latency, badly so when the other cores are busy: a 7x7 matrix exponential
 was measured at 12 ms with threads against 0.1 ms without. Limiting costs a fraction of a
-millisecond, so it is done once per top-level call (re-entrant), not per small operation.
+millisecond, so it is done once per top-level call (re-entrant), not per small operation,
+with one controller for the process (building it is the slow part).
 """
 
 from __future__ import annotations
@@ -12,9 +13,18 @@ import threading
 from contextlib import contextmanager
 from functools import wraps
 
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 _state = threading.local()
+_controller: ThreadpoolController | None = None
+
+
+def _limit():
+    # Inspecting the loaded libraries costs about 1 ms; do it once, then limiting costs ~20 us.
+    global _controller
+    if _controller is None:
+        _controller = ThreadpoolController()
+    return _controller.limit(limits=1, user_api="blas")
 
 
 @contextmanager
@@ -24,7 +34,7 @@ def single_threaded_blas():
         return
     _state.active = True
     try:
-        with threadpool_limits(limits=1, user_api="blas"):
+        with _limit():
             yield
     finally:
         _state.active = False

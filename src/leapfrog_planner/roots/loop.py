@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lu_factor
 
 from ..errors import SettingsError
 from .result import RootResult, RootStatus
@@ -83,7 +82,10 @@ def solve_root(
             return done(
                 RootStatus.SINGULAR_JACOBIAN, f"cond(DF) = {cond:.3g} > {settings.max_cond:g}"
             )
-        step = strategy.step(evaluate, x, F, J, lu_factor(J, check_finite=False), cond, memo)
+        # The systems are tiny (3x3 for shooting): numpy's solve is a few microseconds, where
+        # SciPy's lu_factor/lu_solve wrappers cost tens; so "reusing the factorisation" is
+        # reusing J itself.
+        step = strategy.step(evaluate, x, F, J, lambda b, J=J: np.linalg.solve(J, b), cond, memo)
         if step.failed is not None:
             return done(step.failed, step.message)
         x, F, J = step.x, step.F, step.J

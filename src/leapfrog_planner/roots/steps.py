@@ -1,7 +1,7 @@
 """Step strategies. The iteration loop (:mod:`.loop`) is shared; a method is one of these.
 
-Each ``step`` gets the current iterate with its residual ``F``, Jacobian ``J`` and the LU
-factors of ``J``, and returns a :class:`Step`: the next iterate, its residual (and Jacobian) if
+Each ``step`` gets the current iterate with its residual ``F``, Jacobian ``J`` and ``solve(b)``
+for ``J^-1 b``, and returns a :class:`Step`: the next iterate, its residual (and Jacobian) if
 the strategy already evaluated them, and the damping factor used.
 """
 
@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lu_solve
 
 from ..errors import SettingsError
 from .result import RootStatus
@@ -54,8 +53,8 @@ class NewtonStep:
     def start(self):
         return None
 
-    def step(self, evaluate, x, F, J, lu, cond, memo) -> Step:
-        return Step(x - lu_solve(lu, F), 1.0)
+    def step(self, evaluate, x, F, J, solve, cond, memo) -> Step:
+        return Step(x - solve(F), 1.0)
 
 
 @dataclass(frozen=True)
@@ -77,8 +76,8 @@ class ModifiedNewtonStep:
     def start(self):
         return None
 
-    def step(self, evaluate, x, F, J, lu, cond, memo) -> Step:
-        d = lu_solve(lu, F)
+    def step(self, evaluate, x, F, J, solve, cond, memo) -> Step:
+        d = solve(F)
         gamma = 1.0 / cond
         h0 = float(F @ F)
         slope = 0.25 * gamma * np.linalg.norm(d) * np.linalg.norm(2.0 * (J.T @ F))
@@ -133,8 +132,8 @@ class NleqErrStep:
     def start(self):
         return _NleqMemo(lam=self.initial_damping)
 
-    def step(self, evaluate, x, F, J, lu, cond, memo: _NleqMemo) -> Step:
-        dx = -lu_solve(lu, F)
+    def step(self, evaluate, x, F, J, solve, cond, memo: _NleqMemo) -> Step:
+        dx = -solve(F)
         ndx = np.linalg.norm(dx)
         lam = memo.lam
         if memo.dx_prev is not None and memo.dxbar is not None:
@@ -155,7 +154,7 @@ class NleqErrStep:
             if Ft is None:
                 lam, reduced = lam / 2, True  # outside the domain of F (the flow blew up)
                 continue
-            dxbar = -lu_solve(lu, Ft)
+            dxbar = -solve(Ft)
             if lam == 1.0 and np.linalg.norm(dxbar) <= self.xtol * (1.0 + np.linalg.norm(xt)):
                 # Converged in Deuflhard's sense; the monotonicity test would only measure noise.
                 memo.dx_prev, memo.dxbar, memo.lam_prev, memo.lam = dx, dxbar, lam, lam
