@@ -571,14 +571,29 @@ def animate_sweeps(result: LeapfrogResult, scenario: Scenario | str, path, *, fp
         raise ValueError(f"fps: expected a number > 0, got {fps!r}")
     sc = _as_scenario(scenario)
     L = _arrow_length(sc, result)
-    fig = _new_figure(figsize=(6.0, 5.5), dpi=80)
-    ax = fig.add_subplot()
-    _draw_obstacles(ax, sc, label=False)
-    _draw_ends(ax, sc, L, label=False)
-    _frame(ax, sc, result)
-    ax.set_title("title\nplaceholder")
-    fig.canvas.draw()  # lay out once, then keep the layout fixed: every frame draws only once
-    fig.set_layout_engine("none")
+    # The static part (obstacles, start, goal, axes and ticks) is drawn once, laid out with room
+    # for a two-line title; each frame then draws only that picture and the moving artists, on
+    # invisible axes at exactly the same place with the same limits.
+    static = _new_figure(figsize=(6.0, 5.5), dpi=80)
+    ax0 = static.add_subplot()
+    _draw_obstacles(ax0, sc, label=False)
+    _draw_ends(ax0, sc, L, label=False)
+    _frame(ax0, sc, result)
+    ax0.set_title("title\nplaceholder")
+    static.canvas.draw()
+    static.set_layout_engine("none")  # keep the room for the title
+    ax0.title.set_visible(False)
+    static.canvas.draw()
+    background = np.asarray(static.canvas.buffer_rgba()).copy()
+
+    fig = _new_figure(layout=None, figsize=static.get_size_inches(), dpi=static.dpi)
+    fig.figimage(background, xo=0, yo=0, origin="upper", zorder=0)
+    ax = fig.add_axes(ax0.get_position(), zorder=1)
+    ax.set_xlim(ax0.get_xlim())
+    ax.set_ylim(ax0.get_ylim())
+    ax.set_aspect("auto")
+    ax.set_axis_off()
+    _draw_ends(ax, sc, L, label=False)  # again, above the moving lines
 
     frames: list[tuple[str, np.ndarray | None, str]] = []  # (kind, X, title)
     X0 = _junctions(result)
@@ -609,7 +624,7 @@ def animate_sweeps(result: LeapfrogResult, scenario: Scenario | str, path, *, fp
         kind, X, text = frames[-1]
         frames.append((kind, X, f"{text} — {_status(result)}"))
 
-    title = ax.set_title("")
+    title = ax.title
     colors = _sweep_colors(max(len(frames), 1))
 
     def render(tmp: str) -> None:
@@ -669,8 +684,6 @@ def save_figure(fig: Figure, path) -> Path:
             f"{path.name}: unknown figure format {path.suffix or '(none)'!r};"
             f" use {', '.join(FIGURE_FORMATS)}"
         )
-    if fig.canvas is None or not hasattr(fig.canvas, "print_figure"):  # pragma: no cover
-        FigureCanvasAgg(fig)
     _write_atomic(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=150))
     plt = sys.modules.get("matplotlib.pyplot")  # only pyplot's own figures need closing
     if plt is not None:

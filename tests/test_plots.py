@@ -1,0 +1,361 @@
+"""Figures: what is drawn (artists and their data), files that load back, failed results."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+import warnings
+
+import matplotlib
+import matplotlib.image as mpimg
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle
+from matplotlib.quiver import Quiver
+from PIL import Image
+
+from leapfrog_planner.planner import plan
+from leapfrog_planner.plots import (
+    animate_sweeps,
+    plot_controls,
+    plot_convergence,
+    plot_path,
+    save_figure,
+)
+from leapfrog_planner.results import PathOutcome, PlanStatus
+from leapfrog_planner.scenario import load_scenario
+
+matplotlib.use("Agg")
+
+CASES = ("paper-case-1", "paper-case-2")
+
+
+@pytest.fixture(scope="module")
+def planned():
+    """``{name: (result, scenario)}`` for the paper cases 1 (no obstacles) and 2 (two discs)."""
+    out = {}
+    for name in CASES:
+        result = plan(name, initial_paths=1)
+        assert result.success, result.message
+        out[name] = (result, load_scenario(name))
+    return out
+
+
+@pytest.fixture(params=CASES)
+def case(request, planned):
+    return planned[request.param]
+
+
+@pytest.fixture(scope="module")
+def failed(planned):
+    result, sc = planned["paper-case-2"]
+    bad = dataclasses.replace(
+        result, status=PlanStatus.FAILED, trajectory=None, cost=float("nan"), alternatives=()
+    )
+    return bad, sc
+
+
+@pytest.fixture(autouse=True)
+def quiet(caplog):
+    """Nothing here warns or logs (matplotlib logs layout problems as warnings)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with caplog.at_level(logging.WARNING):
+            yield
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
+
+
+def gid(container, name):
+    return [a for a in container if a.get_gid() == name]
+
+
+def headings(ax) -> list[Quiver]:
+    return [c for c in gid(ax.collections, "heading") if isinstance(c, Quiver)]
+
+
+def check_png(path, fig_size_px=None):
+    img = mpimg.imread(path)
+    assert img.ndim == 3 and img.shape[2] in (3, 4)
+    if fig_size_px is not None:
+        h, w = fig_size_px
+        assert abs(img.shape[0] - h) <= 1 and abs(img.shape[1] - w) <= 1
+    assert img.shape[0] > 100 and img.shape[1] > 100
+    assert float(img[..., :3].var()) > 0.0
+    return img
+
+
+def px(fig: Figure, dpi=150):
+    w, h = fig.get_size_inches()
+    return round(h * dpi), round(w * dpi)
+
+
+def files(folder):
+    return sorted(p.name for p in folder.iterdir())
+
+
+# --------------------------------------------------------------------------- plot_path
+
+
+@pytest.mark.parametrize("arrows", [9, 4, 1])
+def test_plot_path_artists(case, arrows):
+    result, sc = case
+    ax = plot_path(result, sc, arrows=arrows)
+    circles = [p for p in ax.patches if isinstance(p, Circle)]
+    assert len(circles) == sc.obstacles.shape[0]
+    for c, (cx, cy, r) in zip(circles, sc.obstacles, strict=True):
+        assert c.center == pytest.approx((cx, cy)) and c.radius == pytest.approx(r)
+
+    (line,) = gid(ax.lines, "optimal-path")
+    np.testing.assert_array_equal(line.get_xdata(), result.trajectory.x[:, 0])
+    np.testing.assert_array_equal(line.get_ydata(), result.trajectory.x[:, 1])
+
+    (q,) = headings(ax)
+    assert q.N == arrows
+    # Arrows sit on the path and point along the heading at evenly spaced interior times.
+    tr = result.trajectory
+    ts = np.linspace(tr.t[0], tr.t[-1], arrows + 2)[1:-1]
+    np.testing.assert_allclose(q.X, np.interp(ts, tr.t, tr.x[:, 0]))
+    np.testing.assert_allclose(q.Y, np.interp(ts, tr.t, tr.x[:, 1]))
+    np.testing.assert_allclose(np.arctan2(q.V, q.U), np.angle(np.exp(1j * q_theta(tr, ts))))
+
+    ends = gid(ax.collections, "end-heading")
+    assert len(ends) == 2
+    for quiv, state in zip(ends, (sc.start, sc.goal), strict=True):
+        assert (quiv.X[0], quiv.Y[0]) == pytest.approx(tuple(state[:2]))
+        assert np.arctan2(quiv.V[0], quiv.U[0]) == pytest.approx(np.angle(np.exp(1j * state[2])))
+    (start,) = gid(ax.lines, "start")
+    (goal,) = gid(ax.lines, "goal")
+    assert start.get_marker() != goal.get_marker()
+    assert (start.get_xdata()[0], start.get_ydata()[0]) == pytest.approx(tuple(sc.start[:2]))
+    assert (goal.get_xdata()[0], goal.get_ydata()[0]) == pytest.approx(tuple(sc.goal[:2]))
+
+    (initial,) = gid(ax.lines, "initial-junctions")
+    np.testing.assert_array_equal(initial.get_xdata(), result.initial_junctions[1][:, 0])
+    assert initial.get_linestyle() == "--"
+
+    assert ax.get_aspect() == 1.0
+    title = ax.get_title()
+    assert title.startswith(sc.name) and f"{result.cost:.6g}" in title and result.method in title
+
+
+def q_theta(tr, ts):
+    return np.interp(ts, tr.t, tr.x[:, 2])
+
+
+def test_plot_path_options(planned):
+    result, sc = planned["paper-case-2"]
+    ax = plot_path(result, sc, arrows=0, show_initial=False)
+    assert headings(ax) == []
+    assert gid(ax.lines, "initial-junctions") == []
+    for bad in (-1, 2.5, True):
+        with pytest.raises(ValueError, match="arrows"):
+            plot_path(result, sc, arrows=bad)
+    # A given axes is drawn on and returned; the scenario may be given by name.
+    fig = Figure()
+    ax0 = fig.add_subplot()
+    assert plot_path(result, "paper-case-2", ax0) is ax0
+    assert len([p for p in ax0.patches if isinstance(p, Circle)]) == 2
+
+
+def test_plot_path_lists_alternatives_by_cost(planned):
+    result, sc = planned["paper-case-2"]
+    alts = (
+        PathOutcome("visibility #2", PlanStatus.CONVERGED, 23.215020, 35.7, 14, "converged"),
+        PathOutcome("visibility #3", PlanStatus.FAILED, float("nan"), 40.1, 3, "diverged"),
+    )
+    ax = plot_path(dataclasses.replace(result, alternatives=alts), sc)
+    texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]
+    assert any("23.215" in t and "visibility #2" in t for t in texts)
+    assert any("visibility #3" in t and "failed" in t for t in texts)
+    # Alternatives carry no path: nothing is drawn for them.
+    n_lines = len(ax.lines)
+    ax2 = plot_path(result, sc)
+    assert len(ax2.lines) == n_lines
+    ax3 = plot_path(dataclasses.replace(result, alternatives=alts), sc, show_alternatives=False)
+    assert not any("23.215" in t.get_text() for t in ax3.figure.legends[0].get_texts())
+
+
+# --------------------------------------------------------------------------- plot_convergence
+
+
+def test_plot_convergence(case):
+    result, sc = case
+    fig = plot_convergence(result, sc)
+    ax, ax_cost, ax_jump = fig.axes[:3]
+    sweeps = gid(ax.lines, "sweep")
+    assert len(sweeps) == len(result.history) > 0
+    for line, h in zip(sweeps, result.history, strict=True):
+        np.testing.assert_array_equal(line.get_xdata(), h.X[:, 0])
+        np.testing.assert_array_equal(line.get_ydata(), h.X[:, 1])
+    # Colours go from light to dark with the sweep number.
+    lum = [np.mean(matplotlib.colors.to_rgb(line.get_color())) for line in sweeps]
+    assert lum[0] > lum[-1] and np.all(np.diff(lum) <= 1e-12)
+    assert len([p for p in ax.patches if isinstance(p, Circle)]) == sc.obstacles.shape[0]
+    (final,) = gid(ax.lines, "optimal-path")
+    np.testing.assert_array_equal(final.get_xdata(), result.trajectory.x[:, 0])
+
+    cost_line = ax_cost.lines[0]
+    np.testing.assert_allclose(cost_line.get_ydata()[1:], [h.cost for h in result.history])
+    assert cost_line.get_ydata()[0] == pytest.approx(result.initial_cost)
+    assert ax_jump.get_yscale() == "log"
+    np.testing.assert_allclose(
+        ax_jump.lines[0].get_ydata(), [h.max_costate_jump for h in result.history]
+    )
+    # q changes (8 -> 4 in these runs) are marked in both axes.
+    qs = [h.q for h in result.history]
+    changes = sum(1 for a, b in zip(qs, qs[1:], strict=False) if a != b)
+    assert changes >= 1
+    assert sum(t.get_text().startswith("q = ") for t in ax_jump.texts) == changes
+
+
+# --------------------------------------------------------------------------- plot_controls
+
+
+def test_plot_controls(case):
+    result, _ = case
+    fig = plot_controls(result)
+    ax_u, ax_l, ax_h = fig.axes[:3]
+    tr = result.trajectory
+    labels = [line.get_label() for line in ax_u.get_lines() if not line.get_label().startswith("_")]
+    assert labels == list(result.control_names)
+    for i, line in enumerate(ax_u.get_lines()[: len(labels)]):
+        np.testing.assert_array_equal(line.get_ydata(), tr.u[:, i])
+    costates = [ln for ln in ax_l.get_lines() if not ln.get_label().startswith("_")]
+    assert len(costates) == tr.lam.shape[1]
+    np.testing.assert_array_equal(costates[2].get_ydata(), tr.lam[:, 2])
+    dH = ax_h.lines[0].get_ydata()
+    assert dH[0] == 0.0 and np.max(np.abs(dH)) < 1e-6 * max(1.0, abs(tr.hamiltonian[0]))
+
+
+# --------------------------------------------------------------------------- files
+
+
+def test_every_function_writes_a_file(case, tmp_path, capsys):
+    result, sc = case
+    for name, fig in [
+        ("path", plot_path(result, sc).figure),
+        ("convergence", plot_convergence(result, sc)),
+        ("controls", plot_controls(result)),
+    ]:
+        size = px(fig)
+        out = save_figure(fig, tmp_path / f"{name}.png")
+        assert out == tmp_path / f"{name}.png"
+        check_png(out, size)
+    gif = animate_sweeps(result, sc, tmp_path / "sweeps.gif", fps=5)
+    with Image.open(gif) as im:
+        assert im.format == "GIF"
+        assert im.n_frames >= len(result.history) + 2  # initial, each sweep, final
+        assert im.size[0] > 100 and im.size[1] > 100
+        im.seek(im.n_frames // 2)
+        assert np.asarray(im.convert("L"), dtype=float).var() > 0.0
+    assert files(tmp_path) == ["controls.png", "convergence.png", "path.png", "sweeps.gif"]
+    out = capsys.readouterr()  # the library never prints
+    assert out.out == "" and out.err == ""
+
+
+def test_save_figure_formats_and_permissions(planned, tmp_path):
+    result, sc = planned["paper-case-2"]
+    heads = {"pdf": b"%PDF", "svg": b"<?xml", "PNG": b"\x89PNG"}
+    for ext, head in heads.items():
+        path = save_figure(plot_path(result, sc).figure, tmp_path / f"fig.{ext}")
+        assert path.read_bytes().startswith(head)
+    mask = os.umask(0o022)
+    os.umask(mask)
+    for p in tmp_path.iterdir():
+        assert p.stat().st_mode & 0o777 == 0o666 & ~mask
+    # Overwriting replaces the file and leaves no temporary file behind.
+    before = (tmp_path / "fig.svg").read_bytes()
+    save_figure(plot_controls(result), tmp_path / "fig.svg")
+    assert (tmp_path / "fig.svg").read_bytes() != before
+    assert files(tmp_path) == ["fig.PNG", "fig.pdf", "fig.svg"]
+
+
+@pytest.mark.parametrize("name", ["fig.jpg", "fig", "fig.png.bak"])
+def test_save_figure_bad_extension(planned, tmp_path, name):
+    result, sc = planned["paper-case-1"]
+    fig = plot_path(result, sc).figure
+    with pytest.raises(ValueError) as exc:
+        save_figure(fig, tmp_path / name)
+    assert "\n" not in str(exc.value) and ".png" in str(exc.value)
+    assert files(tmp_path) == []
+    with pytest.raises(ValueError, match="gif"):
+        animate_sweeps(result, sc, tmp_path / "anim.png")
+    assert files(tmp_path) == []
+
+
+def test_failed_write_leaves_nothing(planned, tmp_path, monkeypatch):
+    result, sc = planned["paper-case-1"]
+    (tmp_path / "keep.png").write_bytes(b"old")
+    fig = plot_path(result, sc).figure
+
+    def broken(fname, **kw):
+        with open(fname, "wb") as fh:
+            fh.write(b"\x89PNG half")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(fig, "savefig", broken)
+    for name in ("keep.png", "new.png"):
+        with pytest.raises(OSError, match="disk full"):
+            save_figure(fig, tmp_path / name)
+    assert files(tmp_path) == ["keep.png"]
+    assert (tmp_path / "keep.png").read_bytes() == b"old"
+
+
+# --------------------------------------------------------------------------- failed results
+
+
+def test_failed_result_still_plots(failed, tmp_path):
+    result, sc = failed
+    ax = plot_path(result, sc)
+    assert "failed" in ax.get_title()
+    assert gid(ax.lines, "optimal-path") == [] and headings(ax) == []
+    assert len([p for p in ax.patches if isinstance(p, Circle)]) == 2
+    assert len(gid(ax.lines, "initial-junctions")) == 1
+    assert len(gid(ax.lines, "start")) == len(gid(ax.lines, "goal")) == 1
+    check_png(save_figure(ax.figure, tmp_path / "path.png"))
+
+    fig = plot_convergence(result, sc)
+    assert "failed" in fig.get_suptitle()
+    assert len(gid(fig.axes[0].lines, "sweep")) == len(result.history)
+    check_png(save_figure(fig, tmp_path / "conv.png"))
+
+    fig = plot_controls(result)
+    assert "failed" in fig.get_suptitle()
+    assert all(any("no trajectory" in t.get_text() for t in a.texts) for a in fig.axes)
+    check_png(save_figure(fig, tmp_path / "controls.png"))
+
+    with Image.open(animate_sweeps(result, sc, tmp_path / "a.gif")) as im:
+        # initial, each sweep, the last sweep again with the status; no final path
+        assert im.n_frames == len(result.history) + 2
+
+
+def test_failed_without_sweeps_or_obstacles(failed, planned, tmp_path):
+    bare, _ = failed
+    _, sc1 = planned["paper-case-1"]  # no obstacles
+    for sc in (failed[1], sc1):
+        result = dataclasses.replace(bare, history=(), initial_cost=float("nan"))
+        ax = plot_path(result, sc)
+        assert len([p for p in ax.patches if isinstance(p, Circle)]) == sc.obstacles.shape[0]
+        fig = plot_convergence(result, sc)
+        assert gid(fig.axes[0].lines, "sweep") == []
+        assert any("no sweeps" in t.get_text() for t in fig.axes[1].texts)
+        no_path = dataclasses.replace(result, initial_junctions=(None, None))
+        plot_path(no_path, sc)
+        gif = animate_sweeps(no_path, sc, tmp_path / f"{sc.name}.gif")
+        with Image.open(gif) as im:
+            assert im.n_frames == 1
+    assert sorted(files(tmp_path)) == ["paper-case-1.gif", "paper-case-2.gif"]
+
+
+def test_save_figure_closes_pyplot_figures(planned, tmp_path):
+    import matplotlib.pyplot as plt
+
+    result, sc = planned["paper-case-1"]
+    fig = plt.figure()
+    ax = plot_path(result, sc, fig.add_subplot())
+    assert ax.figure is fig and plt.fignum_exists(fig.number)
+    save_figure(fig, tmp_path / "p.png")
+    assert not plt.fignum_exists(fig.number)
+    check_png(tmp_path / "p.png")
