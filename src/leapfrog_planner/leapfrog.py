@@ -8,17 +8,20 @@ local extremal. The two new arcs replace the old ones only if they are not more 
 cost never increases (a local solve may land on a worse extremal; that is counted as a rejection).
 
 Rule for reducing ``q`` (documented defaults in :class:`LeapfrogSettings`): after a sweep, ``q`` is
-halved (every other junction kept) when the sweep lowered the cost by less than ``reduce_tol``
-(relative), or the largest costate jump at the junctions fell below ``jump_tol`` (relative to the
-costate size), or ``sweeps_per_level`` sweeps were made at this ``q``. At ``q = 2`` the final
+halved (every other junction kept) when the sweep had no failed local problem and lowered the
+cost by less than ``reduce_tol`` (relative) or brought the largest costate jump at the junctions
+below ``jump_tol`` (relative to the costate size), or when ``sweeps_per_level`` sweeps were made
+at this ``q``. At ``q = 2`` the final
 simple shooting over the whole horizon runs from the costate of the first arc; if it fails, a
 multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over.
 
 Local failures: on the initial path, each segment is first solved from the previous arc's final
 costate, then from the affine guess; if both fail, by continuation in the obstacle weight from 0
 to ``W`` (warm-starting each weight from the last); if that fails too, the segment is split at
-its middle (up to ``max_split_depth`` times). In a sweep, a failed local problem (retried once
-from the affine guess) leaves its junction where it is, so the arcs and the cost stay defined.
+its middle (up to ``max_split_depth`` times). In a sweep, a failed local problem (retried from
+the affine guess, then by weight continuation) leaves its junction where it is, so the arcs and
+the cost stay defined; ``q`` is not reduced while a level still has failures (unless its sweep
+budget is spent).
 """
 
 from __future__ import annotations
@@ -259,6 +262,8 @@ def leapfrog(
             ta, tb = arcs.t[i - 1], arcs.t[i + 1]
             xa, xb = arcs.X[i - 1], arcs.X[i + 1]
             r = solve(ta, xa, tb, xb, arcs.lam0[i - 1]) or solve(ta, xa, tb, xb)
+            if r is None and problem.obstacles.shape[0] and problem.penalty.weight > 0:
+                r = continuation(ta, xa, tb, xb, arcs.lam0[i - 1])
             if r is None:
                 failures += 1
                 continue
@@ -294,11 +299,10 @@ def leapfrog(
         sweeps_here += 1
         decrease = (prev_cost - cost) / max(abs(cost), 1e-12)
         prev_cost = cost
-        if (
-            decrease < settings.reduce_tol
-            or jump < settings.jump_tol
-            or sweeps_here >= settings.sweeps_per_level
-        ):
+        # A level with failed local problems keeps sweeping (their neighbours move, and the next
+        # attempt may succeed) until its sweep budget is spent.
+        settled = failures == 0 and (decrease < settings.reduce_tol or jump < settings.jump_tol)
+        if settled or sweeps_here >= settings.sweeps_per_level:
             last_multi = arcs
             arcs = arcs.halved()
             sweeps_here = 0

@@ -1,0 +1,83 @@
+"""Leapfrog on the paper's four cases: time per case against the paper's Table 1, as ratios.
+
+    python benchmarks/bench_leapfrog.py [--repeat N] [--quick]
+
+Reports, for NM and MNM: status, cost against the spec's reference, sweeps, Newton iterations,
+the median in-process time of the full default planner (all initial paths) and of one initial
+path, and the ratio to the paper's MATLAB-era times. Then the wall time of
+`leapfrog solve paper-case-4` as a fresh process with a warm compile cache. No assertions: it
+prints figures and PASS/MISS against the targets of the issue.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+from leapfrog_planner.planner import Planner
+
+REFERENCE = {1: 10.32320, 2: 21.20621, 3: 3.274137, 4: 5.663875}
+PAPER_S = {  # Table 1 of the paper: (NM, MNM) seconds
+    1: (34.07, 32.61),
+    2: (78.91, 77.80),
+    3: (95.66, 86.49),
+    4: (113.36, 106.75),
+}
+TARGET_FULL_S, TARGET_ONE_S, TARGET_PROCESS_S = 0.200, 0.100, 2.0
+
+
+def timed(planner: Planner, repeat: int):
+    times, result = [], None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        result = planner.plan()
+        times.append(time.perf_counter() - t)
+    return result, statistics.median(times)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--quick", action="store_true", help="one repetition")
+    args = ap.parse_args()
+    repeat = 1 if args.quick else args.repeat
+    print(f"cores: {os.cpu_count()}, load average: {os.getloadavg()}")
+    header = f"{'case':<6}{'method':<17}{'status':<11}{'cost':>11}{'rel.err':>10}{'sweeps':>7}"
+    header += f"{'iters':>7}{'full ms':>9}{'1-path ms':>10}{'paper s':>9}{'speed-up':>10}  verdict"
+    print(header)
+    for case in (1, 2, 3, 4):
+        for k, method in enumerate(("newton", "modified-newton")):
+            full = Planner(f"paper-case-{case}", method=method)
+            one = Planner(f"paper-case-{case}", method=method, initial_paths=1)
+            full.plan(), one.plan()  # warm-up: compilation and caches
+            r, t_full = timed(full, repeat)
+            _, t_one = timed(one, repeat)
+            rel = abs(r.cost - REFERENCE[case]) / REFERENCE[case]
+            paper = PAPER_S[case][k]
+            ok = t_full <= TARGET_FULL_S and t_one <= TARGET_ONE_S
+            print(
+                f"{case:<6}{method:<17}{str(r.status):<11}{r.cost:>11.6f}{rel:>10.1e}{r.sweeps:>7}"
+                f"{r.newton_iterations:>7}{t_full * 1e3:>9.0f}{t_one * 1e3:>10.0f}{paper:>9.2f}"
+                f"{paper / t_full:>10.0f}  {'PASS' if ok else 'MISS'}"
+            )
+    cmd = [sys.executable, "-m", "leapfrog_planner.cli", "solve", "paper-case-4", "--quiet"]
+    subprocess.run(cmd, capture_output=True)  # warm the disk cache
+    walls = []
+    for _ in range(3):
+        t = time.perf_counter()
+        subprocess.run(cmd, capture_output=True)
+        walls.append(time.perf_counter() - t)
+    wall = statistics.median(walls)
+    print(
+        f"fresh process `leapfrog solve paper-case-4`: {wall:.2f} s (target {TARGET_PROCESS_S} s) "
+        f"{'PASS' if wall <= TARGET_PROCESS_S else 'MISS'}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
