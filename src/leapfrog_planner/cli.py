@@ -215,7 +215,8 @@ def solve(
     if outputs["npz"]:
         result.save_npz(outputs["npz"])
     if outputs["plot"]:
-        from .plots import plot_path as draw, save_figure
+        from .plots import plot_path as draw
+        from .plots import save_figure
 
         ax = draw(result, sc)
         save_figure(ax.figure, outputs["plot"])
@@ -253,7 +254,8 @@ def _plan_with_progress(sc, options):
                 r = ev.sweep
                 bar.update(
                     task,
-                    info=f"path {ev.path_index + 1}/{ev.paths}: sweep {r.sweep}, q={r.q}, cost {r.cost:.6g}",
+                    info=f"path {ev.path_index + 1}/{ev.paths}: sweep {r.sweep}, q={r.q}, "
+                    f"cost {r.cost:.6g}",
                 )
             else:
                 bar.update(task, completed=ev.paths, info="validating")

@@ -69,8 +69,9 @@ Optional additions beyond the spec's contract:
 ``[solver]``
     Planner settings stored with the scenario, passed through unchanged to the planner, which
     validates their ranges. Allowed keys and types are :data:`SOLVER_KEYS`:
-    ``method`` (string, e.g. ``"modified-newton"``), ``partitions`` (integer), ``initial_paths`` (integer),
-    ``tolerance`` (number), ``max_sweeps`` (integer). Unknown keys and wrong types are errors.
+    ``method`` (string, e.g. ``"modified-newton"``), ``partitions`` (integer), ``initial_paths``
+    (integer), ``tolerance`` (number), ``max_sweeps`` (integer). Unknown keys and wrong types are
+    errors.
 
 Every problem raises :class:`~leapfrog_planner.errors.ScenarioError` (a ``ValueError``) with a
 one-line message of the form ``<source>: <key>: <problem>``, for example
