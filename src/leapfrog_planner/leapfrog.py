@@ -179,7 +179,7 @@ def leapfrog(
     flow: Flow | None = None,
     progress: Callable[[SweepRecord], None] | None = None,
 ) -> LeapfrogRun:
-    """Run Leapfrog from the junctions ``(t, X)`` of a feasible path (``X[0]``, ``X[-1]``: the ends).
+    """Run Leapfrog from the junctions ``(t, X)`` of a feasible path from ``X[0]`` to ``X[-1]``.
 
     ``curve(t)`` gives the feasible path's state at time ``t``; it is used to split a segment
     whose two-point problem fails. ``progress`` is called after each sweep.
