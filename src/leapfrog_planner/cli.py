@@ -130,7 +130,8 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
             "newton_iterations": res.root.iterations,
             "f_evals": res.root.f_evals,
         }
-        write_atomic(Path(json_path), json.dumps(out, indent=2))
+        text = json.dumps(out, indent=2)
+        write_atomic(json_path, lambda tmp: Path(tmp).write_text(text))
     return EXIT_OK if res.success else EXIT_FAILED
 
 
@@ -206,10 +207,8 @@ def solve(
         ]
         if v is not None
     }
-    if quiet:
-        result = Planner(sc, **options).plan()
-    else:
-        result = _plan_with_progress(sc, options)
+    planner = Planner(sc, **options)  # settings errors surface here, before any display
+    result = planner.plan() if quiet else _plan_with_progress(planner)
     if outputs["json"]:
         result.save_json(outputs["json"])
     if outputs["npz"]:
@@ -223,15 +222,19 @@ def solve(
     if not quiet:
         _console.print(_summary(result))
     elif not result.success:
-        _err.print(f"{sc.name}: {result.status}: {result.message}", highlight=False)
+        _err.print(
+            f"{sc.name}: {result.status}: {result.message}",
+            highlight=False,
+            soft_wrap=True,
+            markup=False,
+        )
     return EXIT_OK if result.success else EXIT_FAILED
 
 
-def _plan_with_progress(sc, options):
+def _plan_with_progress(planner):
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from .planner import Planner
-
+    sc = planner.scenario
     columns = [
         TextColumn("{task.description}"),
         BarColumn(),
@@ -239,7 +242,6 @@ def _plan_with_progress(sc, options):
         TimeElapsedColumn(),
     ]
     with Progress(*columns, console=_err, transient=True) as bar:
-        planner = Planner(sc, **options)
         task = bar.add_task(sc.name, total=planner.settings.initial_paths, info="initial paths")
 
         def on_event(ev):
@@ -294,16 +296,16 @@ def main(argv=None) -> None:
     try:
         code = cli.main(args=argv, prog_name="leapfrog", standalone_mode=False)
     except click.exceptions.Abort:
-        _err.print("aborted")
+        _err.print("aborted", markup=False)
         sys.exit(130)
     except click.UsageError as e:
-        _err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True)
+        _err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
     except click.ClickException as e:
-        _err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True)
+        _err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
     except LeapfrogError as e:
-        _err.print(f"error: {e}", highlight=False, soft_wrap=True)
+        _err.print(f"error: {e}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
     sys.exit(code if isinstance(code, int) else EXIT_OK)
 

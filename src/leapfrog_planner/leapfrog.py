@@ -113,6 +113,7 @@ class LeapfrogRun:
     costate0: np.ndarray | None  # lambda(0) of the final extremal
     final_solver: str | None  # "shooting" or "multiple-shooting"
     initial_cost: float
+    max_costate_jump: float  # at the junctions when the sweeps ended (before the final solve)
     history: tuple[SweepRecord, ...]
     newton_iterations: int
     f_evals: int
@@ -233,7 +234,12 @@ def leapfrog(
         seg = fit(t[i], X[i], t[i + 1], X[i + 1], 0, pieces[-1][3] if pieces else None)
         if seg is None:
             return _failed(
-                f"the two-point problem of initial segment {i} failed even after splitting",
+                f"the two-point problem of initial segment {i} failed"
+                + (
+                    " even after splitting"
+                    if curve is not None and settings.max_split_depth
+                    else ""
+                ),
                 count,
                 np.inf,
                 (),
@@ -307,6 +313,7 @@ def leapfrog(
             arcs = arcs.halved()
             sweeps_here = 0
     sweep_time = time.perf_counter() - t_start
+    final_jump = arcs.max_jump()
 
     # Final step: simple shooting over the whole horizon from the first arc's costate.
     t_final = time.perf_counter()
@@ -337,6 +344,7 @@ def leapfrog(
         costate0=costate0,
         final_solver=solver,
         initial_cost=initial_cost,
+        max_costate_jump=final_jump,
         history=tuple(history),
         newton_iterations=count.iterations,
         f_evals=count.f_evals,
@@ -354,6 +362,7 @@ def _failed(message, count, initial_cost, history, increases, sweep_time) -> Lea
         costate0=None,
         final_solver=None,
         initial_cost=initial_cost,
+        max_costate_jump=float("nan"),
         history=tuple(history),
         newton_iterations=count.iterations,
         f_evals=count.f_evals,

@@ -23,6 +23,9 @@ from .scenario import Scenario, load_scenario
 
 log = logging.getLogger(__name__)
 
+# A result whose re-integrated end state misses the goal by more than this is not converged.
+END_STATE_TOLERANCE = 1e-8
+
 
 @dataclass(frozen=True)
 class PlanEvent:
@@ -158,7 +161,7 @@ class Planner:
                     self.problem, T0, s.start, T1, s.goal, run.costate0, samples=st.samples
                 )
             checked.append((path, run, junctions, v))
-        ok = [c for c in checked if c[3] is not None and np.isfinite(c[3].cost)]
+        ok = [c for c in checked if _valid(c[3])]
         best = min(ok, key=lambda c: c[3].cost) if ok else checked[0]
         t_val = time.perf_counter() - t_val
         return self._result(best, checked, t_paths, t_val, time.perf_counter() - t_begin)
@@ -178,8 +181,8 @@ class Planner:
         alternatives = tuple(
             PathOutcome(
                 label=p.label,
-                status=PlanStatus.CONVERGED if vv is not None else PlanStatus.FAILED,
-                cost=vv.cost if vv is not None else nan,
+                status=PlanStatus.CONVERGED if _valid(vv) else PlanStatus.FAILED,
+                cost=vv.cost if _valid(vv) else nan,
                 initial_cost=r.initial_cost,
                 sweeps=len(r.history),
                 message=r.message,
@@ -206,7 +209,7 @@ class Planner:
             if v
             else self.problem.penalty.clearance(path.curve(np.linspace(0, 1, 501))[0]),
             end_state_error=v.end_state_error if v else float("inf"),
-            max_costate_jump=run.history[-1].max_costate_jump if run.history else nan,
+            max_costate_jump=run.max_costate_jump,
             max_dH_du=v.max_dH_du if v else nan,
             hamiltonian_variation=v.hamiltonian_variation if v else nan,
             initial_cost=run.initial_cost,
@@ -222,6 +225,11 @@ class Planner:
             wall_time_s=wall,
             alternatives=alternatives,
         )
+
+
+def _valid(v) -> bool:
+    """A validated extremal: re-integrated without failure, reaching the goal."""
+    return v is not None and np.isfinite(v.cost) and v.end_state_error <= END_STATE_TOLERANCE
 
 
 def plan(scenario: Scenario | str, *, progress=None, **options) -> LeapfrogResult:

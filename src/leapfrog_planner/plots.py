@@ -16,11 +16,7 @@ on the Agg canvas (no window, no global state); nothing here prints or shows any
 
 from __future__ import annotations
 
-import os
-import stat
 import sys
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +27,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from .results import LeapfrogResult
+from .results import write_atomic as _write_atomic
 from .scenario import Scenario, load_scenario
 
 __all__ = ["animate_sweeps", "plot_controls", "plot_convergence", "plot_path", "save_figure"]
@@ -242,41 +239,6 @@ def _heading_proxy(label: str) -> Line2D:
 
 def _no_data(ax: Axes, text: str) -> None:
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
-
-
-def _umask() -> int:
-    try:
-        with open("/proc/self/status", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    mask = os.umask(0o022)  # no other portable way to read it
-    os.umask(mask)
-    return mask
-
-
-def _write_atomic(path: Path, write: Callable[[str], None]) -> None:
-    """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it to ``path``.
-
-    The temporary file has the same extension (writers that pick the format by extension work)
-    and gets the permissions a new file would have (or those of the file it replaces); on any
-    error it is removed and ``path`` is left as it was.
-    """
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        try:
-            mode = stat.S_IMODE(os.stat(path).st_mode)
-        except OSError:
-            mode = 0o666 & ~_umask()
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 # --------------------------------------------------------------------------- plot_path

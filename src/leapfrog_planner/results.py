@@ -23,7 +23,9 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -210,31 +212,52 @@ class LeapfrogResult:
         }
 
     def save_json(self, path) -> None:
-        write_atomic(Path(path), json.dumps(self.to_dict(), indent=1, allow_nan=False))
+        text = json.dumps(self.to_dict(), indent=1, allow_nan=False)
+        write_atomic(path, lambda tmp: Path(tmp).write_text(text))
 
     def save_npz(self, path) -> None:
         arrays = {k: np.asarray(v) for k, v in self.trajectory_columns().items()}
         arrays["history_cost"] = np.array([h.cost for h in self.history])
         arrays["history_jump"] = np.array([h.max_costate_jump for h in self.history])
         arrays["clearance"] = self.clearance
-        path = Path(path)
 
-        def write(fh):
-            np.savez(fh, **arrays)
+        def write(tmp):
+            with open(tmp, "wb") as fh:  # a handle: np.savez would append .npz to a file name
+                np.savez(fh, **arrays)
 
-        write_atomic(path, write, binary=True)
+        write_atomic(path, write)
 
 
-def write_atomic(path: Path, content, binary: bool = False) -> None:
-    """Write through a temporary file in the same folder and a rename: never half a file."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+def _umask() -> int:
     try:
-        with os.fdopen(fd, "wb" if binary else "w") as fh:
-            if callable(content):
-                content(fh)
-            else:
-                fh.write(content)
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)  # no other portable way to read it
+    os.umask(mask)
+    return mask
+
+
+def write_atomic(path, write: Callable[[str], None]) -> None:
+    """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it to ``path``.
+
+    The temporary file has the same extension (writers that pick the format by extension work)
+    and gets the permissions a new file would have (or those of the file it replaces); on any
+    error it is removed and ``path`` is left as it was.
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        write(tmp)
+        try:
+            mode = stat.S_IMODE(os.stat(path).st_mode)
+        except OSError:
+            mode = 0o666 & ~_umask()
+        os.chmod(tmp, mode)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

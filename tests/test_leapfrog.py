@@ -1,0 +1,265 @@
+"""The Leapfrog algorithm itself (spec section 2): sweeps, costate jumps, reduction of ``q``.
+
+These tests call :func:`leapfrog` directly on junctions of the planner's initial path, or plan
+paper case 1 with special settings; all runs are cheap (case 1 has no obstacles). The paper-case
+results and the monotone cost of every run on every case are in ``test_planner.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from conftest import CASES
+from leapfrog_planner.errors import SettingsError
+from leapfrog_planner.leapfrog import LeapfrogSettings, SweepRecord, leapfrog
+from leapfrog_planner.planner import Planner, plan
+from leapfrog_planner.results import validate
+from leapfrog_planner.shooting import solve_shooting
+
+MNM, NM = "modified-newton", "newton"
+CASE1 = CASES[1]
+OPTIMUM_1 = 10.32320  # spec section 5
+
+
+def rel(a: float, b: float) -> float:
+    return abs(a - b) / abs(b)
+
+
+@pytest.fixture(scope="module")
+def case1():
+    """The planner of case 1 (problem, compiled flow) and its single initial path."""
+    planner = Planner(CASE1.name)
+    paths = planner.initial_paths()
+    assert len(paths) == 1 and paths[0].label == "straight"
+    return planner, paths[0]
+
+
+def run_case1(case1, q: int, **settings):
+    planner, path = case1
+    t, X = path.junctions(q, 1.0)
+    records: list[SweepRecord] = []
+    run = leapfrog(
+        planner.problem,
+        t,
+        X,
+        settings=LeapfrogSettings(partitions=q, **settings),
+        flow=planner.flow,
+        progress=records.append,
+    )
+    return run, records
+
+
+def final_cost(planner, costate0) -> float:
+    v = validate(planner.problem, 0.0, CASE1.start, 1.0, CASE1.goal, costate0)
+    assert v.end_state_error <= 1e-8
+    return v.cost
+
+
+# --------------------------------------------------------------------------- jump -> 0
+
+
+@pytest.fixture(scope="module")
+def one_level(case1):
+    """q = 4 held (reduction by cost decrease at 1e-12 only, never by jump or sweep count)."""
+    return run_case1(
+        case1, 4, reduce_tol=1e-12, jump_tol=1e-14, sweeps_per_level=300, max_sweeps=300
+    )
+
+
+def test_costate_jump_goes_to_zero(one_level):
+    run, records = one_level
+    assert run.success, run.message
+    jumps = np.array([h.max_costate_jump for h in run.history])
+    assert all(h.q == 4 for h in run.history)
+    assert len(jumps) >= 30
+    assert jumps[0] > 0.1  # the initial piecewise extremal is far from an extremal
+    assert jumps[-1] < 1e-5  # measured 3.3e-6 after 82 sweeps
+    assert jumps[-1] < 1e-4 * jumps.max()  # more than four orders of magnitude
+    # Steadily, not by luck at the last sweep: every 10 sweeps the jump shrinks by a factor.
+    assert np.all(jumps[10:] < 0.5 * jumps[:-10])
+    # The level ended because the cost stopped decreasing (relative 1e-12), not by a count.
+    costs = np.array([h.cost for h in run.history])
+    assert len(run.history) < 300
+    assert (costs[-2] - costs[-1]) / costs[-1] < 1e-12
+
+
+def test_costs_of_one_level_decrease_to_the_optimum(case1, one_level):
+    planner, _ = case1
+    run, records = one_level
+    costs = np.array([h.cost for h in run.history])
+    assert run.initial_cost > costs[0]
+    assert np.all(np.diff(costs) <= 0.0)
+    assert run.cost_increases == 0
+    # With continuous costates the piecewise-optimal trajectory is the extremal: same cost.
+    assert rel(costs[-1], final_cost(planner, run.costate0)) <= 1e-9
+    assert rel(costs[-1], OPTIMUM_1) <= 1e-5
+
+
+def test_junctions_converge_onto_the_final_extremal(case1, one_level):
+    """After the sweeps, each junction state lies on the extremal the final shooting returns."""
+    planner, _ = case1
+    run, _ = one_level
+    last = run.history[-1]
+    z0 = np.concatenate([CASE1.start, run.costate0])
+    for ti, xi in zip(last.t[1:-1], last.X[1:-1], strict=True):
+        x = planner.flow(0.0, z0, float(ti)).x
+        np.testing.assert_allclose(x, xi, rtol=0, atol=1e-5)
+
+
+def test_progress_reports_every_sweep_record(one_level):
+    run, records = one_level
+    assert tuple(records) == run.history
+    assert [r.sweep for r in records] == list(range(1, len(records) + 1))
+
+
+def test_sweep_records_keep_the_end_states_fixed(one_level):
+    run, _ = one_level
+    for h in run.history:
+        assert h.t.shape == (h.q + 1,) and h.X.shape == (h.q + 1, 3)
+        assert h.t[0] == 0.0 and h.t[-1] == 1.0
+        assert np.all(np.diff(h.t) > 0)
+        np.testing.assert_array_equal(h.X[0], CASE1.start)
+        np.testing.assert_array_equal(h.X[-1], CASE1.goal)
+        assert h.failures == 0 and h.rejected == 0
+        assert h.newton_iterations > 0 and h.f_evals >= h.newton_iterations
+        assert h.time_s >= 0.0
+    assert sum(h.newton_iterations for h in run.history) <= run.newton_iterations
+
+
+# --------------------------------------------------------------------------- reduction of q
+
+
+def test_partitions_are_halved_level_by_level(case1):
+    run, _ = run_case1(case1, 8, sweeps_per_level=3)
+    assert run.success, run.message
+    qs = [h.q for h in run.history]
+    assert qs[0] == 8 and qs[-1] > 2  # no sweep at q = 2: the final shooting does that
+    levels: dict[int, int] = {}
+    for a, b in zip(qs, qs[1:], strict=False):
+        assert b in (a, math.ceil(a / 2)), qs
+    for q in qs:
+        levels[q] = levels.get(q, 0) + 1
+    assert max(levels.values()) <= 3
+    assert set(levels) == {8, 4}  # 8 -> 4 -> 2
+    assert rel(final_cost(case1[0], run.costate0), OPTIMUM_1) <= 1e-5
+
+
+def test_max_sweeps_caps_the_sweeps(case1):
+    run, records = run_case1(case1, 8, max_sweeps=2)
+    assert len(run.history) == len(records) == 2
+    assert run.history[-1].cost < run.initial_cost
+
+
+def test_multiple_shooting_final_solve_reaches_the_same_extremal(case1):
+    shoot, _ = run_case1(case1, 8, final="shooting")
+    multi, _ = run_case1(case1, 8, final="multiple-shooting")
+    assert shoot.success and multi.success, (shoot.message, multi.message)
+    assert shoot.final_solver == "shooting"
+    assert multi.final_solver == "multiple-shooting"
+    np.testing.assert_allclose(multi.costate0, shoot.costate0, rtol=1e-7, atol=1e-7)
+    planner = case1[0]
+    c_shoot, c_multi = final_cost(planner, shoot.costate0), final_cost(planner, multi.costate0)
+    assert rel(c_multi, c_shoot) <= 1e-8
+    assert rel(c_shoot, OPTIMUM_1) <= 1e-5
+
+
+# --------------------------------------------------------------------------- q = 2
+
+
+@pytest.mark.parametrize("method", [MNM, NM])
+def test_two_partitions_is_simple_shooting(case1, method):
+    """At q = 2 no sweep runs: the final simple shooting starts from the first arc's costate.
+
+    That costate comes from the first half of the initial path (start to its midpoint), solved
+    from the affine guess. Simple shooting from it lands on the 38.73 extremal of spec section 5,
+    not the optimum 10.3232: the sweeps are what find the optimum.
+    """
+    planner, path = case1
+    r = plan(CASE1.name, partitions=2, method=method)
+    assert r.success, r.message
+    assert r.sweeps == 0 and r.history == ()
+    assert r.final_solver == "shooting"
+
+    settings = LeapfrogSettings(method=method)
+    shoot = replace(settings.shooting, samples=0, method=method)
+    t, X = path.junctions(2, 1.0)
+    arc = solve_shooting(planner.problem, t[0], X[0], t[1], X[1], settings=shoot)
+    assert arc.success, arc.message
+    whole = solve_shooting(
+        planner.problem, 0.0, CASE1.start, 1.0, CASE1.goal, guess=arc.costate0, settings=shoot
+    )
+    assert whole.success, whole.message
+    assert rel(r.cost, whole.cost) <= 1e-8
+    np.testing.assert_allclose(r.costate0, whole.costate0, rtol=0, atol=1e-8)
+    assert r.cost == pytest.approx(38.73, abs=5e-3)
+    assert r.cost > OPTIMUM_1 + 20.0
+
+
+# --------------------------------------------------------------------------- settings
+
+
+def test_default_settings_are_documented_values():
+    s = LeapfrogSettings()
+    assert (s.method, s.partitions, s.final) == (MNM, 8, "auto")
+    assert (s.max_sweeps, s.sweeps_per_level, s.reduce_tol, s.jump_tol) == (60, 10, 1e-3, 1e-6)
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "message"),
+    [
+        ("method", "x", "unknown method 'x'"),
+        ("partitions", 1, "partitions"),
+        ("partitions", 3.5, "partitions"),
+        ("max_sweeps", 0, "max_sweeps"),
+        ("sweeps_per_level", 0, "sweeps_per_level"),
+        ("reduce_tol", 0.0, "reduce_tol"),
+        ("jump_tol", 0.0, "jump_tol"),
+        ("final", "x", "final"),
+        ("max_split_depth", -1, "max_split_depth"),
+    ],
+)
+def test_leapfrog_settings_reject_bad_values(option, value, message):
+    with pytest.raises(SettingsError, match=message):
+        LeapfrogSettings(**{option: value})
+
+
+# --------------------------------------------------------------------------- local failures
+
+
+def straight_junctions(scenario, q: int):
+    """Junctions on the straight chord with linear heading: on case 2 it crosses both discs."""
+    t = np.linspace(0.0, 1.0, q + 1)
+    return t, scenario.start + (scenario.goal - scenario.start) * t[:, None]
+
+
+def test_failed_and_rejected_local_problems_keep_the_cost_monotone():
+    """From an infeasible start (through the obstacles of case 2) local solves fail or are
+    rejected (measured: one of each in sweep 2); the junctions stay, the cost never rises."""
+    planner = Planner(CASES[2].name)
+    t, X = straight_junctions(planner.scenario, 4)
+    run = leapfrog(planner.problem, t, X, settings=LeapfrogSettings(partitions=4))
+    assert run.success, run.message
+    assert sum(h.failures + h.rejected for h in run.history) > 0
+    costs = np.array([run.initial_cost] + [h.cost for h in run.history])
+    assert np.all(np.isfinite(costs))
+    assert np.all(np.diff(costs) <= 1e-12 * costs[:-1])
+    assert run.cost_increases == 0
+    v = validate(
+        planner.problem, 0.0, planner.scenario.start, 1.0, planner.scenario.goal, run.costate0
+    )
+    assert v.end_state_error <= 1e-8 and v.max_dH_du <= 1e-10
+
+
+def test_an_unsolvable_initial_segment_fails_cleanly():
+    """Without a curve to split along, a segment whose two-point problem fails ends the run."""
+    planner = Planner(CASES[2].name)
+    t, X = straight_junctions(planner.scenario, 8)
+    run = leapfrog(planner.problem, t, X, settings=LeapfrogSettings(partitions=8))
+    assert not run.success
+    assert run.costate0 is None and run.final_solver is None
+    assert run.history == () and run.initial_cost == math.inf
+    assert "initial segment" in run.message

@@ -1,0 +1,578 @@
+"""The planner on the paper's four cases (spec section 5), its results, files and settings.
+
+Every (case, method) is planned once per module (``planned``) and the result is reused by all
+the tests that look at it. Costs are checked against spec section 5, end states and costs by an
+independent re-integration of the canonical equations written out here from spec section 1, and
+the dense trajectory against Pontryagin's control law.
+
+Known gaps are ``xfail(strict=True)`` with the measured behaviour as the reason, so that they
+stay visible and turn into failures the day they are fixed (then drop the mark).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections import defaultdict
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from scipy.integrate import simpson, solve_ivp
+
+from conftest import CASES
+from leapfrog_planner.errors import LeapfrogError, SettingsError
+from leapfrog_planner.planner import PlanEvent, Planner, PlannerSettings, plan
+from leapfrog_planner.results import LeapfrogResult, PlanStatus, write_atomic
+from leapfrog_planner.scenario import load_scenario_text
+from leapfrog_planner.shooting import solve_shooting
+
+MNM, NM = "modified-newton", "newton"
+METHODS = (MNM, NM)
+SHORT = {MNM: "mnm", NM: "nm"}
+
+# Case 4: the spec's reference 5.663875 (clearance 0.008) is a local optimum. A cheaper one,
+# 4.585248 (clearance 0.039), was found by CasADi multistart (tests/test_direct.py) and is
+# recomputed inside this module (test_case_4_cheaper_optimum_agrees_with_casadi).
+CASE4_CHEAPER = 4.585248
+CASE4_CHEAPER_CLEARANCE = 0.039
+# Spec section 5: min clearance of the reference optima (3 decimals).
+CLEARANCE = {2: 0.148, 3: 0.033, 4: 0.008}
+# Spec section 5: the other extremals of case 1 that the planner must not return.
+CASE1_OTHER_EXTREMALS = (13.65, 22.95, 26.17, 38.73)
+
+NM_CASE3 = (
+    "NM on case 3: Leapfrog with classical Newton converges only from initial path "
+    "'visibility #3', to the local optimum 6.404824 (clearance 0.047); from 'visibility #1' and "
+    "'visibility #2' (where MNM reaches 3.477037 and the reference 3.274136) it fails"
+)
+NM_CASE4 = (
+    "NM on case 4: Leapfrog with classical Newton converges from none of the 3 initial paths "
+    "(final solve fails, e.g. 'non-finite: F is not finite'); the result has status 'failed', "
+    "cost nan and end_state_error inf (the spec records this divergence as the paper's "
+    "observation, the issue asks for convergence)"
+)
+
+
+@dataclass(frozen=True)
+class Planned:
+    result: LeapfrogResult
+    events: tuple[PlanEvent, ...]
+
+    def sweep_costs(self) -> dict[int, list[float]]:
+        """Piecewise-optimal cost after each sweep, for every initial path (run)."""
+        runs: dict[int, list[float]] = defaultdict(list)
+        for e in self.events:
+            if e.stage == "sweep":
+                runs[e.path_index].append(e.sweep.cost)
+        return runs
+
+
+@pytest.fixture(scope="module")
+def planned():
+    """``planned(case, method, **options)``: plan once per module, with the progress events."""
+    cache: dict = {}
+
+    def get(case: int, method: str = MNM, **options) -> Planned:
+        key = (case, method, tuple(sorted(options.items())))
+        if key not in cache:
+            events: list[PlanEvent] = []
+            result = plan(CASES[case].name, method=method, progress=events.append, **options)
+            cache[key] = Planned(result, tuple(events))
+        return cache[key]
+
+    return get
+
+
+def case_method(xfails: dict):
+    """Parameters (case, method) for the four cases and both methods, with known gaps marked."""
+    out = []
+    for case in CASES:
+        for method in METHODS:
+            marks = ()
+            if (case, method) in xfails:
+                marks = pytest.mark.xfail(strict=True, reason=xfails[(case, method)])
+            out.append(pytest.param(case, method, marks=marks, id=f"case{case}-{SHORT[method]}"))
+    return out
+
+
+NM4_ONLY = {(4, NM): NM_CASE4}
+NM34 = {(3, NM): NM_CASE3, (4, NM): NM_CASE4}
+
+
+def rel(a: float, b: float) -> float:
+    return abs(a - b) / abs(b)
+
+
+# --------------------------------------------------------------------------- independent checks
+
+
+def canonical_rhs(obstacles: np.ndarray, weight: float = 100.0, exponent: int = 2):
+    """Spec section 1 for the unicycle, typed in: the six canonical ODEs plus the running cost.
+
+    ``v = -(l1 cos th + l2 sin th)``, ``omega = -l3``; ``l1' = -dP/dx``, ``l2' = -dP/dy``,
+    ``l3' = -dH/dth = v (l1 sin th - l2 cos th)``; the last component integrates the cost.
+    """
+    cx, cy, r = (obstacles[:, k] for k in range(3))
+    n = exponent
+
+    def rhs(_t, z):
+        x, y, th, l1, l2, l3, _ = z
+        c, s = math.cos(th), math.sin(th)
+        v, w = -(l1 * c + l2 * s), -l3
+        dx, dy = x - cx, y - cy
+        q = (dx * dx + dy * dy) / r**2
+        e = weight * np.exp(-(q**n))
+        dPdq = -n * q ** (n - 1) * e
+        px, py = np.sum(dPdq * 2 * dx / r**2), np.sum(dPdq * 2 * dy / r**2)
+        return [v * c, v * s, w, -px, -py, v * (l1 * s - l2 * c), 0.5 * (v * v + w * w) + e.sum()]
+
+    return rhs
+
+
+def penalty(obstacles: np.ndarray, x, y, weight: float = 100.0, exponent: int = 2) -> np.ndarray:
+    s = ((x[:, None] - obstacles[:, 0]) ** 2 + (y[:, None] - obstacles[:, 1]) ** 2) / obstacles[
+        :, 2
+    ] ** 2
+    return (weight * np.exp(-(s**exponent))).sum(axis=1)
+
+
+def clearance(obstacles: np.ndarray, x, y) -> np.ndarray:
+    d = np.hypot(x[:, None] - obstacles[:, 0], y[:, None] - obstacles[:, 1]) - obstacles[:, 2]
+    return d.min(axis=0)
+
+
+# --------------------------------------------------------------------------- paper cases
+
+
+@pytest.mark.parametrize(("case", "method"), case_method(NM4_ONLY))
+def test_paper_case_converges(planned, case, method):
+    r = planned(case, method).result
+    assert r.status is PlanStatus.CONVERGED, r.message
+    assert r.success
+    assert r.final_solver in ("shooting", "multiple-shooting")
+    assert r.costate0 is not None and np.all(np.isfinite(r.costate0))
+
+
+@pytest.mark.parametrize(("case", "method"), case_method(NM4_ONLY))
+def test_paper_case_end_state_and_pontryagin_conditions(planned, case, method):
+    r = planned(case, method).result
+    assert r.success, r.message
+    assert r.end_state_error <= 1e-8
+    assert r.max_dH_du <= 1e-10
+    assert r.hamiltonian_variation <= 1e-8
+    # The dense trajectory really joins start and goal.
+    c = CASES[case]
+    tr = r.trajectory
+    np.testing.assert_array_equal(tr.x[0], c.start)
+    np.testing.assert_allclose(tr.x[-1], c.goal, rtol=0, atol=1e-8)
+    assert tr.t[0] == 0.0 and tr.t[-1] == 1.0
+
+
+@pytest.mark.parametrize(("case", "method"), case_method(NM4_ONLY))
+def test_paper_case_independent_reintegration(planned, case, method):
+    """Integrate spec section 1's canonical ODEs (written out here) from the returned costate."""
+    r = planned(case, method).result
+    assert r.success, r.message
+    c = CASES[case]
+    z0 = np.concatenate([c.start, r.costate0, [0.0]])
+    sol = solve_ivp(
+        canonical_rhs(c.obstacles), (0.0, 1.0), z0, method="DOP853", rtol=1e-12, atol=1e-12
+    )
+    assert sol.success
+    zT = sol.y[:, -1]
+    assert np.max(np.abs(zT[:3] - c.goal)) <= 1e-8
+    assert rel(zT[6], r.cost) <= 1e-9
+
+
+@pytest.mark.parametrize(("case", "method"), case_method(NM34))
+def test_paper_case_cost_matches_spec_reference(planned, case, method):
+    r = planned(case, method).result
+    assert r.success, r.message
+    ref = CASES[case].reference_cost
+    if case == 4:
+        # Either the spec's reference, or the cheaper optimum verified by the direct method
+        # (test_case_4_cheaper_optimum_agrees_with_casadi). Today the default planner returns
+        # the reference, 5.663874.
+        assert rel(r.cost, ref) <= 1e-4 or rel(r.cost, CASE4_CHEAPER) <= 1e-6, r.cost
+    else:
+        assert rel(r.cost, ref) <= 1e-4, r.cost
+
+
+@pytest.mark.parametrize(("case", "method"), case_method(NM4_ONLY))
+def test_paper_case_clearance(planned, case, method):
+    r = planned(case, method).result
+    assert r.success, r.message
+    c = CASES[case]
+    if case == 1:
+        assert r.min_clearance is None and r.clearance.size == 0
+        return
+    # Recomputed from the returned samples, not trusted.
+    cols = r.trajectory_columns()
+    per = clearance(c.obstacles, cols["x"], cols["y"])
+    np.testing.assert_allclose(r.clearance, per, rtol=0, atol=1e-12)
+    assert r.min_clearance >= 0.0
+    if rel(r.cost, c.reference_cost) <= 1e-4:  # at the reference optimum: its clearance too
+        assert abs(r.min_clearance - CLEARANCE[case]) <= 1e-3
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        1,
+        2,
+        pytest.param(3, marks=pytest.mark.xfail(strict=True, reason=NM_CASE3)),
+        pytest.param(4, marks=pytest.mark.xfail(strict=True, reason=NM_CASE4)),
+    ],
+)
+def test_newton_and_modified_newton_reach_the_same_cost(planned, case):
+    mnm, nm = planned(case, MNM).result, planned(case, NM).result
+    assert mnm.success, mnm.message
+    assert nm.success, nm.message
+    assert rel(nm.cost, mnm.cost) <= 1e-8
+
+
+@pytest.mark.parametrize(("case", "method"), case_method({}))
+def test_best_result_is_the_cheapest_converged_path(planned, case, method):
+    r = planned(case, method).result
+    others = [a.cost for a in r.alternatives if a.status is PlanStatus.CONVERGED]
+    assert all(math.isfinite(c) for c in others)
+    assert len(r.alternatives) + 1 == sum(e.stage == "path" for e in planned(case, method).events)
+    if r.success:
+        assert all(r.cost <= c + 1e-9 * abs(c) for c in others)
+    else:
+        assert others == []
+
+
+def test_case_2_alternatives_are_the_specs_other_local_optima(planned):
+    r = planned(2, MNM).result
+    costs = sorted(a.cost for a in r.alternatives if a.status is PlanStatus.CONVERGED)
+    assert len(costs) == 2
+    assert rel(costs[0], 22.780) <= 1e-4
+    assert rel(costs[1], 23.215) <= 1e-4
+
+
+# --------------------------------------------------------------------------- case 1
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_case_1_leapfrog_finds_the_optimum_plain_shooting_does_not(planned, method):
+    """Plain shooting from the affine guess lands on 22.95 (MNM) or 26.17 (NM); Leapfrog 10.3232."""
+    r = planned(1, method).result
+    assert r.success, r.message
+    assert rel(r.cost, 10.32320) <= 1e-5
+    assert min(abs(r.cost - other) for other in CASE1_OTHER_EXTREMALS) > 3.0
+    c = CASES[1]
+    plain = solve_shooting(c.problem(), 0.0, c.start, 1.0, c.goal, method=method)
+    assert plain.success, plain.message
+    assert plain.cost == pytest.approx({MNM: 22.95, NM: 26.17}[method], abs=5e-3)
+    assert plain.cost > r.cost + 10.0
+
+
+# --------------------------------------------------------------------------- monotone cost
+
+
+@pytest.mark.parametrize(("case", "method"), case_method({}))
+def test_sweep_costs_never_increase_in_any_run(planned, case, method):
+    p = planned(case, method)
+    runs = p.sweep_costs()
+    assert runs, "no sweep was reported"
+    for k, costs in runs.items():
+        c = np.array(costs)
+        assert np.all(np.isfinite(c))
+        # Rounding of the sum over the arcs only (measured: at most 1.4e-16 relative).
+        assert np.all(np.diff(c) <= 1e-12 * np.abs(c[:-1])), (k, np.diff(c).max())
+    r = p.result
+    assert r.cost_increases == 0
+    hist = np.array([h.cost for h in r.history])
+    assert np.all(np.diff(hist) <= 1e-12 * np.abs(hist[:-1]))
+    assert hist[0] <= r.initial_cost
+    if r.success:  # the final extremal is no worse than the last piecewise-optimal trajectory
+        assert r.cost <= hist[-1] * (1 + 1e-9)
+
+
+# --------------------------------------------------------------------------- case 4 and CasADi
+
+
+@pytest.mark.slow
+def test_case_4_cheaper_optimum_agrees_with_casadi(planned):
+    """With margin 0.05 the planner finds 4.585248; CasADi/IPOPT recomputes it in the suite.
+
+    Direct method: multistart on N = 100 (independent of the planner), refined on N = 200 from
+    the N = 100 optimum, both extrapolated by Richardson (order 2) to ~1e-6.
+    """
+    pytest.importorskip("casadi")
+    from leapfrog_planner.direct import richardson, solve_direct
+
+    r = planned(4, MNM, margin=0.05).result
+    assert r.success, r.message
+    assert rel(r.cost, CASE4_CHEAPER) <= 1e-6
+    assert r.cost < CASES[4].reference_cost - 1.0
+    assert r.end_state_error <= 1e-8
+    assert abs(r.min_clearance - CASE4_CHEAPER_CLEARANCE) <= 1e-3
+
+    c = CASES[4]
+    coarse = solve_direct(c.start, c.goal, 1.0, c.obstacles, intervals=100)
+    assert coarse.success, coarse.message
+    assert coarse.cost < c.reference_cost - 1.0  # multistart finds the cheaper basin by itself
+    t = np.linspace(0.0, 1.0, 201)
+    guess = np.column_stack([np.interp(t, coarse.t, coarse.states[:, i]) for i in range(3)])
+    fine = solve_direct(
+        c.start, c.goal, 1.0, c.obstacles, intervals=200, multistart=False, guesses=[guess]
+    )
+    assert fine.success, fine.message
+    assert fine.cost < coarse.cost
+    assert rel(richardson(coarse.cost, fine.cost), r.cost) <= 1e-5
+    assert abs(fine.min_clearance - r.min_clearance) <= 1e-3
+
+
+# --------------------------------------------------------------------------- results and files
+
+
+TRAJECTORY_KEYS = ("t", "x", "y", "theta", "v", "omega", "lambda_1", "lambda_2", "lambda_3")
+NUMBER_KEYS = (
+    "cost",
+    "energy",
+    "penalty",
+    "min_clearance",
+    "end_state_error",
+    "max_costate_jump",
+    "wall_time_s",
+)
+
+
+@pytest.fixture(scope="module")
+def saved(planned, tmp_path_factory):
+    """Case 2 (MNM) saved as JSON and NPZ into a fresh folder."""
+    r = planned(2, MNM).result
+    folder = tmp_path_factory.mktemp("saved")
+    r.save_json(folder / "result.json")
+    r.save_npz(folder / "result.npz")
+    return r, folder
+
+
+def test_json_has_the_stable_keys_with_the_right_types(saved):
+    r, folder = saved
+    d = json.loads((folder / "result.json").read_text())
+    assert d["schema"] == 1
+    assert d["status"] == "converged"
+    for k in NUMBER_KEYS:
+        assert isinstance(d[k], float) and math.isfinite(d[k]), k
+    assert d["method"] == MNM
+    assert isinstance(d["sweeps"], int) and not isinstance(d["sweeps"], bool)
+    assert d["sweeps"] == r.sweeps == len(d["history"]) > 0
+    assert isinstance(d["newton_iterations"], int) and d["newton_iterations"] > 0
+    # Values are those of the result, exactly (JSON floats round-trip).
+    assert d["cost"] == r.cost
+    assert d["min_clearance"] == r.min_clearance
+    assert d["end_state_error"] == r.end_state_error
+    assert d["costate0"] == r.costate0.tolist()
+    assert abs(d["cost"] - (d["energy"] + d["penalty"])) <= 1e-9 * d["cost"]
+    tr = d["trajectory"]
+    assert isinstance(tr, dict)
+    assert set(TRAJECTORY_KEYS) <= set(tr)
+    n = len(tr["t"])
+    assert n > 100
+    for k in TRAJECTORY_KEYS:
+        assert isinstance(tr[k], list) and len(tr[k]) == n, k
+        assert all(isinstance(v, float) for v in tr[k]), k
+    cols = r.trajectory_columns()
+    for k in TRAJECTORY_KEYS:
+        np.testing.assert_array_equal(np.array(tr[k]), cols[k])
+
+
+def test_json_numbers_agree_with_the_trajectory(saved):
+    """Energy, penalty, clearance and the control law recomputed from the JSON arrays."""
+    _, folder = saved
+    d = json.loads((folder / "result.json").read_text())
+    tr = {k: np.array(v) for k, v in d["trajectory"].items()}
+    c = CASES[2]
+    t = tr["t"]
+    assert t[0] == 0.0 and t[-1] == 1.0 and np.all(np.diff(t) > 0)
+    np.testing.assert_allclose([tr["x"][0], tr["y"][0], tr["theta"][0]], c.start, atol=1e-12)
+    np.testing.assert_allclose([tr["x"][-1], tr["y"][-1], tr["theta"][-1]], c.goal, atol=1e-8)
+    th, l1, l2, l3 = tr["theta"], tr["lambda_1"], tr["lambda_2"], tr["lambda_3"]
+    np.testing.assert_allclose(tr["v"], -(l1 * np.cos(th) + l2 * np.sin(th)), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(tr["omega"], -l3, rtol=0, atol=1e-12)
+    energy = simpson(0.5 * (tr["v"] ** 2 + tr["omega"] ** 2), x=t)
+    assert rel(energy, d["energy"]) <= 1e-6
+    assert rel(simpson(penalty(c.obstacles, tr["x"], tr["y"]), x=t), d["penalty"]) <= 1e-9
+    per = clearance(c.obstacles, tr["x"], tr["y"])
+    np.testing.assert_allclose(d["clearance"], per, rtol=0, atol=1e-12)
+    assert d["min_clearance"] == pytest.approx(per.min(), abs=1e-12)
+
+
+def test_json_without_obstacles_has_null_clearance(planned, tmp_path):
+    r = planned(1, MNM).result
+    r.save_json(tmp_path / "r.json")
+    d = json.loads((tmp_path / "r.json").read_text())
+    assert d["min_clearance"] is None and d["clearance"] == []
+    assert d["penalty"] == 0.0 and d["energy"] == d["cost"]
+    assert rel(d["cost"], 10.32320) <= 1e-5
+
+
+def test_npz_round_trip(saved):
+    r, folder = saved
+    with np.load(folder / "result.npz") as z:
+        data = {k: z[k] for k in z.files}
+    cols = r.trajectory_columns()
+    assert set(data) == set(cols) | {"history_cost", "history_jump", "clearance"}
+    for k, v in cols.items():
+        np.testing.assert_array_equal(data[k], v)
+    np.testing.assert_array_equal(data["history_cost"], [h.cost for h in r.history])
+    np.testing.assert_array_equal(data["history_jump"], [h.max_costate_jump for h in r.history])
+    np.testing.assert_array_equal(data["clearance"], r.clearance)
+
+
+def test_saving_leaves_no_temporary_files(saved):
+    _, folder = saved
+    assert sorted(os.listdir(folder)) == ["result.json", "result.npz"]
+
+
+def test_saving_into_a_missing_folder_raises_and_writes_nothing(planned, tmp_path):
+    r = planned(1, MNM).result
+    for save, name in ((r.save_json, "r.json"), (r.save_npz, "r.npz")):
+        with pytest.raises(FileNotFoundError):
+            save(tmp_path / "missing" / name)
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path):
+    path = tmp_path / "r.json"
+    path.write_text('{"old": true}')
+
+    def broken(tmp):
+        with open(tmp, "wb") as fh:
+            fh.write(b"half a fi")
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError, match="disk full"):
+        write_atomic(path, broken)
+    assert path.read_text() == '{"old": true}'
+    assert os.listdir(tmp_path) == ["r.json"]
+
+
+def test_saving_replaces_an_existing_file(planned, tmp_path):
+    r = planned(1, MNM).result
+    path = tmp_path / "r.json"
+    path.write_text("x" * 10_000_000)
+    r.save_json(path)
+    assert json.loads(path.read_text())["cost"] == r.cost
+    assert os.listdir(tmp_path) == ["r.json"]
+
+
+def test_saved_files_get_the_usual_permissions(planned, tmp_path):
+    r = planned(1, MNM).result
+    r.save_json(tmp_path / "r.json")
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert (tmp_path / "r.json").stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+@pytest.fixture(scope="module")
+def failed():
+    """A fast deterministic failure: q = 2 from the start and no multiple-shooting fallback."""
+    r = plan(CASES[4].name, partitions=2, final="shooting", initial_paths=1)
+    assert r.status is PlanStatus.FAILED
+    return r
+
+
+def test_failed_result_is_saved_with_status_failed(failed, tmp_path):
+    assert not failed.success
+    assert math.isnan(failed.cost) and failed.end_state_error == math.inf
+    assert "final solve failed" in failed.message
+    failed.save_json(tmp_path / "f.json")
+    failed.save_npz(tmp_path / "f.npz")
+    d = json.loads((tmp_path / "f.json").read_text())
+    assert d["status"] == "failed"
+    assert d["cost"] is None and d["end_state_error"] is None
+    assert d["trajectory"] == {} and d["sweeps"] == 0
+    assert d["message"] == failed.message
+    # The initial path was feasible: its clearance is reported instead.
+    assert isinstance(d["min_clearance"], float) and d["min_clearance"] >= 0.0
+    assert sorted(os.listdir(tmp_path)) == ["f.json", "f.npz"]
+
+
+# --------------------------------------------------------------------------- determinism
+
+
+def test_planning_twice_gives_bit_identical_results(planned):
+    first = planned(2, MNM).result
+    again = plan(CASES[2].name, method=MNM)
+    assert again.cost == first.cost
+    np.testing.assert_array_equal(again.costate0, first.costate0)
+    a, b = again.trajectory_columns(), first.trajectory_columns()
+    assert a.keys() == b.keys()
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k])
+    assert [h.cost for h in again.history] == [h.cost for h in first.history]
+    assert [x.cost for x in again.alternatives] == [x.cost for x in first.alternatives]
+    assert again.newton_iterations == first.newton_iterations
+
+
+def test_a_planner_replans_identically():
+    planner = Planner(CASES[1].name)
+    r1, r2 = planner.plan(), planner.plan()
+    assert r1.cost == r2.cost and rel(r1.cost, 10.32320) <= 1e-5
+    np.testing.assert_array_equal(r1.trajectory.x, r2.trajectory.x)
+    np.testing.assert_array_equal(r1.trajectory.lam, r2.trajectory.lam)
+
+
+# --------------------------------------------------------------------------- settings
+
+
+def test_unknown_option_is_named():
+    with pytest.raises(SettingsError, match="'bogus'") as info:
+        plan(CASES[1].name, bogus=1)
+    assert "partitions" in str(info.value)  # the known options are listed
+    assert isinstance(info.value, ValueError) and isinstance(info.value, LeapfrogError)
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "message"),
+    [
+        ("partitions", 1, "partitions"),
+        ("partitions", 2.5, "partitions"),
+        ("method", "x", "method 'x'"),
+        ("final", "x", "final"),
+        ("max_sweeps", 0, "max_sweeps"),
+        ("sweeps_per_level", 0, "sweeps_per_level"),
+        ("reduce_tol", 0.0, "reduce_tol"),
+        ("jump_tol", -1.0, "jump_tol"),
+        ("max_split_depth", -1, "max_split_depth"),
+        ("initial_paths", 0, "initial_paths"),
+        ("margin", -0.1, "margin"),
+        ("margin", float("nan"), "margin"),
+        ("samples", 1, "samples"),
+    ],
+)
+def test_bad_option_values_raise_settings_error(option, value, message):
+    with pytest.raises(SettingsError, match=message):
+        plan(CASES[1].name, **{option: value})
+    with pytest.raises(SettingsError, match=message):
+        PlannerSettings.from_options(**{option: value})
+
+
+def test_scenario_solver_table_feeds_the_settings_and_options_override_it():
+    text = """
+horizon = 1.0
+start = [0.0, 0.0, 0.0]
+goal = [1.0, 0.0, 0.0]
+
+[solver]
+method = "nleq-err"
+partitions = 4
+initial_paths = 2
+tolerance = 1e-4
+max_sweeps = 7
+"""
+    sc = load_scenario_text(text)
+    s = Planner(sc).settings
+    assert (s.leapfrog.method, s.leapfrog.partitions, s.initial_paths) == ("nleq-err", 4, 2)
+    assert (s.leapfrog.reduce_tol, s.leapfrog.max_sweeps) == (1e-4, 7)
+    s = Planner(sc, partitions=6, method=MNM).settings
+    assert (s.leapfrog.method, s.leapfrog.partitions, s.initial_paths) == (MNM, 6, 2)
+    bad = load_scenario_text(text.replace("partitions = 4", "partitions = 1"))
+    with pytest.raises(SettingsError, match="partitions"):
+        Planner(bad)
