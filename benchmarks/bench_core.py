@@ -60,6 +60,7 @@ from scipy.optimize import root as scipy_root  # noqa: E402
 T_IMPORT0 = time.perf_counter()
 import leapfrog_planner  # noqa: E402
 from leapfrog_planner import Flow, IntegratorSettings, OptimalControlProblem  # noqa: E402
+from leapfrog_planner.scenario import load_scenario  # noqa: E402
 from leapfrog_planner.shooting import (  # noqa: E402
     ShootingSettings,
     affine_costate_guess,
@@ -77,21 +78,8 @@ CASE1_COSTATE = [-4.676, 3.213, 3.213]  # near the optimal extremal (J = 10.3232
 CASE1_REF_COST = 10.32320
 
 # Paper case 4 (spec section 5): seven obstacles.
-CASE4 = dict(
-    start=[0.0, 0.0, 0.0],
-    goal=[2.0, 0.0, 0.0],
-    obstacles=np.array(
-        [
-            [0.4, 0.05, 0.1],
-            [0.7, -0.15, 0.1],
-            [1.0, 0.1, 0.1],
-            [1.3, -0.1, 0.1],
-            [1.6, 0.12, 0.1],
-            [0.9, 0.4, 0.1],
-            [1.2, -0.45, 0.1],
-        ]
-    ),
-)
+_CASE4 = load_scenario("paper-case-4")
+CASE4 = dict(start=_CASE4.start, goal=_CASE4.goal, obstacles=np.asarray(_CASE4.obstacles))
 # A costate guess read off the direct method's solution from the straight line (CasADi + IPOPT,
 # 400 intervals, cost 5.6662): lambda1, lambda2 by least squares on v = -(l1 cos th + l2 sin th)
 # over the first 30 intervals (where the penalty vanishes), lambda3 = -omega(0). Shooting from it

@@ -16,6 +16,7 @@ import pytest
 
 pytest.importorskip("casadi")
 
+from conftest import CASES as PAPER
 from leapfrog_planner.direct import (  # noqa: E402
     DirectResult,
     DirectTranscription,
@@ -27,28 +28,8 @@ from leapfrog_planner.direct import (  # noqa: E402
 from leapfrog_planner.errors import LeapfrogError  # noqa: E402
 
 PI = math.pi
-CASES = {
-    1: ([-1.0, 2.0, PI / 2], [1.0, 2.0, PI / 2], np.zeros((0, 3))),
-    2: ([0.0, 0.0, 0.0], [3.5, 3.5, 0.0], [[1.0, 1.2, 0.5], [2.5, 2.2, 0.5]]),
-    3: (
-        [0.0, 0.0, PI / 4],
-        [1.0, 1.0, PI / 4],
-        [[0.5, 0.5, 0.15], [0.2, 0.6, 0.1], [0.75, 0.3, 0.1]],
-    ),
-    4: (
-        [0.0, 0.0, 0.0],
-        [2.0, 0.0, 0.0],
-        [
-            [0.4, 0.05, 0.1],
-            [0.7, -0.15, 0.1],
-            [1.0, 0.1, 0.1],
-            [1.3, -0.1, 0.1],
-            [1.6, 0.12, 0.1],
-            [0.9, 0.4, 0.1],
-            [1.2, -0.45, 0.1],
-        ],
-    ),
-}
+# The paper's cases, transcribed once from the spec in conftest.
+CASES = {n: (c.start, c.goal, c.obstacles) for n, c in PAPER.items()}
 REFERENCE = {1: 10.32320, 2: 21.20621, 3: 3.274137, 4: 5.663875}
 CLEARANCE = {2: 0.148, 3: 0.033, 4: 0.008}
 

@@ -7,34 +7,15 @@ import math
 import numpy as np
 import pytest
 
+from conftest import CASES
 from leapfrog_planner.errors import ScenarioError, SettingsError
 from leapfrog_planner.initial_path import InitialPath, initial_paths, plot_initial_paths
 
 PI = math.pi
 
 # Spec section 5, typed in independently of the TOML files: (start, goal, obstacles).
-PAPER_CASES = {
-    "paper-case-1": ([-1.0, 2.0, PI / 2], [1.0, 2.0, PI / 2], []),
-    "paper-case-2": ([0.0, 0.0, 0.0], [3.5, 3.5, 0.0], [[1.0, 1.2, 0.5], [2.5, 2.2, 0.5]]),
-    "paper-case-3": (
-        [0.0, 0.0, PI / 4],
-        [1.0, 1.0, PI / 4],
-        [[0.5, 0.5, 0.15], [0.2, 0.6, 0.1], [0.75, 0.3, 0.1]],
-    ),
-    "paper-case-4": (
-        [0.0, 0.0, 0.0],
-        [2.0, 0.0, 0.0],
-        [
-            [0.4, 0.05, 0.1],
-            [0.7, -0.15, 0.1],
-            [1.0, 0.1, 0.1],
-            [1.3, -0.1, 0.1],
-            [1.6, 0.12, 0.1],
-            [0.9, 0.4, 0.1],
-            [1.2, -0.45, 0.1],
-        ],
-    ),
-}
+# The paper's cases, transcribed once from the spec in conftest.
+PAPER_CASES = {c.name: (c.start, c.goal, c.obstacles) for c in CASES.values()}
 
 # One big disc centred on the chord: the two sides are mirror images.
 SYMMETRIC = ([0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [[2.0, 0.0, 1.0]])
@@ -148,7 +129,7 @@ def test_paper_cases(name):
         assert len(p.signature) == len(obstacles)
         np.testing.assert_array_equal(p.polyline[0], start[:2])
         np.testing.assert_array_equal(p.polyline[-1], goal[:2])
-        if obstacles:
+        if len(obstacles):
             # The polyline keeps the margin up to the sampling of arcs (10 degree chords).
             assert polyline_clearance(p.polyline, obstacles) > 0.05 - 0.005
         t, X = p.junctions(16, 1.0)

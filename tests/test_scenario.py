@@ -13,6 +13,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from conftest import CASES
 from leapfrog_planner.errors import ScenarioError
 from leapfrog_planner.problem import OptimalControlProblem
 from leapfrog_planner.scenario import (
@@ -27,28 +28,8 @@ from leapfrog_planner.scenario import (
 PI = math.pi
 
 # Spec section 5, typed in independently of the TOML files.
-PAPER_CASES = {
-    "paper-case-1": ([-1.0, 2.0, PI / 2], [1.0, 2.0, PI / 2], []),
-    "paper-case-2": ([0.0, 0.0, 0.0], [3.5, 3.5, 0.0], [[1.0, 1.2, 0.5], [2.5, 2.2, 0.5]]),
-    "paper-case-3": (
-        [0.0, 0.0, PI / 4],
-        [1.0, 1.0, PI / 4],
-        [[0.5, 0.5, 0.15], [0.2, 0.6, 0.1], [0.75, 0.3, 0.1]],
-    ),
-    "paper-case-4": (
-        [0.0, 0.0, 0.0],
-        [2.0, 0.0, 0.0],
-        [
-            [0.4, 0.05, 0.1],
-            [0.7, -0.15, 0.1],
-            [1.0, 0.1, 0.1],
-            [1.3, -0.1, 0.1],
-            [1.6, 0.12, 0.1],
-            [0.9, 0.4, 0.1],
-            [1.2, -0.45, 0.1],
-        ],
-    ),
-}
+# The paper's cases, transcribed once from the spec in conftest.
+PAPER_CASES = {c.name: (c.start, c.goal, c.obstacles) for c in CASES.values()}
 
 BASE = """\
 horizon = 1.0

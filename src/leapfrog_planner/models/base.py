@@ -56,20 +56,6 @@ class VehicleModel:
     def nu(self) -> int:
         return len(self.controls)
 
-    def parameter_values(self, overrides: dict[str, float] | None = None) -> tuple[float, ...]:
-        """Default parameter values with ``overrides`` (by name); unknown names are errors."""
-        overrides = dict(overrides or {})
-        unknown = set(overrides) - set(self.parameter_names)
-        if unknown:
-            raise ModelError(
-                f"model {self.name!r} has no parameter {sorted(unknown)[0]!r}"
-                f" (known: {', '.join(self.parameter_names) or 'none'})"
-            )
-        return tuple(
-            float(overrides.get(n, d))
-            for n, d in zip(self.parameter_names, self.defaults, strict=True)
-        )
-
     def fingerprint(self) -> str:
         """A stable text that changes whenever the model's mathematics changes (cache key)."""
         parts = [
