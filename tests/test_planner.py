@@ -22,9 +22,10 @@ import pytest
 from scipy.integrate import simpson, solve_ivp
 
 from conftest import CASES
+from leapfrog_planner._atomic import write_atomic
 from leapfrog_planner.errors import LeapfrogError, SettingsError
 from leapfrog_planner.planner import PlanEvent, Planner, PlannerSettings, plan
-from leapfrog_planner.results import LeapfrogResult, PlanStatus, write_atomic
+from leapfrog_planner.results import LeapfrogResult, PlanStatus
 from leapfrog_planner.scenario import load_scenario_text
 from leapfrog_planner.shooting import solve_shooting
 

@@ -26,8 +26,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
+from ._atomic import write_atomic as _write_atomic
 from .results import LeapfrogResult
-from .results import write_atomic as _write_atomic
 from .scenario import Scenario, load_scenario
 
 __all__ = ["animate_sweeps", "plot_controls", "plot_convergence", "plot_path", "save_figure"]

@@ -22,16 +22,13 @@ and ``alternatives`` (the other initial paths: ``label``, ``status``, ``cost``).
 from __future__ import annotations
 
 import json
-import os
-import stat
-import tempfile
-from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
 
+from ._atomic import write_atomic
 from .integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
 from .leapfrog import SweepRecord
 from .problem import OptimalControlProblem
@@ -226,39 +223,3 @@ class LeapfrogResult:
                 np.savez(fh, **arrays)
 
         write_atomic(path, write)
-
-
-def _umask() -> int:
-    try:
-        with open("/proc/self/status", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    mask = os.umask(0o022)  # no other portable way to read it
-    os.umask(mask)
-    return mask
-
-
-def write_atomic(path, write: Callable[[str], None]) -> None:
-    """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it to ``path``.
-
-    The temporary file has the same extension (writers that pick the format by extension work)
-    and gets the permissions a new file would have (or those of the file it replaces); on any
-    error it is removed and ``path`` is left as it was.
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(tmp)
-        try:
-            mode = stat.S_IMODE(os.stat(path).st_mode)
-        except OSError:
-            mode = 0o666 & ~_umask()
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

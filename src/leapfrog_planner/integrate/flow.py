@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import SettingsError
 from ..problem import OptimalControlProblem
-from .tableaux import get_tableau
+from .tableaux import TABLEAUX, get_tableau
 
 
 class FlowStatus(IntEnum):
@@ -37,7 +37,10 @@ class IntegratorSettings:
     max_steps: int = 100_000
 
     def __post_init__(self):
-        get_tableau(self.method)
+        if self.method not in TABLEAUX:
+            raise SettingsError(
+                f"unknown integrator {self.method!r} (known: {', '.join(TABLEAUX)})"
+            )
         if not (0 < self.rtol < 1) or not (self.atol > 0):
             raise SettingsError(
                 f"integrator tolerances need 0 < rtol < 1, atol > 0; got {self.rtol}, {self.atol}"

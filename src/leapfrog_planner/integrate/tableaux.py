@@ -2,15 +2,17 @@
 
 The embedded pairs take their coefficients from SciPy's ``solve_ivp`` implementations rather
 than retyping them: Dormand-Prince 5(4) (``RK45``) and Dormand-Prince 8(5,3) (``DOP853``).
+Importing ``scipy.integrate`` costs about half a second of start-up, so the coefficients are
+copied once into the user's cache directory (keyed by SciPy's version) and read from there.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache, lru_cache
 
 import numpy as np
-from scipy.integrate import DOP853 as _DOP853
-from scipy.integrate import RK45 as _RK45
+import scipy
 
 from ..errors import SettingsError
 
@@ -53,32 +55,60 @@ RK4 = ButcherTableau(
     order=4,
 )
 
-DP5 = ButcherTableau(
-    name="dp5",
-    A=_square(_RK45.A),
-    b=_arr(_RK45.B),
-    c=_arr(_RK45.C),
-    order=_RK45.order,
-    error_order=_RK45.error_estimator_order,
-    e=_arr(_RK45.E),
-)
 
-DOP853 = ButcherTableau(
-    name="dop853",
-    A=_square(_DOP853.A),
-    b=_arr(_DOP853.B),
-    c=_arr(_DOP853.C),
-    order=_DOP853.order,
-    error_order=_DOP853.error_estimator_order,
-    e=_arr(_DOP853.E5),
-    e3=_arr(_DOP853.E3),
-)
+def _from_scipy() -> dict[str, np.ndarray]:
+    from scipy.integrate import DOP853, RK45
 
-TABLEAUX: dict[str, ButcherTableau] = {t.name: t for t in (RK4, DP5, DOP853)}
+    return {
+        "dp5_A": _square(RK45.A), "dp5_b": _arr(RK45.B), "dp5_c": _arr(RK45.C),
+        "dp5_e": _arr(RK45.E), "dp5_orders": _arr([RK45.order, RK45.error_estimator_order]),
+        "dop853_A": _square(DOP853.A), "dop853_b": _arr(DOP853.B), "dop853_c": _arr(DOP853.C),
+        "dop853_e": _arr(DOP853.E5), "dop853_e3": _arr(DOP853.E3),
+        "dop853_orders": _arr([DOP853.order, DOP853.error_estimator_order]),
+    }  # fmt: skip
+
+
+@lru_cache(maxsize=1)
+def _coefficients() -> dict[str, np.ndarray]:
+    from .._atomic import write_atomic
+    from ..kernels import cache_dir
+
+    path = cache_dir() / f"tableaux-scipy-{scipy.__version__}.npz"
+    try:
+        with np.load(path) as f:
+            return {k: _arr(f[k]) for k in f.files}
+    except (OSError, ValueError, KeyError):
+        pass
+    data = _from_scipy()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+
+        def write(tmp):
+            with open(tmp, "wb") as fh:
+                np.savez(fh, **data)
+
+        write_atomic(path, write)
+    except OSError:  # a read-only cache costs start-up time, nothing else
+        pass
+    return data
+
+
+@cache
+def _embedded(name: str) -> ButcherTableau:
+    k = _coefficients()
+    order, error_order = (int(v) for v in k[f"{name}_orders"])
+    return ButcherTableau(
+        name=name, A=k[f"{name}_A"], b=k[f"{name}_b"], c=k[f"{name}_c"], order=order,
+        error_order=error_order, e=k[f"{name}_e"], e3=k.get(f"{name}_e3"),
+    )  # fmt: skip
+
+
+TABLEAUX = ("rk4", "dp5", "dop853")
 
 
 def get_tableau(name: str) -> ButcherTableau:
-    try:
-        return TABLEAUX[name]
-    except KeyError:
-        raise SettingsError(f"unknown integrator {name!r} (known: {', '.join(TABLEAUX)})") from None
+    if name == "rk4":
+        return RK4
+    if name in TABLEAUX:
+        return _embedded(name)
+    raise SettingsError(f"unknown integrator {name!r} (known: {', '.join(TABLEAUX)})")
