@@ -94,13 +94,11 @@ def erk_fixed(Y0, t0, t1, nsteps, k, A, b, p, obs, weight, exponent, T_out, Z_ou
             if w != 0.0:
                 for m in range(n):
                     Y[m] += w * K[i, m]
+        if not _all_finite(Y, n):  # sensitivities too: a NaN Jacobian is a failure
+            return Y, NON_FINITE, step + 1
         if record:
             T_out[step + 1] = t0 + (step + 1) * h
             Z_out[step + 1, :] = Y[: NZ + 1]
-    # NaN and inf propagate through the remaining steps, so one check at the end catches a
-    # blow-up anywhere (sensitivities included: a NaN Jacobian is a failure too).
-    if not _all_finite(Y, n):
-        return Y, NON_FINITE, nsteps
     return Y, OK, nsteps
 
 
