@@ -38,7 +38,7 @@ from .errors import SettingsError
 from .integrate.flow import Flow, IntegratorSettings
 from .multiple_shooting import MultipleShootingSystem
 from .problem import OptimalControlProblem
-from .roots import STRATEGIES, RootResult, RootSettings, solve_root
+from .roots import STRATEGIES, ModifiedNewtonStep, RootResult, RootSettings, solve_root
 from .shooting import ShootingResult, ShootingSettings, solve_shooting
 
 log = logging.getLogger(__name__)
@@ -57,6 +57,10 @@ class LeapfrogSettings:
     jump_tol: float = 1e-6
     final: str = "auto"
     max_split_depth: int = 4
+    # MNM's line search in local problems stops at 2^-10: a step a thousand times shorter than
+    # Newton's that still fails the test means the local problem is failing, and Leapfrog handles
+    # that. Measured on paper case 4: same results as with 20 halvings, 3x less time.
+    local_halvings: int = 10
     # Local problems are short and warm-started: a solve that needs more than 25 iterations, whose
     # costates grow a thousandfold, or whose flow needs more than 1000 steps, is failing and is cut
     # short (failures are handled). Measured on the paper cases: same results, 40% fewer steps.
@@ -82,6 +86,10 @@ class LeapfrogSettings:
         if self.final not in FINAL_MODES:
             raise SettingsError(
                 f"final must be one of {', '.join(FINAL_MODES)}, got {self.final!r}"
+            )
+        if int(self.local_halvings) != self.local_halvings or self.local_halvings < 1:
+            raise SettingsError(
+                f"local_halvings must be a positive integer, got {self.local_halvings}"
             )
         if int(self.max_split_depth) != self.max_split_depth or self.max_split_depth < 0:
             raise SettingsError(
@@ -188,10 +196,23 @@ def leapfrog(
     settings = settings or LeapfrogSettings()
     flow = flow or Flow(problem, settings.shooting.integrator)
     shoot_settings = replace(settings.shooting, samples=0, method=settings.method)
+    local_method = settings.method
+    if settings.method == "modified-newton":
+        local_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
     count = _Counter()
 
     def solve(ta, xa, tb, xb, guess=None) -> ShootingResult | None:
-        r = solve_shooting(problem, ta, xa, tb, xb, guess=guess, settings=shoot_settings, flow=flow)
+        r = solve_shooting(
+            problem,
+            ta,
+            xa,
+            tb,
+            xb,
+            method=local_method,
+            guess=guess,
+            settings=shoot_settings,
+            flow=flow,
+        )
         count.add(r)
         return r if r.success else None
 
@@ -206,7 +227,15 @@ def leapfrog(
         for frac in CONTINUATION:
             p = problem.with_weight(frac * problem.penalty.weight)
             rr = solve_shooting(
-                p, ta, xa, tb, xb, guess=guess, settings=shoot_settings, flow=Flow(p, flow.settings)
+                p,
+                ta,
+                xa,
+                tb,
+                xb,
+                method=local_method,
+                guess=guess,
+                settings=shoot_settings,
+                flow=Flow(p, flow.settings),
             )
             count.add(rr)
             if not rr.success:
@@ -258,7 +287,7 @@ def leapfrog(
     history: list[SweepRecord] = []
     increases = 0
     last_multi = arcs  # junctions for the multiple-shooting fallback
-    sweeps_here = 0
+    sweeps_here = stalls = 0
     prev_cost = initial_cost
     while arcs.q > 2 and len(history) < settings.max_sweeps:
         t_sweep = time.perf_counter()
@@ -305,13 +334,15 @@ def leapfrog(
         sweeps_here += 1
         decrease = (prev_cost - cost) / max(abs(cost), 1e-12)
         prev_cost = cost
-        # A level with failed local problems keeps sweeping (their neighbours move, and the next
-        # attempt may succeed) until its sweep budget is spent.
-        settled = failures == 0 and (decrease < settings.reduce_tol or jump < settings.jump_tol)
-        if settled or sweeps_here >= settings.sweeps_per_level:
+        # A level with failed local problems keeps sweeping while that still pays (their
+        # neighbours move, and the next attempt may succeed); two sweeps in a row without
+        # progress, or the level's sweep budget, end it anyway.
+        settled = decrease < settings.reduce_tol or jump < settings.jump_tol
+        stalls = stalls + 1 if settled else 0
+        if (settled and failures == 0) or stalls >= 2 or sweeps_here >= settings.sweeps_per_level:
             last_multi = arcs
             arcs = arcs.halved()
-            sweeps_here = 0
+            sweeps_here = stalls = 0
     sweep_time = time.perf_counter() - t_start
     final_jump = arcs.max_jump()
 
