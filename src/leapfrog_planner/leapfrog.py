@@ -201,18 +201,12 @@ def leapfrog(
         local_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
     count = _Counter()
 
-    def solve(ta, xa, tb, xb, guess=None) -> ShootingResult | None:
+    def solve(ta, xa, tb, xb, guess=None, local=problem, local_flow=flow) -> ShootingResult | None:
+        """A local two-point problem; None when it fails (the callers handle failures)."""
         r = solve_shooting(
-            problem,
-            ta,
-            xa,
-            tb,
-            xb,
-            method=local_method,
-            guess=guess,
-            settings=shoot_settings,
-            flow=flow,
-        )
+            local, ta, xa, tb, xb, method=local_method, guess=guess, settings=shoot_settings,
+            flow=local_flow,
+        )  # fmt: skip
         count.add(r)
         return r if r.success else None
 
@@ -226,21 +220,10 @@ def leapfrog(
         r = None
         for frac in CONTINUATION:
             p = problem.with_weight(frac * problem.penalty.weight)
-            rr = solve_shooting(
-                p,
-                ta,
-                xa,
-                tb,
-                xb,
-                method=local_method,
-                guess=guess,
-                settings=shoot_settings,
-                flow=Flow(p, flow.settings),
-            )
-            count.add(rr)
-            if not rr.success:
+            r = solve(ta, xa, tb, xb, guess, p, Flow(p, flow.settings))
+            if r is None:
                 return None
-            r, guess = rr, rr.costate0
+            guess = r.costate0
         return r
 
     def fit(ta, xa, tb, xb, depth, guess) -> list | None:
