@@ -151,12 +151,15 @@ def affine_costate_guess(
     B = np.empty((nx, nu))
     R = np.empty((nu, nu))
     u = np.zeros(nu)
-    for _ in range(
-        3
-    ):  # Gauss-Newton for f(x_bar, u) = target (exact in one step for f affine in u)
-        K.linearize(xbar, u, p, f, A, B, R)
-        u = u + np.linalg.lstsq(B, target - f, rcond=None)[0]
+    # Gauss-Newton for the least-squares control u_bar with f(x_bar, u_bar) ~ target; for f
+    # affine in u (both built-in models) the first step is exact and the second changes nothing.
     K.linearize(xbar, u, p, f, A, B, R)
+    for _ in range(3):
+        du = np.linalg.lstsq(B, target - f, rcond=None)[0]
+        u = u + du
+        K.linearize(xbar, u, p, f, A, B, R)
+        if np.abs(du).max() <= 1e-12 * (1.0 + np.abs(u).max()):
+            break
     c = f - A @ xbar - B @ u
     q = np.zeros(nx)
     obs = problem.obstacles
