@@ -291,6 +291,9 @@ def _summary(r) -> Table:
     return table
 
 
+# Commands defined in their own modules (one add_command line each).
+
+
 def main(argv=None) -> None:
     """Entry point: maps errors to one line and an exit code instead of a traceback."""
     try:
