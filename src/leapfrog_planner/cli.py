@@ -292,6 +292,9 @@ def _summary(r) -> Table:
 
 
 # Commands defined in their own modules (one add_command line each).
+from .cli_experiments import paper as _paper  # noqa: E402
+
+cli.add_command(_paper)
 
 
 def main(argv=None) -> None:

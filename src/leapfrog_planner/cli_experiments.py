@@ -1,0 +1,90 @@
+"""``leapfrog paper`` and ``leapfrog bench``: the experiments, with a progress bar.
+
+Both write into an output folder (created if its parent exists) and exit 0 once the files are
+written: a solver failure is a result of the experiment, shown in its tables, not an error.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+EXIT_OK = 0  # as in cli.py; not imported from there, which imports this module
+
+_console = Console()
+_err = Console(stderr=True)
+
+
+def _output_dir(value: str, option: str) -> Path:
+    """The output folder, created if needed; checked before any work (bad input exits 2)."""
+    path = Path(value)
+    if path.exists() and not path.is_dir():
+        raise click.UsageError(f"{option}: {value!r} exists and is not a folder")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not path.exists() and not parent.is_dir():
+        raise click.UsageError(f"{option}: folder {str(parent)!r} does not exist")
+    target = path if path.exists() else parent
+    if not os.access(target, os.W_OK):
+        raise click.UsageError(f"{option}: folder {str(target)!r} is not writable")
+    path.mkdir(exist_ok=True)
+    return path
+
+
+def _progress_bar():
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    columns = [
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+    ]
+    return Progress(*columns, console=_err, transient=True)
+
+
+def _run_with_bar(title: str, run, quiet: bool):
+    """Call ``run(progress)`` with a rich progress bar fed by its events (none when quiet)."""
+    if quiet:
+        return run(None)
+    with _progress_bar() as bar:
+        task = bar.add_task(title, total=None, info="")
+
+        def on_event(ev):
+            bar.update(task, total=ev.total, completed=ev.done, info=ev.label)
+
+        return run(on_event)
+
+
+@click.command()
+@click.option("--out", "out", default="paper-out", show_default=True, help="output folder")
+@click.option(
+    "--repeat",
+    type=click.IntRange(min=1),
+    default=5,
+    show_default=True,
+    help="timed repetitions per case and method (the median is reported)",
+)
+@click.option(
+    "--case",
+    "cases",
+    type=click.IntRange(1, 4),
+    multiple=True,
+    help="run only this paper case (repeatable)  [default: all four]",
+)
+@click.option("--quiet", is_flag=True, help="no progress bar and no table")
+def paper(out, repeat, cases, quiet):
+    """Reproduce the paper's Table 1 and Figures 1-4 (NM and MNM on its four cases)."""
+    from .paper import PaperSettings, run_paper, table1_markdown, write_paper
+
+    settings = PaperSettings(repeat=repeat, **({"cases": cases} if cases else {}))
+    folder = _output_dir(out, "--out")
+    result = _run_with_bar("paper", lambda cb: run_paper(settings, progress=cb), quiet)
+    write_paper(result, folder)
+    if not quiet:
+        _console.print(table1_markdown(result), markup=False, highlight=False)
+        _console.print(f"written to {folder}/", markup=False, highlight=False)
+    return EXIT_OK
