@@ -295,6 +295,13 @@ def _summary(r) -> Table:
 from .cli_experiments import paper as _paper  # noqa: E402
 
 cli.add_command(_paper)
+from .cli_sweep import generate as _generate  # noqa: E402
+from .cli_sweep import report as _report  # noqa: E402
+from .cli_sweep import sweep as _sweep  # noqa: E402
+
+cli.add_command(_generate)
+cli.add_command(_sweep)
+cli.add_command(_report)
 
 
 def main(argv=None) -> None:
