@@ -292,9 +292,11 @@ def _summary(r) -> Table:
 
 
 # Commands defined in their own modules (one add_command line each).
+from .cli_experiments import bench as _bench  # noqa: E402
 from .cli_experiments import paper as _paper  # noqa: E402
 
 cli.add_command(_paper)
+cli.add_command(_bench)
 from .cli_sweep import generate as _generate  # noqa: E402
 from .cli_sweep import report as _report  # noqa: E402
 from .cli_sweep import sweep as _sweep  # noqa: E402

@@ -88,3 +88,77 @@ def paper(out, repeat, cases, quiet):
         _console.print(table1_markdown(result), markup=False, highlight=False)
         _console.print(f"written to {folder}/", markup=False, highlight=False)
     return EXIT_OK
+
+
+@click.command()
+@click.option("--out", "out", default="bench-out", show_default=True, help="output folder")
+@click.option(
+    "--repeat",
+    type=click.IntRange(min=1),
+    default=3,
+    show_default=True,
+    help="timed solves after a warm-up (the median is reported)",
+)
+@click.option(
+    "--case",
+    "cases",
+    type=click.IntRange(1, 4),
+    multiple=True,
+    help="paper case to include (repeatable)  [default: all four]",
+)
+@click.option(
+    "--random", "random_", type=click.IntRange(min=0), default=5, show_default=True,
+    help="seeded random scenarios",
+)  # fmt: skip
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option(
+    "--solver",
+    "solvers",
+    type=click.Choice(["leapfrog-mnm", "leapfrog-nm", "leapfrog-nleq-err", "shooting", "bvp",
+                       "direct"]),
+    multiple=True,
+    help="solver to run (repeatable)  [default: all]",
+)  # fmt: skip
+@click.option(
+    "--mesh",
+    "meshes",
+    type=click.IntRange(min=2),
+    multiple=True,
+    help="direct-method intervals (repeatable)  [default: 100 and 200]",
+)
+@click.option("--no-profile", is_flag=True, help="skip the profile of one Leapfrog solve")
+@click.option("--quiet", is_flag=True, help="no progress bar and no summary")
+def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, quiet):
+    """Benchmark Leapfrog against plain shooting, solve_bvp and CasADi/IPOPT."""
+    from .bench import BenchSettings, run_bench, target_ratios, write_bench
+
+    options = {"cases": cases, "solvers": solvers, "meshes": meshes}
+    settings = BenchSettings(
+        repeat=repeat,
+        random=random_,
+        seed=seed,
+        profile=not no_profile,
+        **{k: v for k, v in options.items() if v},
+    )
+    folder = _output_dir(out, "--out")
+    result = _run_with_bar("bench", lambda cb: run_bench(settings, progress=cb), quiet)
+    write_bench(result, folder)
+    for note in result.notes:  # e.g. CasADi missing: said even when quiet
+        _err.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
+    if not quiet:
+        for r in target_ratios(result):
+            _console.print(r.text, markup=False, highlight=False, soft_wrap=True)
+        if result.profile is not None:
+            p = result.profile
+            parts = ", ".join(
+                f"{k.replace('_', ' ')} {100 * p.fraction(k):.0f}%" for k in p.parts_s
+            )
+            _console.print(
+                f"time split ({p.scenario}, {p.wall_s * 1e3:.0f} ms): {parts}",
+                markup=False,
+                highlight=False,
+                soft_wrap=True,
+            )
+        _console.print(f"written to {folder}/ (bench.md, bench.csv, bench.json, bench.png)",
+                       markup=False, highlight=False)  # fmt: skip
+    return EXIT_OK

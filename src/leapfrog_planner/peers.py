@@ -1,0 +1,297 @@
+"""Peer solvers for the benchmark, all on the same scenario and the same optimal control problem.
+
+Each ``run_*`` function returns a :class:`PeerOutcome`: success, cost, the end-state error and
+the median wall time of ``repeat`` solves after one untimed warm-up solve (compilation, caches,
+IPOPT's first call). End-state errors of indirect solutions are measured by re-integrating the
+returned initial costate with the library's adaptive integrator (DOP853, rtol 1e-12, the same
+check as :func:`~leapfrog_planner.results.validate`); those of the direct method by propagating
+its piecewise-constant controls along exact unicycle arcs.
+
+- ``leapfrog-*``: :class:`~leapfrog_planner.planner.Planner` with MNM, NM or NLEQ-ERR.
+- ``shooting``: one simple shooting (MNM) over ``[0, T]`` from the affine costate guess.
+- ``bvp-line`` / ``bvp-path``: :func:`scipy.integrate.solve_bvp` on the same canonical system
+  (the library's compiled right-hand side), from the straight line with zero costates, or from
+  the first initial path of the planner with the costates that reproduce its controls.
+- ``direct-N<n>-line`` / ``-path``: CasADi/IPOPT, RK4 multiple shooting, the NLP of
+  :class:`~leapfrog_planner.direct.DirectTranscription` (built once per obstacle count and
+  mesh, reused across scenarios), from the straight line or the first initial path.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .results import validate
+from .scenario import Scenario
+
+__all__ = [
+    "PeerOutcome",
+    "casadi_available",
+    "random_scenarios",
+    "run_bvp",
+    "run_direct",
+    "run_leapfrog",
+    "run_shooting",
+]
+
+BVP_NODES = 41  # initial collocation mesh
+BVP_TOL = 1e-8
+BVP_MAX_NODES = 10_000
+
+
+@dataclass(frozen=True)
+class PeerOutcome:
+    solver: str
+    scenario: str
+    success: bool
+    cost: float
+    end_state_error: float
+    time_s: float  # median over the timed repetitions
+    times_s: tuple[float, ...]
+    message: str
+
+
+def _timed(fn, repeat: int, ok=lambda value: value.success):
+    """A warm-up call, then ``repeat`` timed calls; returns the last value and the times.
+
+    A failed warm-up is timed and not repeated: failures of the peers take seconds (mesh or
+    iteration limits) and their time is not the point.
+    """
+    t = time.perf_counter()
+    value = fn()
+    first = time.perf_counter() - t
+    if not ok(value):
+        return value, (first,)
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        value = fn()
+        times.append(time.perf_counter() - t)
+    return value, tuple(times)
+
+
+def _outcome(solver, sc, ok, cost, err, times, message) -> PeerOutcome:
+    return PeerOutcome(
+        solver=solver,
+        scenario=sc.name,
+        success=bool(ok),
+        cost=float(cost) if ok else math.nan,
+        end_state_error=float(err),
+        time_s=statistics.median(times),
+        times_s=times,
+        message=message,
+    )
+
+
+def run_leapfrog(sc: Scenario, method: str, repeat: int, solver: str | None = None):
+    """Leapfrog with ``method``; returns the outcome and the last :class:`LeapfrogResult`."""
+    from .planner import Planner
+
+    planner = Planner(sc, method=method)
+    res, times = _timed(planner.plan, repeat)
+    out = _outcome(
+        solver or f"leapfrog-{method}",
+        sc,
+        res.success,
+        res.cost,
+        res.end_state_error,
+        times,
+        f"{res.status}: {res.message}",
+    )
+    return out, res
+
+
+def run_shooting(sc: Scenario, repeat: int, guess=None, solver: str = "shooting") -> PeerOutcome:
+    """Simple shooting with MNM over the whole horizon, from ``guess`` (default: affine)."""
+    from .integrate.flow import Flow
+    from .shooting import ShootingSettings, solve_shooting
+
+    problem = sc.problem()
+    settings = ShootingSettings(samples=0)
+    flow = Flow(problem, settings.integrator)
+
+    def solve():
+        return solve_shooting(
+            problem, 0.0, sc.start, sc.horizon, sc.goal, guess=guess, settings=settings, flow=flow
+        )
+
+    r, times = _timed(solve, repeat)
+    return _checked(solver, sc, problem, r.success, r.costate0, times, f"{r.status}: {r.message}")
+
+
+def _checked(solver, sc, problem, ok, costate0, times, message, cost=None) -> PeerOutcome:
+    """Re-integrate ``costate0``; the cost is the re-integrated one unless ``cost`` is given."""
+    err, c = math.inf, math.nan
+    if ok and costate0 is not None and np.all(np.isfinite(costate0)):
+        v = validate(problem, 0.0, sc.start, sc.horizon, sc.goal, costate0, samples=2)
+        err, c = v.end_state_error, v.cost
+    return _outcome(solver, sc, ok, c if cost is None else cost, err, times, message)
+
+
+# --------------------------------------------------------------------------- solve_bvp
+
+
+def _path_guess(sc: Scenario, t: np.ndarray) -> np.ndarray:
+    """States of the planner's first initial path at times ``t`` (constant speed), and the
+    minimum-norm costates that give its controls (``omega = -l3``, ``v = -(l1, l2).heading``)."""
+    from .planner import Planner
+
+    path = Planner(sc, initial_paths=1).initial_paths()[0]
+    xy, th = path.curve(t / sc.horizon)
+    v = path.length / sc.horizon
+    omega = np.gradient(th, t)
+    lam = np.column_stack([-v * np.cos(th), -v * np.sin(th), -omega])
+    return np.column_stack([xy, th, lam])
+
+
+def _line_guess(sc: Scenario, t: np.ndarray) -> np.ndarray:
+    s = (t / sc.horizon)[:, None]
+    return np.column_stack([sc.start + s * (sc.goal - sc.start), np.zeros((t.size, 3))])
+
+
+def run_bvp(sc: Scenario, start_from: str, repeat: int) -> PeerOutcome:
+    """``scipy.integrate.solve_bvp`` from ``"line"`` or ``"path"``; the cost is a 7th ODE."""
+    from scipy.integrate import solve_bvp
+
+    problem = sc.problem()
+    K = problem.model.kernels
+    nx = problem.model.nx
+    p = np.asarray(problem.parameters, dtype=float)
+    obs = np.ascontiguousarray(problem.obstacles)
+    w, n = float(problem.penalty.weight), int(problem.penalty.exponent)
+
+    def fun(_t, y):
+        Z = np.ascontiguousarray(y.T)
+        dZ = np.empty_like(Z)
+        K.rhs_along(Z, p, obs, w, n, dZ)
+        return dZ.T
+
+    def bc(ya, yb):
+        return np.concatenate([ya[:nx] - sc.start, yb[:nx] - sc.goal, ya[2 * nx :]])
+
+    t = np.linspace(0.0, sc.horizon, BVP_NODES)
+    guess = _line_guess(sc, t) if start_from == "line" else _path_guess(sc, t)
+    y0 = np.vstack([guess.T, np.zeros(t.size)])
+
+    def solve():
+        # Quiet: diverging iterates overflow inside scipy, and the library never prints.
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return solve_bvp(fun, bc, t, y0, tol=BVP_TOL, max_nodes=BVP_MAX_NODES)
+
+    sol, times = _timed(solve, repeat)
+    msg = f"status {sol.status}: {sol.message} ({sol.x.size} nodes)"
+    return _checked(
+        f"bvp-{start_from}",
+        sc,
+        problem,
+        sol.success,
+        sol.y[nx : 2 * nx, 0],
+        times,
+        msg,
+        cost=float(sol.y[2 * nx, -1]),
+    )
+
+
+# --------------------------------------------------------------------------- direct method
+
+
+def casadi_available() -> bool:
+    try:
+        import casadi  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+_TRANSCRIPTIONS: dict = {}
+
+
+def _transcription(n_obstacles: int, intervals: int):
+    """Built once per (obstacle count, mesh) and process: only warm solves are timed."""
+    from .direct import DirectTranscription
+
+    key = (n_obstacles, intervals)
+    if key not in _TRANSCRIPTIONS:
+        _TRANSCRIPTIONS[key] = DirectTranscription(n_obstacles, intervals)
+    return _TRANSCRIPTIONS[key]
+
+
+def _arc_end(x0: np.ndarray, controls: np.ndarray, horizon: float) -> np.ndarray:
+    """End state of the unicycle under piecewise-constant ``(v, omega)``, exactly (no steps)."""
+    h = horizon / len(controls)
+    x = np.array(x0, dtype=float)
+    for v, om in controls:
+        chord = v * h * np.sinc(om * h / (2.0 * np.pi))
+        mid = x[2] + om * h / 2.0
+        x += (chord * math.cos(mid), chord * math.sin(mid), om * h)
+    return x
+
+
+def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> PeerOutcome:
+    """IPOPT from the straight line (``"line"``) or the planner's first initial path."""
+    tr = _transcription(sc.obstacles.shape[0], intervals)
+    guess = None
+    if start_from == "path":
+        guess = _path_guess(sc, np.linspace(0.0, sc.horizon, intervals + 1))[:, :3]
+
+    def solve():
+        return tr.solve(
+            sc.start,
+            sc.goal,
+            sc.horizon,
+            sc.obstacles,
+            weight=sc.weight,
+            exponent=sc.exponent,
+            guess_states=None if guess is None else guess.copy(),
+        )
+
+    r, times = _timed(solve, repeat)
+    err = float(np.linalg.norm(_arc_end(sc.start, r.controls, sc.horizon) - sc.goal))
+    return _outcome(
+        f"direct-N{intervals}-{start_from}", sc, r.success, r.cost, err, times, r.message
+    )
+
+
+# --------------------------------------------------------------------------- random scenarios
+
+
+def random_scenarios(n: int, seed: int = 0) -> list[Scenario]:
+    """``n`` seeded scenarios in the box [0, 2]^2, T = 1: 2-5 discs of radius 0.08-0.25 at least
+    0.05 apart, start and goal at least 1.2 apart and 0.1 clear of every disc, headings within
+    45 degrees of the start-goal direction. Scenario ``i`` depends only on ``(seed, i)``."""
+    out = []
+    for i in range(n):
+        rng = np.random.default_rng([seed, i])
+        while True:
+            m = int(rng.integers(2, 6))
+            obs = []
+            while len(obs) < m:
+                c, r = rng.uniform(0.2, 1.8, 2), rng.uniform(0.08, 0.25)
+                if all(np.hypot(*(c - o[:2])) > r + o[2] + 0.05 for o in obs):
+                    obs.append(np.array([c[0], c[1], r]))
+            obs = np.array(obs)
+            a, b = rng.uniform(0.0, 2.0, 2), rng.uniform(0.0, 2.0, 2)
+            if np.hypot(*(b - a)) < 1.2:
+                continue
+            if any((np.hypot(*(p - obs[:, :2]).T) - obs[:, 2]).min() < 0.1 for p in (a, b)):
+                continue
+            break
+        d = math.atan2(*(b - a)[::-1])
+        th0, th1 = d + rng.uniform(-math.pi / 4, math.pi / 4, 2)
+        out.append(
+            Scenario(
+                name=f"random-{seed}-{i}",
+                horizon=1.0,
+                start=[a[0], a[1], th0],
+                goal=[b[0], b[1], th1],
+                obstacles=obs,
+            )
+        )
+    return out

@@ -1,0 +1,124 @@
+"""Where the time of one Leapfrog solve goes: integration, linear algebra, initial path, Python.
+
+:func:`profile_split` plans a scenario once under :mod:`cProfile` and once under light timers,
+and splits the wall time into exclusive parts:
+
+- ``integration``: inside ``Flow._run``, the call of the compiled flow kernel (Leapfrog's own
+  integrations; validation's are counted under ``validation``);
+- ``linear_algebra``: ``numpy.linalg`` (solve, svd, lstsq, norm) and the affine guess's
+  ``scipy.linalg`` calls (expm, solve);
+- ``initial_path``: building the initial feasible paths (``Planner.initial_paths``);
+- ``validation``: re-integrating the answer at rtol 1e-12 and the checks (``results.validate``);
+- ``python``: everything else (the Newton loop, Leapfrog's bookkeeping, result objects).
+
+The timers wrap those functions for one run and are restored afterwards; a category nested in
+another is subtracted from its parent, so the parts add up to the wall time. cProfile's
+overhead inflates the Python share, so the split is taken from the timers; cProfile supplies the
+list of the most expensive functions.
+"""
+
+from __future__ import annotations
+
+import cProfile
+import io
+import pstats
+import time
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ProfileSplit", "profile_split"]
+
+PARTS = ("integration", "linear_algebra", "initial_path", "validation", "python")
+
+
+@dataclass(frozen=True)
+class ProfileSplit:
+    scenario: str
+    method: str
+    wall_s: float  # of the timed run
+    parts_s: dict  # PARTS -> seconds, exclusive, summing to wall_s
+    calls: dict  # category -> number of wrapped calls
+    top_functions: str  # cProfile's most expensive functions (cumulative), as text
+
+    def fraction(self, part: str) -> float:
+        return self.parts_s[part] / self.wall_s
+
+
+class _Clock:
+    """Exclusive time per category: a nested category's time is taken off its parent's."""
+
+    def __init__(self):
+        self.total = dict.fromkeys(PARTS[:-1], 0.0)
+        self.calls = dict.fromkeys(PARTS[:-1], 0)
+        self.stack: list[list] = []  # [category, time spent in nested categories]
+
+    def wrap(self, category, fn):
+        def timed(*args, **kwargs):
+            self.stack.append([category, 0.0])
+            t = time.perf_counter()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                dt = time.perf_counter() - t
+                _, nested = self.stack.pop()
+                self.total[category] += dt - nested
+                self.calls[category] += 1
+                if self.stack:
+                    self.stack[-1][1] += dt
+
+        return timed
+
+
+@contextmanager
+def _patched(clock: _Clock):
+    from . import planner as planner_mod
+    from . import shooting
+    from .integrate.flow import Flow
+
+    targets = [
+        (Flow, "_run", "integration"),
+        (planner_mod.Planner, "initial_paths", "initial_path"),
+        (planner_mod, "validate", "validation"),
+        (shooting, "expm", "linear_algebra"),
+        (shooting, "solve", "linear_algebra"),
+    ] + [(np.linalg, name, "linear_algebra") for name in ("solve", "svd", "lstsq", "norm")]
+    with ExitStack() as stack:
+        for owner, name, category in targets:
+            original = getattr(owner, name)
+            stack.callback(setattr, owner, name, original)
+            setattr(owner, name, clock.wrap(category, original))
+        yield
+
+
+def profile_split(
+    scenario="paper-case-4", method: str = "modified-newton", top: int = 15
+) -> ProfileSplit:
+    """Profile one ``Planner.plan()`` (after a warm-up run) of ``scenario`` with ``method``."""
+    from .planner import Planner
+
+    planner = Planner(scenario, method=method)
+    planner.plan()  # warm-up: kernels loaded, caches filled
+    prof = cProfile.Profile()
+    prof.enable()
+    planner.plan()
+    prof.disable()
+    buf = io.StringIO()
+    pstats.Stats(prof, stream=buf).sort_stats("cumulative").print_stats(top)
+
+    clock = _Clock()
+    with _patched(clock):
+        t = time.perf_counter()
+        planner.plan()
+        wall = time.perf_counter() - t
+    parts = dict(clock.total)
+    parts["python"] = wall - sum(parts.values())
+    return ProfileSplit(
+        scenario=planner.scenario.name,
+        method=method,
+        wall_s=wall,
+        parts_s=parts,
+        calls=dict(clock.calls),
+        top_functions=buf.getvalue(),
+    )

@@ -1,0 +1,134 @@
+"""``leapfrog bench``: peers on the same problems, the issue's ratios, the profile split."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+
+from leapfrog_planner import bench, peers
+from leapfrog_planner.bench import BenchSettings, run_bench, target_ratios
+from leapfrog_planner.cli import main
+from leapfrog_planner.errors import SettingsError
+from leapfrog_planner.planner import plan
+from leapfrog_planner.profiling import PARTS
+
+
+def run(argv) -> int:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    return exc.value.code
+
+
+def test_case4_mnm_converges_and_agrees_with_plan():
+    """The issue's check: MNM converges on case 4 in the benchmark, at the planner's cost."""
+    settings = BenchSettings(cases=(4,), random=0, solvers=("leapfrog-mnm",), repeat=1)
+    res = run_bench(BenchSettings(**{**settings.__dict__, "profile": False}))
+    o = res.outcome("paper-case-4", "leapfrog-mnm")
+    assert o.success and o.end_state_error <= 1e-8
+    ref = plan("paper-case-4")
+    assert o.cost == pytest.approx(ref.cost, rel=1e-9)
+    (floor,) = res.floors
+    assert floor.success and floor.cost == pytest.approx(o.cost, rel=1e-9)
+    (line,) = target_ratios(res)  # no direct rows: only the floor ratio
+    assert line.kind == "floor" and line.ratio == pytest.approx(o.time_s / floor.time_s)
+
+
+@pytest.fixture(scope="module")
+def bench_out(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench") / "out"
+    argv = ["bench", "--out", str(out), "--case", "1", "--random", "1", "--repeat", "1"]
+    assert run([*argv, "--quiet"]) == 0
+    return out
+
+
+def test_bench_files_and_consistency(bench_out):
+    for name in ("bench.md", "bench.csv", "bench.json", "bench.png"):
+        assert (bench_out / name).stat().st_size > 0
+    data = json.loads((bench_out / "bench.json").read_text())
+    solvers = {o["solver"] for o in data["outcomes"]}
+    expected = {"leapfrog-mnm", "leapfrog-nm", "leapfrog-nleq-err", "shooting"}
+    expected |= {"bvp-line", "bvp-path"}
+    if peers.casadi_available():
+        expected |= {f"direct-N{n}-{g}" for n in (100, 200) for g in ("line", "path")}
+    assert solvers == expected
+    names = {o["scenario"] for o in data["outcomes"]}
+    assert names == {"paper-case-1", "random-0-0"}
+    md = (bench_out / "bench.md").read_text()
+    with open(bench_out / "bench.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == len(data["outcomes"]) + len(data["floors"])
+    for o, row in zip(data["outcomes"], rows, strict=False):
+        assert row["solver"] == o["solver"] and row["scenario"] == o["scenario"]
+        assert (row["success"] == "True") == o["success"]
+        if o["success"]:
+            assert float(row["cost"]) == o["cost"]
+            assert f"| {o['solver']} | yes | {o['cost']:.6f} |" in md
+        else:
+            assert f"| {o['solver']} | **no** | - |" in md
+    # Leapfrog finds the spec's optimum of case 1, and its result re-integrates to the goal.
+    mnm = next(o for o in data["outcomes"] if o["solver"] == "leapfrog-mnm")
+    assert mnm["cost"] == pytest.approx(10.32320, rel=1e-5) and mnm["end_state_error"] < 1e-8
+
+
+def test_bench_ratios_and_profile(bench_out):
+    data = json.loads((bench_out / "bench.json").read_text())
+    kinds = {r["kind"] for r in data["ratios"]}
+    assert "floor" in kinds and ("direct" in kinds) == peers.casadi_available()
+    for r in data["ratios"]:
+        assert r["scenario"] == "paper-case-1" and r["ratio"] > 0
+    p = data["profile"]
+    assert set(p["parts_s"]) == set(PARTS)
+    assert sum(p["parts_s"].values()) == pytest.approx(p["wall_s"], rel=1e-9)
+    assert p["parts_s"]["integration"] > 0 and p["calls"]["integration"] > 0
+    md = (bench_out / "bench.md").read_text()
+    assert "Where the time goes" in md and "Performance targets" in md and "cores" in md
+
+
+def test_missing_casadi_is_said_and_rows_skipped(monkeypatch):
+    monkeypatch.setattr(peers, "casadi_available", lambda: False)
+    res = run_bench(
+        BenchSettings(cases=(1,), random=0, solvers=("shooting", "direct"), repeat=1, profile=False)
+    )
+    assert res.notes == (bench.CASADI_MISSING,)
+    assert "bench" in bench.CASADI_MISSING
+    assert [o.solver for o in res.outcomes] == ["shooting"]
+    assert bench.CASADI_MISSING in bench.bench_markdown(res)
+
+
+def test_random_scenarios_seeded_and_valid():
+    a = peers.random_scenarios(4, seed=3)
+    b = peers.random_scenarios(2, seed=3)
+    assert a[:2] == b  # scenario i depends only on (seed, i)
+    assert peers.random_scenarios(1, seed=4)[0] != a[0]
+    for sc in a:
+        obs = sc.obstacles
+        assert 2 <= len(obs) <= 5
+        for p in (sc.start, sc.goal):
+            assert (np.hypot(*(p[:2] - obs[:, :2]).T) - obs[:, 2]).min() >= 0.1
+        assert math.hypot(*(sc.goal[:2] - sc.start[:2])) >= 1.2
+
+
+def test_direct_end_state_is_exact_for_arcs():
+    # Constant (v, omega) over the horizon: a circular arc, end state in closed form.
+    x = peers._arc_end(np.zeros(3), np.tile([1.0, np.pi], (7, 1)), 1.0)
+    assert np.allclose(x, [0.0, 2 / np.pi, np.pi], atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [{"solvers": ("ipopt",)}, {"repeat": 0}, {"cases": (7,)}, {"meshes": (1,)}, {"random": -1}],
+)
+def test_settings_validated(bad):
+    with pytest.raises(SettingsError):
+        BenchSettings(**bad)
+
+
+def test_cli_bad_solver_exits_2(tmp_path, capsys):
+    assert run(["bench", "--out", str(tmp_path / "o"), "--solver", "ipopt", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "\n" not in err
+    assert not (tmp_path / "o").exists()
