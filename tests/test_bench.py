@@ -56,7 +56,7 @@ def test_bench_files_and_consistency(bench_out):
         expected |= {f"direct-N{n}-{g}" for n in (100, 200) for g in ("line", "path")}
     assert solvers == expected
     names = {o["scenario"] for o in data["outcomes"]}
-    assert names == {"paper-case-1", "random-0-0"}
+    assert names == {"paper-case-1", peers.random_scenarios(1, 0)[0].name}
     md = (bench_out / "bench.md").read_text()
     with open(bench_out / "bench.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))

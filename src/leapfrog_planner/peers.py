@@ -263,35 +263,19 @@ def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> Pe
 
 
 def random_scenarios(n: int, seed: int = 0) -> list[Scenario]:
-    """``n`` seeded scenarios in the box [0, 2]^2, T = 1: 2-5 discs of radius 0.08-0.25 at least
-    0.05 apart, start and goal at least 1.2 apart and 0.1 clear of every disc, headings within
-    45 degrees of the start-goal direction. Scenario ``i`` depends only on ``(seed, i)``."""
-    out = []
-    for i in range(n):
-        rng = np.random.default_rng([seed, i])
-        while True:
-            m = int(rng.integers(2, 6))
-            obs = []
-            while len(obs) < m:
-                c, r = rng.uniform(0.2, 1.8, 2), rng.uniform(0.08, 0.25)
-                if all(np.hypot(*(c - o[:2])) > r + o[2] + 0.05 for o in obs):
-                    obs.append(np.array([c[0], c[1], r]))
-            obs = np.array(obs)
-            a, b = rng.uniform(0.0, 2.0, 2), rng.uniform(0.0, 2.0, 2)
-            if np.hypot(*(b - a)) < 1.2:
-                continue
-            if any((np.hypot(*(p - obs[:, :2]).T) - obs[:, 2]).min() < 0.1 for p in (a, b)):
-                continue
-            break
-        d = math.atan2(*(b - a)[::-1])
-        th0, th1 = d + rng.uniform(-math.pi / 4, math.pi / 4, 2)
-        out.append(
-            Scenario(
-                name=f"random-{seed}-{i}",
-                horizon=1.0,
-                start=[a[0], a[1], th0],
-                goal=[b[0], b[1], th1],
-                obstacles=obs,
-            )
-        )
-    return out
+    """``n`` seeded scenarios of :mod:`.generate` in the box [0, 2]^2, T = 1: 2-5 discs of radius
+    0.08-0.25 at least 0.05 apart, start and goal at least 1.2 apart and 0.1 clear of every
+    disc, headings within 45 degrees of the start-goal direction. Scenario ``i`` depends only on
+    ``(seed, i)``."""
+    from .generate import GeneratorSpec, generate
+
+    spec = GeneratorSpec(
+        n=n,
+        seed=seed,
+        obstacles=(2, 5),
+        radius=(0.08, 0.25),
+        min_distance=1.2,
+        clearance=0.1,
+        obstacle_gap=0.05,
+    )
+    return list(generate(spec))
