@@ -4,9 +4,6 @@ Every (case, method) is planned once per module (``planned``) and the result is 
 the tests that look at it. Costs are checked against spec section 5, end states and costs by an
 independent re-integration of the canonical equations written out here from spec section 1, and
 the dense trajectory against Pontryagin's control law.
-
-Known gaps are ``xfail(strict=True)`` with the measured behaviour as the reason, so that they
-stay visible and turn into failures the day they are fixed (then drop the mark).
 """
 
 from __future__ import annotations
@@ -35,25 +32,15 @@ SHORT = {MNM: "mnm", NM: "nm"}
 
 # Case 4: the spec's reference 5.663875 (clearance 0.008) is a local optimum. A cheaper one,
 # 4.585248 (clearance 0.039), was found by CasADi multistart (tests/test_direct.py) and is
-# recomputed inside this module (test_case_4_cheaper_optimum_agrees_with_casadi).
+# recomputed inside this module (test_case_4_cheaper_optimum_agrees_with_casadi). The planner
+# returns the cheaper one by default (its initial paths are ranked by estimated cost) and reaches
+# the reference from another initial path.
 CASE4_CHEAPER = 4.585248
 CASE4_CHEAPER_CLEARANCE = 0.039
 # Spec section 5: min clearance of the reference optima (3 decimals).
 CLEARANCE = {2: 0.148, 3: 0.033, 4: 0.008}
 # Spec section 5: the other extremals of case 1 that the planner must not return.
 CASE1_OTHER_EXTREMALS = (13.65, 22.95, 26.17, 38.73)
-
-NM_CASE3 = (
-    "NM on case 3: Leapfrog with classical Newton converges only from initial path "
-    "'visibility #3', to the local optimum 6.404824 (clearance 0.047); from 'visibility #1' and "
-    "'visibility #2' (where MNM reaches 3.477037 and the reference 3.274136) it fails"
-)
-NM_CASE4 = (
-    "NM on case 4: Leapfrog with classical Newton converges from none of the 3 initial paths "
-    "(final solve fails, e.g. 'non-finite: F is not finite'); the result has status 'failed', "
-    "cost nan and end_state_error inf (the spec records this divergence as the paper's "
-    "observation, the issue asks for convergence)"
-)
 
 
 @dataclass(frozen=True)
@@ -86,20 +73,13 @@ def planned():
     return get
 
 
-def case_method(xfails: dict):
-    """Parameters (case, method) for the four cases and both methods, with known gaps marked."""
-    out = []
-    for case in CASES:
-        for method in METHODS:
-            marks = ()
-            if (case, method) in xfails:
-                marks = pytest.mark.xfail(strict=True, reason=xfails[(case, method)])
-            out.append(pytest.param(case, method, marks=marks, id=f"case{case}-{SHORT[method]}"))
-    return out
-
-
-NM4_ONLY = {(4, NM): NM_CASE4}
-NM34 = {(3, NM): NM_CASE3, (4, NM): NM_CASE4}
+def case_method():
+    """Parameters (case, method) for the four cases and both methods."""
+    return [
+        pytest.param(case, method, id=f"case{case}-{SHORT[method]}")
+        for case in CASES
+        for method in METHODS
+    ]
 
 
 def rel(a: float, b: float) -> float:
@@ -147,7 +127,7 @@ def clearance(obstacles: np.ndarray, x, y) -> np.ndarray:
 # --------------------------------------------------------------------------- paper cases
 
 
-@pytest.mark.parametrize(("case", "method"), case_method(NM4_ONLY))
+@pytest.mark.parametrize(("case", "method"), case_method())
 def test_paper_case_converges(planned, case, method):
     r = planned(case, method).result
     assert r.status is PlanStatus.CONVERGED, r.message
@@ -156,7 +136,7 @@ def test_paper_case_converges(planned, case, method):
     assert r.costate0 is not None and np.all(np.isfinite(r.costate0))
 
 
-@pytest.mark.parametrize(("case", "method"), case_method(NM4_ONLY))
+@pytest.mark.parametrize(("case", "method"), case_method())
 def test_paper_case_end_state_and_pontryagin_conditions(planned, case, method):
     r = planned(case, method).result
     assert r.success, r.message
@@ -171,7 +151,7 @@ def test_paper_case_end_state_and_pontryagin_conditions(planned, case, method):
     assert tr.t[0] == 0.0 and tr.t[-1] == 1.0
 
 
-@pytest.mark.parametrize(("case", "method"), case_method(NM4_ONLY))
+@pytest.mark.parametrize(("case", "method"), case_method())
 def test_paper_case_independent_reintegration(planned, case, method):
     """Integrate spec section 1's canonical ODEs (written out here) from the returned costate."""
     r = planned(case, method).result
@@ -187,21 +167,22 @@ def test_paper_case_independent_reintegration(planned, case, method):
     assert rel(zT[6], r.cost) <= 1e-9
 
 
-@pytest.mark.parametrize(("case", "method"), case_method(NM34))
+@pytest.mark.parametrize(("case", "method"), case_method())
 def test_paper_case_cost_matches_spec_reference(planned, case, method):
     r = planned(case, method).result
     assert r.success, r.message
     ref = CASES[case].reference_cost
     if case == 4:
-        # Either the spec's reference, or the cheaper optimum verified by the direct method
-        # (test_case_4_cheaper_optimum_agrees_with_casadi). Today the default planner returns
-        # the reference, 5.663874.
-        assert rel(r.cost, ref) <= 1e-4 or rel(r.cost, CASE4_CHEAPER) <= 1e-6, r.cost
+        # The cheaper optimum verified by the direct method in this module; the spec's
+        # reference is a local optimum, reached from another initial path (reported).
+        assert rel(r.cost, CASE4_CHEAPER) <= 1e-6, r.cost
+        if method == MNM:
+            assert any(rel(a.cost, ref) <= 1e-4 for a in r.alternatives), r.alternatives
     else:
         assert rel(r.cost, ref) <= 1e-4, r.cost
 
 
-@pytest.mark.parametrize(("case", "method"), case_method(NM4_ONLY))
+@pytest.mark.parametrize(("case", "method"), case_method())
 def test_paper_case_clearance(planned, case, method):
     r = planned(case, method).result
     assert r.success, r.message
@@ -216,17 +197,11 @@ def test_paper_case_clearance(planned, case, method):
     assert r.min_clearance >= 0.0
     if rel(r.cost, c.reference_cost) <= 1e-4:  # at the reference optimum: its clearance too
         assert abs(r.min_clearance - CLEARANCE[case]) <= 1e-3
+    if case == 4:
+        assert abs(r.min_clearance - CASE4_CHEAPER_CLEARANCE) <= 1e-3
 
 
-@pytest.mark.parametrize(
-    "case",
-    [
-        1,
-        2,
-        pytest.param(3, marks=pytest.mark.xfail(strict=True, reason=NM_CASE3)),
-        pytest.param(4, marks=pytest.mark.xfail(strict=True, reason=NM_CASE4)),
-    ],
-)
+@pytest.mark.parametrize("case", [1, 2, 3, 4])
 def test_newton_and_modified_newton_reach_the_same_cost(planned, case):
     mnm, nm = planned(case, MNM).result, planned(case, NM).result
     assert mnm.success, mnm.message
@@ -234,7 +209,7 @@ def test_newton_and_modified_newton_reach_the_same_cost(planned, case):
     assert rel(nm.cost, mnm.cost) <= 1e-8
 
 
-@pytest.mark.parametrize(("case", "method"), case_method({}))
+@pytest.mark.parametrize(("case", "method"), case_method())
 def test_best_result_is_the_cheapest_converged_path(planned, case, method):
     r = planned(case, method).result
     others = [a.cost for a in r.alternatives if a.status is PlanStatus.CONVERGED]
@@ -274,7 +249,7 @@ def test_case_1_leapfrog_finds_the_optimum_plain_shooting_does_not(planned, meth
 # --------------------------------------------------------------------------- monotone cost
 
 
-@pytest.mark.parametrize(("case", "method"), case_method({}))
+@pytest.mark.parametrize(("case", "method"), case_method())
 def test_sweep_costs_never_increase_in_any_run(planned, case, method):
     p = planned(case, method)
     runs = p.sweep_costs()
@@ -298,7 +273,7 @@ def test_sweep_costs_never_increase_in_any_run(planned, case, method):
 
 @pytest.mark.slow
 def test_case_4_cheaper_optimum_agrees_with_casadi(planned):
-    """With margin 0.05 the planner finds 4.585248; CasADi/IPOPT recomputes it in the suite.
+    """The planner finds 4.585248 on case 4; CasADi/IPOPT recomputes it in the suite.
 
     Direct method: multistart on N = 100 (independent of the planner), refined on N = 200 from
     the N = 100 optimum, both extrapolated by Richardson (order 2) to ~1e-6.
@@ -306,7 +281,7 @@ def test_case_4_cheaper_optimum_agrees_with_casadi(planned):
     pytest.importorskip("casadi")
     from leapfrog_planner.direct import richardson, solve_direct
 
-    r = planned(4, MNM, margin=0.05).result
+    r = planned(4, MNM).result
     assert r.success, r.message
     assert rel(r.cost, CASE4_CHEAPER) <= 1e-6
     assert r.cost < CASES[4].reference_cost - 1.0
@@ -543,6 +518,10 @@ def test_unknown_option_is_named():
         ("jump_tol", -1.0, "jump_tol"),
         ("max_split_depth", -1, "max_split_depth"),
         ("initial_paths", 0, "initial_paths"),
+        ("candidate_paths", 0, "candidate_paths"),
+        ("attempt_iterations", 0, "attempt_iterations"),
+        ("continuation_min_step", 0.0, "continuation_min_step"),
+        ("continuation_first_step", 2.0, "continuation_first_step"),
         ("margin", -0.1, "margin"),
         ("margin", float("nan"), "margin"),
         ("samples", 1, "samples"),

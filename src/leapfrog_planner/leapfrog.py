@@ -15,13 +15,14 @@ at this ``q``. At ``q = 2`` the final
 simple shooting over the whole horizon runs from the costate of the first arc; if it fails, a
 multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over.
 
-Local failures: on the initial path, each segment is first solved from the previous arc's final
-costate, then from the affine guess; if both fail, by continuation in the obstacle weight from 0
-to ``W`` (warm-starting each weight from the last); if that fails too, the segment is split at
-its middle (up to ``max_split_depth`` times). In a sweep, a failed local problem (retried from
-the affine guess, then by weight continuation) leaves its junction where it is, so the arcs and
-the cost stay defined; ``q`` is not reduced while a level still has failures (unless its sweep
-budget is spent).
+Local failures: a local problem is tried from the warm start, then from the affine guess, each
+for at most ``attempt_iterations`` Newton iterations; then by continuation in the obstacle weight
+from 0 to ``W`` with step-size control and a secant predictor. On the initial path a segment that
+still fails is split at its middle (up to ``max_split_depth`` times). In a sweep, a failed local
+problem leaves its junction where it is, so the arcs and the cost stay defined; ``q`` is not
+reduced while a level still has failures (unless two sweeps in a row made no progress, or its
+sweep budget is spent). The method itself (classical Newton included) is never changed: this
+robustness lives at the Leapfrog level.
 """
 
 from __future__ import annotations
@@ -44,7 +45,6 @@ from .shooting import ShootingResult, ShootingSettings, solve_shooting
 log = logging.getLogger(__name__)
 
 FINAL_MODES = ("auto", "shooting", "multiple-shooting")
-CONTINUATION = (0.0, 0.1, 0.3, 0.6, 1.0)  # fractions of the obstacle weight
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,12 @@ class LeapfrogSettings:
     jump_tol: float = 1e-6
     final: str = "auto"
     max_split_depth: int = 4
+    # Iterations of a direct attempt at a local problem (warm guess, then affine guess) before
+    # continuation in the obstacle weight takes over; converging local solves need 3 to 8.
+    attempt_iterations: int = 10
+    # Weight continuation: first increment and smallest increment, as fractions of W.
+    continuation_first_step: float = 0.25
+    continuation_min_step: float = 1.0 / 64
     # MNM's line search in local problems stops at 2^-10: a step a thousand times shorter than
     # Newton's that still fails the test means the local problem is failing, and Leapfrog handles
     # that. Measured on paper case 4: same results as with 20 halvings, 3x less time.
@@ -90,6 +96,15 @@ class LeapfrogSettings:
         if int(self.local_halvings) != self.local_halvings or self.local_halvings < 1:
             raise SettingsError(
                 f"local_halvings must be a positive integer, got {self.local_halvings}"
+            )
+        if int(self.attempt_iterations) != self.attempt_iterations or self.attempt_iterations < 1:
+            raise SettingsError(
+                f"attempt_iterations must be a positive integer, got {self.attempt_iterations}"
+            )
+        if not 0 < self.continuation_min_step <= self.continuation_first_step <= 1:
+            raise SettingsError(
+                "need 0 < continuation_min_step <= continuation_first_step <= 1, got "
+                f"{self.continuation_min_step} and {self.continuation_first_step}"
             )
         if int(self.max_split_depth) != self.max_split_depth or self.max_split_depth < 0:
             raise SettingsError(
@@ -201,10 +216,10 @@ def leapfrog(
         local_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
     count = _Counter()
 
-    def solve(ta, xa, tb, xb, guess=None, local=problem, local_flow=flow) -> ShootingResult | None:
+    def solve(ta, xa, tb, xb, guess=None, local=problem, local_flow=flow, settings=shoot_settings):
         """A local two-point problem; None when it fails (the callers handle failures)."""
         r = solve_shooting(
-            local, ta, xa, tb, xb, method=local_method, guess=guess, settings=shoot_settings,
+            local, ta, xa, tb, xb, method=local_method, guess=guess, settings=settings,
             flow=local_flow,
         )  # fmt: skip
         count.add(r)
@@ -214,22 +229,66 @@ def leapfrog(
     X = np.asarray(X, dtype=float)
     start, goal = X[0].copy(), X[-1].copy()
     T0, T1 = float(t[0]), float(t[-1])
+    W = problem.penalty.weight
+    has_obstacles = problem.obstacles.shape[0] > 0 and W > 0
+    # A direct attempt that has not converged after a few iterations is failing: continuation
+    # in the weight is then cheaper than more Newton steps on the hard problem.
+    attempt = replace(
+        shoot_settings,
+        root=replace(shoot_settings.root, max_iterations=settings.attempt_iterations),
+    )
+    weighted: dict[float, tuple[OptimalControlProblem, Flow]] = {}
+
+    def at_weight(w):
+        if w not in weighted:
+            p = problem.with_weight(w)
+            weighted[w] = (p, Flow(p, flow.settings))
+        return weighted[w]
 
     def continuation(ta, xa, tb, xb, guess) -> ShootingResult | None:
-        """Solve with the obstacle weight raised from 0 to W, each solve warm-starting the next."""
-        r = None
-        for frac in CONTINUATION:
-            p = problem.with_weight(frac * problem.penalty.weight)
-            r = solve(ta, xa, tb, xb, guess, p, Flow(p, flow.settings))
+        """Raise the obstacle weight from 0 to W, each solve warm-starting the next.
+
+        The increment doubles after a success and halves after a failure (down to
+        ``continuation_min_step`` W); the next guess is extrapolated from the last two solutions
+        (secant predictor), so each solve starts close to its answer.
+        """
+        p0, f0 = at_weight(0.0)
+        r = (guess is not None and solve(ta, xa, tb, xb, guess, p0, f0, attempt)) or solve(
+            ta, xa, tb, xb, None, p0, f0, attempt
+        )
+        if r is None:
+            return None
+        w, s, prev = 0.0, r.costate0, None
+        dw = settings.continuation_first_step * W
+        min_dw = settings.continuation_min_step * W
+        while True:
+            wn = min(W, w + dw)
+            pred = s if prev is None else s + (wn - w) * (s - prev[1]) / (w - prev[0])
+            pw, fw = at_weight(wn)
+            r = solve(ta, xa, tb, xb, pred, pw, fw, attempt)
+            if r is None and prev is not None:
+                r = solve(ta, xa, tb, xb, s, pw, fw, attempt)
             if r is None:
-                return None
-            guess = r.costate0
+                if dw <= min_dw:
+                    return None
+                dw = max(0.5 * dw, min_dw)
+                continue
+            prev, w, s = (w, s), wn, r.costate0
+            if w >= W:
+                return r
+            dw *= 2.0
+
+    def local_solve(ta, xa, tb, xb, guess) -> ShootingResult | None:
+        """Warm guess, then the affine guess, then continuation in the obstacle weight."""
+        r = (guess is not None and solve(ta, xa, tb, xb, guess, settings=attempt)) or solve(
+            ta, xa, tb, xb, settings=attempt
+        )
+        if r is None and has_obstacles:
+            r = continuation(ta, xa, tb, xb, guess)
         return r
 
     def fit(ta, xa, tb, xb, depth, guess) -> list | None:
-        r = (guess is not None and solve(ta, xa, tb, xb, guess)) or solve(ta, xa, tb, xb)
-        if r is None and problem.obstacles.shape[0] and problem.penalty.weight > 0:
-            r = continuation(ta, xa, tb, xb, guess)
+        r = local_solve(ta, xa, tb, xb, guess)
         if r is not None:
             return [(ta, xa, r.costate0, r.costate1, r.cost)]
         if depth >= settings.max_split_depth or curve is None:
@@ -279,9 +338,7 @@ def leapfrog(
         for i in range(1, arcs.q):
             ta, tb = arcs.t[i - 1], arcs.t[i + 1]
             xa, xb = arcs.X[i - 1], arcs.X[i + 1]
-            r = solve(ta, xa, tb, xb, arcs.lam0[i - 1]) or solve(ta, xa, tb, xb)
-            if r is None and problem.obstacles.shape[0] and problem.penalty.weight > 0:
-                r = continuation(ta, xa, tb, xb, arcs.lam0[i - 1])
+            r = local_solve(ta, xa, tb, xb, arcs.lam0[i - 1])
             if r is None:
                 failures += 1
                 continue

@@ -18,6 +18,7 @@ from .errors import SettingsError
 from .initial_path import InitialPath, initial_paths
 from .integrate.flow import Flow
 from .leapfrog import LeapfrogRun, LeapfrogSettings, SweepRecord, leapfrog
+from .path_ranking import rank_paths
 from .results import LeapfrogResult, PathOutcome, PlanStatus, validate
 from .scenario import Scenario, load_scenario
 
@@ -41,6 +42,10 @@ class PlanEvent:
 @dataclass(frozen=True)
 class PlannerSettings:
     initial_paths: int = 3  # initial paths tried, in different homotopy classes
+    # Candidates (the shortest paths in different homotopy classes) from which the initial paths
+    # are picked by estimated cost (see path_ranking): on paper case 4 the path that leads to the
+    # cheapest optimum is only the fifth shortest.
+    candidate_paths: int = 8
     # Obstacle inflation of the initial paths: small, since optimal paths squeeze through gaps
     # (paper case 3's optimum passes two obstacles 0.066 apart with 0.033 clearance).
     margin: float = 0.02
@@ -51,6 +56,10 @@ class PlannerSettings:
         if int(self.initial_paths) != self.initial_paths or self.initial_paths < 1:
             raise SettingsError(
                 f"initial_paths must be a positive integer, got {self.initial_paths}"
+            )
+        if int(self.candidate_paths) != self.candidate_paths or self.candidate_paths < 1:
+            raise SettingsError(
+                f"candidate_paths must be a positive integer, got {self.candidate_paths}"
             )
         if not self.margin >= 0:
             raise SettingsError(f"margin must be >= 0, got {self.margin}")
@@ -108,15 +117,18 @@ class Planner:
         self.progress = progress
 
     def initial_paths(self) -> list[InitialPath]:
-        s = self.scenario
-        return initial_paths(
+        """The ``initial_paths`` candidates of least estimated cost, cheapest first."""
+        s, st = self.scenario, self.settings
+        candidates = initial_paths(
             s.start,
             s.goal,
             s.obstacles,
-            k=self.settings.initial_paths,
-            margin=self.settings.margin,
+            k=max(st.initial_paths, st.candidate_paths),
+            margin=st.margin,
             waypoints=s.waypoints,
         )
+        ranked = rank_paths(self.problem, candidates, s.horizon)
+        return [path for _, path in ranked[: st.initial_paths]]
 
     def plan(self) -> LeapfrogResult:
         with single_threaded_blas():
