@@ -85,7 +85,7 @@ def paper(out, repeat, cases, quiet):
     result = _run_with_bar("paper", lambda cb: run_paper(settings, progress=cb), quiet)
     write_paper(result, folder)
     if not quiet:
-        _console.print(table1_markdown(result), markup=False, highlight=False)
+        click.echo(table1_markdown(result))  # plain: rich would re-wrap the Markdown
         _console.print(f"written to {folder}/", markup=False, highlight=False)
     return EXIT_OK
 
