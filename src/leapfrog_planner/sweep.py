@@ -29,6 +29,7 @@ first pair of each worker process only). Timing fields end in ``_s``; the rest i
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -227,6 +228,14 @@ def settings_hash(method, settings: SweepSettings) -> str:
 # --------------------------------------------------------------------------- in the worker
 
 _WARM: set[str] = set()  # models whose kernels this process has loaded (and warmed)
+# In local worker processes: a shared array where each pair notes when it really started
+# (after start-up and warm-up), so the sweep's watchdog measures the pair, not the queue.
+_STARTED = None
+
+
+def init_local_worker(started) -> None:
+    global _STARTED
+    _STARTED = started
 
 
 def _warm_up(model: str) -> float:
@@ -372,8 +381,11 @@ def run_task(task: PairTask) -> dict:
     t0 = time.perf_counter()
     warm = 0.0
     try:
-        warm = _warm_up(task.scenario.model)
+        if not isinstance(task.method, SweepMethod):  # own methods may not use our kernels
+            warm = _warm_up(task.scenario.model)
         t0 = time.perf_counter()  # the limit and task time exclude the one-off warm-up
+        if _STARTED is not None:
+            _STARTED[task.index] = time.monotonic()  # system-wide clock on Linux
         deadline = t0 + task.time_limit
         options = dict(task.options)
         with _time_limit(task.time_limit):
@@ -457,11 +469,16 @@ def run_sweep(
     settings = settings or SweepSettings()
     t_begin = time.perf_counter()
     tasks = _tasks(scenarios, settings)
+    # Connect first: an unreachable cluster leaves no results file behind.
+    engine = (
+        DaskEngine(settings.scheduler, settings) if settings.scheduler else LocalEngine(settings)
+    )
     try:
         store = ResultStore.open(out)
     except StoreError as exc:
+        engine.close()
         raise SweepError(str(exc)) from None
-    with store:
+    with store, contextlib.closing(engine):
         _check_resume(store, tasks)
         todo = [t for t in tasks if t.key not in store.done]
         skipped = len(tasks) - len(todo)
@@ -485,11 +502,6 @@ def run_sweep(
 
         if progress is not None:
             progress(SweepEvent(skipped, len(tasks), skipped, 0, 0, None))
-        engine = (
-            DaskEngine(settings.scheduler, settings)
-            if settings.scheduler
-            else LocalEngine(settings)
-        )
         if todo:
             engine.run(todo, on_record)
         complete = all(t.key in store.done for t in tasks)

@@ -26,7 +26,14 @@ from collections import deque
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
-from .sweep import PairTask, SweepError, SweepSettings, failure_record, run_task
+from .sweep import (
+    PairTask,
+    SweepError,
+    SweepSettings,
+    failure_record,
+    init_local_worker,
+    run_task,
+)
 
 
 def _context():
@@ -44,23 +51,35 @@ class LocalEngine:
         self.limit = float(settings.time_limit)
         self.grace = float(settings.kill_grace)
 
-    def _pool(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=self.workers, mp_context=_context())
+    def close(self) -> None:
+        pass
+
+    def _pool(self, started) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=_context(),
+            initializer=init_local_worker,
+            initargs=(started,),
+        )
 
     def run(self, tasks: list[PairTask], on_record) -> None:
+        # started[i]: when pair i began in its worker (0: not yet); see sweep.init_local_worker
+        started = _context().RawArray("d", max(t.index for t in tasks) + 1)
         pending = deque(tasks)
         suspects: deque[PairTask] = deque()  # in flight when a worker died: re-run alone
         inflight: dict = {}  # future -> (task, start time, ran alone)
-        pool = self._pool()
+        pool = self._pool(started)
         try:
             while pending or suspects or inflight:
                 if suspects:
                     if not inflight:
                         t = suspects.popleft()
+                        started[t.index] = 0.0
                         inflight[pool.submit(run_task, t)] = (t, time.monotonic(), True)
                 else:
                     while pending and len(inflight) < self.workers:
                         t = pending.popleft()
+                        started[t.index] = 0.0
                         inflight[pool.submit(run_task, t)] = (t, time.monotonic(), False)
                 done, _ = wait(list(inflight), timeout=0.25, return_when=FIRST_COMPLETED)
                 broken = []
@@ -75,8 +94,8 @@ class LocalEngine:
                 now = time.monotonic()
                 overdue = {
                     t.index
-                    for t, start, _ in inflight.values()
-                    if now - start > self.limit + self.grace
+                    for t, _, _ in inflight.values()
+                    if started[t.index] > 0 and now - started[t.index] > self.limit + self.grace
                 }
                 if overdue:
                     _kill_workers(pool)
@@ -93,13 +112,14 @@ class LocalEngine:
                         broken.append((t, start, alone))
                         del inflight[f]
                     for t, start, alone in sorted(broken, key=lambda b: b[0].index):
-                        elapsed = now - start
+                        began = started[t.index] or start
+                        elapsed = now - began
                         if t.index in overdue:
                             on_record(
                                 failure_record(
                                     t,
                                     "timeout",
-                                    f"still running {elapsed:.1f} s after the start, past the"
+                                    f"still running after {elapsed:.1f} s, past the"
                                     f" time limit {self.limit:g} s: worker killed",
                                     elapsed,
                                 )
@@ -113,7 +133,7 @@ class LocalEngine:
                         else:
                             suspects.append(t)
                     pool.shutdown(wait=False, cancel_futures=True)
-                    pool = self._pool()
+                    pool = self._pool(started)
         finally:
             if inflight:  # interrupted: do not wait for pairs whose results nobody records
                 _kill_workers(pool)
@@ -142,7 +162,7 @@ class DaskEngine:
             ) from None
         self.settings = settings
         try:
-            self.client = Client(address, timeout="10s", set_as_default=False)
+            self.client = Client(address, timeout="5s", set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:
             raise SweepError(f"cannot reach the Dask scheduler at {address!r}: {exc}") from None
 
@@ -159,26 +179,28 @@ class DaskEngine:
 
         from .sweep import run_chunk
 
+        live: dict = {}  # key -> (future, chunk)
+
+        def submit(chunk):
+            f = self.client.submit(run_chunk, chunk, pure=False)
+            live[f.key] = (f, chunk)
+            return f
+
         try:
             k = self.chunk_size(len(tasks))
-            chunks = {}
-            futures = []
-            for i in range(0, len(tasks), k):
-                chunk = tasks[i : i + k]
-                f = self.client.submit(run_chunk, chunk, pure=False)
-                chunks[f.key] = chunk
-                futures.append(f)
-            ac = as_completed(futures, with_results=False)
+            ac = as_completed(
+                [submit(tasks[i : i + k]) for i in range(0, len(tasks), k)],
+                loop=self.client.loop,  # our client is not the process's default one
+                with_results=False,
+            )
             for f in ac:
-                chunk = chunks.pop(f.key)
+                _, chunk = live.pop(f.key)
                 try:
                     records = f.result()
                 except KilledWorker:
                     if len(chunk) > 1:  # find the culprit: one pair per task
                         for t in chunk:
-                            g = self.client.submit(run_chunk, [t], pure=False)
-                            chunks[g.key] = [t]
-                            ac.add(g)
+                            ac.add(submit([t]))
                     else:
                         on_record(
                             failure_record(
@@ -195,5 +217,9 @@ class DaskEngine:
                     f.release()
                 for r in records:
                     on_record(r)
-        finally:
-            self.client.close()
+        except BaseException:  # interrupted: the cluster should not go on with our work
+            self.client.cancel([f for f, _ in live.values()])
+            raise
+
+    def close(self) -> None:
+        self.client.close()
