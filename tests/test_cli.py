@@ -185,13 +185,13 @@ BAD = [
     Bad(
         "solver-value-quiet",
         ("solve", "{file}", "--quiet"),
-        r"partitions must be an integer >= 2, got 1",
+        r"\.toml: solver\.partitions: partitions must be an integer >= 2, got 1",
         BASE + "\n[solver]\npartitions = 1\n",
     ),
     Bad(
         "solver-value",
         SOLVE,
-        r"partitions must be an integer >= 2, got 1",
+        r"\.toml: solver\.partitions: partitions must be an integer >= 2, got 1",
         BASE + "\n[solver]\npartitions = 1\n",
     ),
     Bad("derive-unknown-model", ("derive", "tank"), r"unknown model 'tank'"),
@@ -329,6 +329,7 @@ def test_solve_prints_a_summary(good_runs):
     assert re.search(r"status\s*\W\s*converged", run.stdout)
     assert re.search(r"cost\s*\W\s*10\.323202\b", run.stdout), run.stdout
     assert os.listdir(run.cwd) == []
+    assert run.stderr == ""  # stderr is a pipe here: no progress bar, not even a blank line
 
 
 def test_solver_failure_gives_exit_1_and_still_writes_files(good_runs):

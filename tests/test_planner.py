@@ -20,7 +20,7 @@ from scipy.integrate import simpson, solve_ivp
 
 from conftest import CASES
 from leapfrog_planner._atomic import write_atomic
-from leapfrog_planner.errors import LeapfrogError, SettingsError
+from leapfrog_planner.errors import LeapfrogError, ScenarioError, SettingsError
 from leapfrog_planner.planner import PlanEvent, Planner, PlannerSettings, plan
 from leapfrog_planner.results import LeapfrogResult, PlanStatus
 from leapfrog_planner.scenario import load_scenario_text
@@ -554,5 +554,5 @@ max_sweeps = 7
     s = Planner(sc, partitions=6, method=MNM).settings
     assert (s.leapfrog.method, s.leapfrog.partitions, s.initial_paths) == (MNM, 6, 2)
     bad = load_scenario_text(text.replace("partitions = 4", "partitions = 1"))
-    with pytest.raises(SettingsError, match="partitions"):
-        Planner(bad)
+    with pytest.raises(ScenarioError, match=r"^<string>: solver\.partitions: .*>= 2, got 1$"):
+        Planner(bad)  # the file's error: names the source and the key

@@ -234,6 +234,8 @@ def solve(
 def _plan_with_progress(planner):
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    if not _err.is_terminal:  # no bar (and no stray blank line) when stderr is a file or pipe
+        return planner.plan()
     sc = planner.scenario
     columns = [
         TextColumn("{task.description}"),

@@ -14,7 +14,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ._blas import single_threaded_blas
-from .errors import SettingsError
+from .errors import ScenarioError, SettingsError
 from .initial_path import InitialPath, initial_paths
 from .integrate.flow import Flow
 from .leapfrog import LeapfrogRun, LeapfrogSettings, SweepRecord, leapfrog
@@ -111,6 +111,13 @@ class Planner:
     ):
         self.scenario = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
         from_file = {_SOLVER_KEY_MAP[k]: v for k, v in self.scenario.solver.items()}
+        for key, name in _SOLVER_KEY_MAP.items():
+            if name in from_file:  # a bad value in the file is the file's error: name it
+                try:
+                    PlannerSettings.from_options(settings, **{name: from_file[name]})
+                except SettingsError as e:
+                    source = self.scenario.source or self.scenario.name
+                    raise ScenarioError(f"{source}: solver.{key}: {e}") from None
         self.settings = PlannerSettings.from_options(settings, **{**from_file, **options})
         self.problem = self.scenario.problem()
         self.flow = Flow(self.problem, self.settings.leapfrog.shooting.integrator)
