@@ -120,7 +120,7 @@ class Planner:
                     raise ScenarioError(f"{source}: solver.{key}: {e}") from None
         self.settings = PlannerSettings.from_options(settings, **{**from_file, **options})
         self.problem = self.scenario.problem()
-        self.flow = Flow(self.problem, self.settings.leapfrog.shooting.integrator)
+        self.flow = Flow(self.problem, self.settings.leapfrog.final_shooting.integrator)
         self.progress = progress
 
     def initial_paths(self) -> list[InitialPath]:
