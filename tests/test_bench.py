@@ -50,7 +50,8 @@ def test_bench_files_and_consistency(bench_out):
         assert (bench_out / name).stat().st_size > 0
     data = json.loads((bench_out / "bench.json").read_text())
     solvers = {o["solver"] for o in data["outcomes"]}
-    expected = {"leapfrog-mnm", "leapfrog-nm", "leapfrog-nleq-err", "shooting"}
+    expected = {"leapfrog-mnm", "leapfrog-mnm-1path", "leapfrog-nm", "leapfrog-nleq-err"}
+    expected |= {"shooting"}
     expected |= {"bvp-line", "bvp-path"}
     if peers.casadi_available():
         expected |= {f"direct-N{n}-{g}" for n in (100, 200) for g in ("line", "path")}
@@ -84,8 +85,18 @@ def test_bench_ratios_and_profile(bench_out):
     assert set(p["parts_s"]) == set(PARTS)
     assert sum(p["parts_s"].values()) == pytest.approx(p["wall_s"], rel=1e-9)
     assert p["parts_s"]["integration"] > 0 and p["calls"]["integration"] > 0
+    assert p["steps"] >= p["calls"]["integration"] > p["jacobian_calls"] > 0
     md = (bench_out / "bench.md").read_text()
     assert "Where the time goes" in md and "Performance targets" in md and "cores" in md
+    # The summary counts what the per-scenario tables show.
+    n_ok = sum(o["success"] for o in data["outcomes"] if o["solver"] == "shooting")
+    assert f"| shooting | {n_ok}/2 |" in md
+
+
+def test_cli_solver_choices_are_the_benchmark_solvers():
+    from leapfrog_planner.cli_experiments import SOLVER_CHOICES
+
+    assert tuple(SOLVER_CHOICES) == bench.SOLVERS
 
 
 def test_missing_casadi_is_said_and_rows_skipped(monkeypatch):

@@ -30,11 +30,20 @@ from .scenario import Scenario, load_scenario
 
 __all__ = ["SOLVERS", "BenchResult", "BenchSettings", "run_bench", "target_ratios", "write_bench"]
 
-SOLVERS = ("leapfrog-mnm", "leapfrog-nm", "leapfrog-nleq-err", "shooting", "bvp", "direct")
-LEAPFROG = {
-    "leapfrog-mnm": "modified-newton",
-    "leapfrog-nm": "newton",
-    "leapfrog-nleq-err": "nleq-err",
+SOLVERS = (
+    "leapfrog-mnm",
+    "leapfrog-mnm-1path",
+    "leapfrog-nm",
+    "leapfrog-nleq-err",
+    "shooting",
+    "bvp",
+    "direct",
+)
+LEAPFROG = {  # solver -> (method, planner options)
+    "leapfrog-mnm": ("modified-newton", {}),
+    "leapfrog-mnm-1path": ("modified-newton", {"initial_paths": 1}),
+    "leapfrog-nm": ("newton", {}),
+    "leapfrog-nleq-err": ("nleq-err", {}),
 }
 CASADI_MISSING = (
     "CasADi is not installed, so the direct-method rows are skipped: "
@@ -112,7 +121,8 @@ def _units(settings: BenchSettings, have_casadi: bool) -> list[str]:
 
 def _run_unit(unit: str, sc: Scenario, repeat: int) -> tuple[PeerOutcome, object]:
     if unit in LEAPFROG:
-        return peers.run_leapfrog(sc, LEAPFROG[unit], repeat, solver=unit)
+        method, options = LEAPFROG[unit]
+        return peers.run_leapfrog(sc, method, repeat, solver=unit, **options)
     if unit == "shooting":
         return peers.run_shooting(sc, repeat), None
     if unit.startswith("bvp-"):
@@ -183,56 +193,72 @@ def run_bench(
 class RatioLine:
     scenario: str
     kind: str  # "direct" or "floor"
+    leapfrog: str  # the Leapfrog solver measured
     against: str  # the solver compared with
-    ratio: float  # direct: direct time / MNM time (speed-up); floor: MNM time / floor time
-    mnm_cost: float
+    ratio: float  # direct: direct time / Leapfrog time (speed-up); floor: Leapfrog / floor time
+    leapfrog_cost: float
     other_cost: float
     passed: bool
     text: str
 
 
+def _direct_line(name: str, lf: PeerOutcome, o: PeerOutcome) -> RatioLine:
+    speed = o.time_s / lf.time_s
+    cost_ok = lf.success and (not o.success or lf.cost <= o.cost * (1 + 1e-6) + 1e-12)
+    passed = lf.success and speed >= TARGET_DIRECT_SPEEDUP and cost_ok
+    other = f"{o.cost:.6f}" if o.success else f"{o.solver} failed"
+    text = (
+        f"{name}: {o.solver} time / {lf.solver} time = {o.time_s * 1e3:.1f} / "
+        f"{lf.time_s * 1e3:.1f} ms = {speed:.2f}x (target >= {TARGET_DIRECT_SPEEDUP:g}x, goal "
+        f"{GOAL_DIRECT_SPEEDUP:g}x); cost {lf.cost:.6f} vs {other} -> "
+        f"{'PASS' if passed else 'MISS'}"
+    )
+    return RatioLine(name, "direct", lf.solver, o.solver, speed, lf.cost, o.cost, passed, text)
+
+
 def target_ratios(result: BenchResult) -> list[RatioLine]:
-    """The issue's ratios per paper case, from this run's figures."""
+    """The issue's ratios per paper case, from this run's figures: Leapfrog-MNM (and, when run,
+    MNM from one initial path) against each direct-method row, and MNM against the floor."""
     lines = []
     floors = {f.scenario: f for f in result.floors}
     for name in result.scenarios:
         if not name.startswith("paper-case-"):
             continue
-        mnm = result.outcome(name, "leapfrog-mnm")
-        if mnm is None:
-            continue
-        for o in result.outcomes:
-            if o.scenario != name or not o.solver.startswith("direct-"):
+        for solver in ("leapfrog-mnm", "leapfrog-mnm-1path"):
+            lf = result.outcome(name, solver)
+            if lf is None:
                 continue
-            speed = o.time_s / mnm.time_s
-            cost_ok = mnm.success and (not o.success or mnm.cost <= o.cost * (1 + 1e-6) + 1e-12)
-            passed = mnm.success and speed >= TARGET_DIRECT_SPEEDUP and cost_ok
-            cost_text = (
-                f"cost {mnm.cost:.6f} vs {o.cost:.6f}"
-                if o.success
-                else f"cost {mnm.cost:.6f} vs {o.solver} failed"
-            )
-            lines.append(
-                RatioLine(
-                    name, "direct", o.solver, speed, mnm.cost, o.cost, passed,
-                    f"{name}: {o.solver} time / Leapfrog-MNM time = {o.time_s * 1e3:.1f} / "
-                    f"{mnm.time_s * 1e3:.1f} ms = {speed:.2f}x (goal >= {GOAL_DIRECT_SPEEDUP:g}x); "
-                    f"{cost_text} -> {'PASS' if passed else 'MISS'}",
-                )
-            )  # fmt: skip
-        f = floors.get(name)
-        if f is not None:
+            for o in result.outcomes:
+                if o.scenario == name and o.solver.startswith("direct-"):
+                    lines.append(_direct_line(name, lf, o))
+        mnm, f = result.outcome(name, "leapfrog-mnm"), floors.get(name)
+        if mnm is not None and f is not None:
             ratio = mnm.time_s / f.time_s
             passed = ratio <= TARGET_FLOOR_RATIO
+            text = (
+                f"{name}: leapfrog-mnm time / floor (one simple shooting from the converged "
+                f"costates) = {mnm.time_s * 1e3:.1f} / {f.time_s * 1e3:.2f} ms = {ratio:.0f}x "
+                f"(target <= {TARGET_FLOOR_RATIO:g}x) -> {'PASS' if passed else 'MISS'}"
+            )
             lines.append(
-                RatioLine(
-                    name, "floor", "floor", ratio, mnm.cost, f.cost, passed,
-                    f"{name}: Leapfrog-MNM time / floor (one simple shooting from the converged "
-                    f"costates) = {mnm.time_s * 1e3:.1f} / {f.time_s * 1e3:.2f} ms = {ratio:.0f}x "
-                    f"(target <= {TARGET_FLOOR_RATIO:g}x) -> {'PASS' if passed else 'MISS'}",
-                )
+                RatioLine(name, "floor", "leapfrog-mnm", "floor", ratio, mnm.cost, f.cost,
+                          passed, text)
             )  # fmt: skip
     return lines
+
+
+def summary_rows(result: BenchResult) -> list[tuple]:
+    """Per solver: successes, scenarios where it found the best optimum (within 1e-3, the
+    direct method's mesh error), and the median of its median times."""
+    best = _best_costs(result)
+    rows = []
+    for solver in dict.fromkeys(o.solver for o in result.outcomes):
+        outs = [o for o in result.outcomes if o.solver == solver]
+        ok = [o for o in outs if o.success]
+        at_best = sum(o.scenario in best and o.cost <= best[o.scenario] * (1 + 1e-3) for o in ok)
+        times = [o.time_s for o in outs]
+        rows.append((solver, len(ok), at_best, len(outs), float(np.median(times))))
+    return rows
 
 
 # --------------------------------------------------------------------------- outputs
@@ -269,7 +295,14 @@ def bench_markdown(result: BenchResult) -> str:
         "best successful cost of the scenario; end-state error re-integrated (see "
         "`leapfrog_planner.peers`). Direct-method costs carry the mesh's O(h^2) error.",
         "",
+        "## Summary",
+        "",
+        "| solver | succeeded | found the best optimum (1e-3) | median time (ms) |",
+        "|---|---|---|---|",
     ]
+    for solver, ok, at_best, n, t in summary_rows(result):
+        lines.append(f"| {solver} | {ok}/{n} | {at_best}/{n} | {t * 1e3:.1f} |")
+    lines.append("")
     for name in result.scenarios:
         lines += [
             f"## {name}",
@@ -315,6 +348,14 @@ def profile_markdown(p: ProfileSplit) -> list[str]:
             f"| {part.replace('_', ' ')} | {p.parts_s[part] * 1e3:.1f} "
             f"| {100 * p.fraction(part):.1f}% | {calls} |"
         )
+    n = p.calls.get("integration", 0)
+    t_int = p.parts_s["integration"]
+    lines += [
+        "",
+        f"Integrations: {n} ({p.jacobian_calls} with the variational equations), {p.steps} "
+        f"accepted steps, {p.steps / max(n, 1):.1f} steps and "
+        f"{1e6 * t_int / max(p.steps, 1):.2f} us per step on average.",
+    ]
     lines += ["", "cProfile, most expensive functions (cumulative):", "", "```"]
     lines += [p.top_functions.strip(), "```", ""]
     return lines

@@ -7,7 +7,8 @@ returned initial costate with the library's adaptive integrator (DOP853, rtol 1e
 check as :func:`~leapfrog_planner.results.validate`); those of the direct method by propagating
 its piecewise-constant controls along exact unicycle arcs.
 
-- ``leapfrog-*``: :class:`~leapfrog_planner.planner.Planner` with MNM, NM or NLEQ-ERR.
+- ``leapfrog-*``: :class:`~leapfrog_planner.planner.Planner` with MNM, NM or NLEQ-ERR
+  (``leapfrog-mnm-1path``: MNM from the first initial path only, as the ``*-path`` peers).
 - ``shooting``: one simple shooting (MNM) over ``[0, T]`` from the affine costate guess.
 - ``bvp-line`` / ``bvp-path``: :func:`scipy.integrate.solve_bvp` on the same canonical system
   (the library's compiled right-hand side), from the straight line with zero costates, or from
@@ -89,11 +90,12 @@ def _outcome(solver, sc, ok, cost, err, times, message) -> PeerOutcome:
     )
 
 
-def run_leapfrog(sc: Scenario, method: str, repeat: int, solver: str | None = None):
-    """Leapfrog with ``method``; returns the outcome and the last :class:`LeapfrogResult`."""
+def run_leapfrog(sc: Scenario, method: str, repeat: int, solver: str | None = None, **options):
+    """Leapfrog with ``method`` (and planner ``options``); returns the outcome and the last
+    :class:`LeapfrogResult`."""
     from .planner import Planner
 
-    planner = Planner(sc, method=method)
+    planner = Planner(sc, method=method, **options)
     res, times = _timed(planner.plan, repeat)
     out = _outcome(
         solver or f"leapfrog-{method}",

@@ -3,12 +3,12 @@
 :func:`profile_split` plans a scenario once under :mod:`cProfile` and once under light timers,
 and splits the wall time into exclusive parts:
 
-- ``integration``: inside ``Flow._run``, the call of the compiled flow kernel (Leapfrog's own
-  integrations; validation's are counted under ``validation``);
+- ``integration``: inside ``Flow._run``, the call of the compiled flow kernel (all of them,
+  the final re-integration at rtol 1e-12 included);
 - ``linear_algebra``: ``numpy.linalg`` (solve, svd, lstsq, norm) and the affine guess's
   ``scipy.linalg`` calls (expm, solve);
 - ``initial_path``: building the initial feasible paths (``Planner.initial_paths``);
-- ``validation``: re-integrating the answer at rtol 1e-12 and the checks (``results.validate``);
+- ``validation``: the rest of ``results.validate``: dense output, penalty and Pontryagin checks;
 - ``python``: everything else (the Newton loop, Leapfrog's bookkeeping, result objects).
 
 The timers wrap those functions for one run and are restored afterwards; a category nested in
@@ -40,6 +40,8 @@ class ProfileSplit:
     wall_s: float  # of the timed run
     parts_s: dict  # PARTS -> seconds, exclusive, summing to wall_s
     calls: dict  # category -> number of wrapped calls
+    steps: int  # accepted integrator steps of all integrations (validation included)
+    jacobian_calls: int  # integrations that also carried the variational equations
     top_functions: str  # cProfile's most expensive functions (cumulative), as text
 
     def fraction(self, part: str) -> float:
@@ -53,6 +55,18 @@ class _Clock:
         self.total = dict.fromkeys(PARTS[:-1], 0.0)
         self.calls = dict.fromkeys(PARTS[:-1], 0)
         self.stack: list[list] = []  # [category, time spent in nested categories]
+        self.steps = self.jacobian_calls = 0
+
+    def counted_run(self, run):
+        """``Flow._run`` that also counts steps and integrations with sensitivities."""
+
+        def counted(flow, t0, z0, t1, seed, *args, **kwargs):
+            out = run(flow, t0, z0, t1, seed, *args, **kwargs)
+            self.steps += int(out[2])
+            self.jacobian_calls += seed.shape[1] > 0
+            return out
+
+        return counted
 
     def wrap(self, category, fn):
         def timed(*args, **kwargs):
@@ -88,7 +102,8 @@ def _patched(clock: _Clock):
         for owner, name, category in targets:
             original = getattr(owner, name)
             stack.callback(setattr, owner, name, original)
-            setattr(owner, name, clock.wrap(category, original))
+            fn = clock.counted_run(original) if name == "_run" else original
+            setattr(owner, name, clock.wrap(category, fn))
         yield
 
 
@@ -120,5 +135,7 @@ def profile_split(
         wall_s=wall,
         parts_s=parts,
         calls=dict(clock.calls),
+        steps=clock.steps,
+        jacobian_calls=clock.jacobian_calls,
         top_functions=buf.getvalue(),
     )
