@@ -519,6 +519,8 @@ def test_unknown_option_is_named():
         ("max_split_depth", -1, "max_split_depth"),
         ("initial_paths", 0, "initial_paths"),
         ("candidate_paths", 0, "candidate_paths"),
+        ("threads", -1, "threads"),
+        ("threads", 1.5, "threads"),
         ("attempt_iterations", 0, "attempt_iterations"),
         ("continuation_min_step", 0.0, "continuation_min_step"),
         ("continuation_first_step", 2.0, "continuation_first_step"),
@@ -556,3 +558,20 @@ max_sweeps = 7
     bad = load_scenario_text(text.replace("partitions = 4", "partitions = 1"))
     with pytest.raises(ScenarioError, match=r"^<string>: solver\.partitions: .*>= 2, got 1$"):
         Planner(bad)  # the file's error: names the source and the key
+
+
+def test_parallel_paths_give_the_same_result_as_sequential(planned):
+    """Paths run in threads by default; one thread gives the same numbers, bit for bit."""
+    par = planned(3, MNM).result
+    events: list[PlanEvent] = []
+    seq = plan(CASES[3].name, threads=1, progress=events.append)
+    assert seq.cost == par.cost and seq.initial_path == par.initial_path
+    np.testing.assert_array_equal(seq.costate0, par.costate0)
+    assert [a.cost for a in seq.alternatives] == [a.cost for a in par.alternatives]
+    assert [h.cost for h in seq.history] == [h.cost for h in par.history]
+    assert (seq.newton_iterations, seq.f_evals) == (par.newton_iterations, par.f_evals)
+    # Every path reports its start and its sweeps, whatever the thread interleaving.
+    for got in (events, planned(3, MNM).events):
+        starts = sorted(e.path_index for e in got if e.stage == "path")
+        assert starts == [0, 1, 2]
+        assert got[-1].stage == "final"

@@ -40,6 +40,19 @@ def single_threaded_blas():
         _state.active = False
 
 
+@contextmanager
+def held_by_parent():
+    """In a worker thread of a caller inside :func:`single_threaded_blas`: the limit is process
+    wide and already held, so nested calls must not set and restore it again (a restore from one
+    thread would lift the limit under another)."""
+    previous = getattr(_state, "active", False)
+    _state.active = True
+    try:
+        yield
+    finally:
+        _state.active = previous
+
+
 def blas_single_threaded(fn):
     """Decorator form of :func:`single_threaded_blas`."""
 

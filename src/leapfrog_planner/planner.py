@@ -7,13 +7,16 @@ settings for reuse across scenarios with the same model (obstacles are data: not
 from __future__ import annotations
 
 import logging
+import os
+import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-from ._blas import single_threaded_blas
+from ._blas import held_by_parent, single_threaded_blas
 from .errors import ScenarioError, SettingsError
 from .initial_path import InitialPath, initial_paths
 from .integrate.flow import Flow
@@ -50,6 +53,9 @@ class PlannerSettings:
     # (paper case 3's optimum passes two obstacles 0.066 apart with 0.033 clearance).
     margin: float = 0.02
     samples: int = 1001  # points of the returned dense trajectory
+    # Initial paths run in parallel threads (the compiled flow releases the GIL): 0 means one per
+    # core, at most one per path; 1 runs them one after the other. Results do not depend on it.
+    threads: int = 0
     leapfrog: LeapfrogSettings = LeapfrogSettings()
 
     def __post_init__(self):
@@ -61,6 +67,8 @@ class PlannerSettings:
             raise SettingsError(
                 f"candidate_paths must be a positive integer, got {self.candidate_paths}"
             )
+        if int(self.threads) != self.threads or self.threads < 0:
+            raise SettingsError(f"threads must be an integer >= 0, got {self.threads}")
         if not self.margin >= 0:
             raise SettingsError(f"margin must be >= 0, got {self.margin}")
         if int(self.samples) != self.samples or self.samples < 2:
@@ -122,6 +130,7 @@ class Planner:
         self.problem = self.scenario.problem()
         self.flow = Flow(self.problem, self.settings.leapfrog.final_shooting.integrator)
         self.progress = progress
+        self._progress_lock = threading.Lock()
 
     def initial_paths(self) -> list[InitialPath]:
         """The ``initial_paths`` candidates of least estimated cost, cheapest first."""
@@ -147,29 +156,38 @@ class Planner:
         paths = self.initial_paths()
         t_paths = time.perf_counter() - t_begin
         T0, T1 = 0.0, float(s.horizon)
-        runs: list[tuple[InitialPath, LeapfrogRun, tuple]] = []
-        for k, path in enumerate(paths):
+
+        def run_path(k: int, path: InitialPath) -> tuple[InitialPath, LeapfrogRun, tuple]:
             self._emit(PlanEvent("path", k, len(paths), path.label))
             t, X = path.junctions(st.leapfrog.partitions, s.horizon, T0)
 
-            def curve(tq, path=path):
+            def curve(tq):
                 xy, th = path.curve(np.array([(tq - T0) / (T1 - T0)]))
                 return np.array([xy[0, 0], xy[0, 1], th[0]])
 
-            def on_sweep(rec, k=k, path=path):
+            def on_sweep(rec):
                 self._emit(PlanEvent("sweep", k, len(paths), path.label, rec))
 
-            run = leapfrog(
-                self.problem,
-                t,
-                X,
-                curve=curve,
-                settings=st.leapfrog,
-                flow=self.flow,
-                progress=on_sweep,
-            )
-            runs.append((path, run, (t, X)))
+            with held_by_parent():
+                run = leapfrog(
+                    self.problem,
+                    t,
+                    X,
+                    curve=curve,
+                    settings=st.leapfrog,
+                    flow=self.flow,
+                    progress=on_sweep,
+                )
             log.info("path %s: %s", path.label, run.message)
+            return path, run, (t, X)
+
+        workers = min(len(paths), st.threads or os.cpu_count() or 1)
+        if workers > 1:
+            with ThreadPoolExecutor(workers, thread_name_prefix="leapfrog-path") as pool:
+                runs = list(pool.map(run_path, range(len(paths)), paths))
+        else:
+            runs = [run_path(k, path) for k, path in enumerate(paths)]
+        t_runs = time.perf_counter() - t_begin - t_paths
         self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
         t_val = time.perf_counter()
         checked = []
@@ -183,13 +201,14 @@ class Planner:
         ok = [c for c in checked if _valid(c[3])]
         best = min(ok, key=lambda c: c[3].cost) if ok else checked[0]
         t_val = time.perf_counter() - t_val
-        return self._result(best, checked, t_paths, t_val, time.perf_counter() - t_begin)
+        return self._result(best, checked, t_paths, t_runs, t_val, time.perf_counter() - t_begin)
 
     def _emit(self, event: PlanEvent):
         if self.progress is not None:
-            self.progress(event)
+            with self._progress_lock:  # paths run in threads: one event at a time
+                self.progress(event)
 
-    def _result(self, best, checked, t_paths, t_val, wall) -> LeapfrogResult:
+    def _result(self, best, checked, t_paths, t_runs, t_val, wall) -> LeapfrogResult:
         path, run, junctions, v = best
         s = self.scenario
         info = self.problem.model
@@ -197,6 +216,8 @@ class Planner:
             PlanStatus.CONVERGED if v is not None and np.isfinite(v.cost) else PlanStatus.FAILED
         )
         nan = float("nan")
+        sweeps = sum(r.sweep_time_s for _, r, _, _ in checked)
+        finals = sum(r.final_time_s for _, r, _, _ in checked)
         alternatives = tuple(
             PathOutcome(
                 label=p.label,
@@ -238,8 +259,9 @@ class Planner:
             f_evals=sum(r.f_evals for _, r, _, _ in checked),
             cost_increases=run.cost_increases,
             time_initial_path_s=t_paths,
-            time_sweeps_s=sum(r.sweep_time_s for _, r, _, _ in checked),
-            time_final_s=sum(r.final_time_s for _, r, _, _ in checked),
+            # Wall time of the runs (in parallel threads), split in the ratio of their own times.
+            time_sweeps_s=t_runs * sweeps / max(sweeps + finals, 1e-300),
+            time_final_s=t_runs * finals / max(sweeps + finals, 1e-300),
             time_validation_s=t_val,
             wall_time_s=wall,
             alternatives=alternatives,

@@ -72,7 +72,8 @@ def _finite(x):
     return _all_finite(box, 1)
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+# The entry points release the GIL, so that threads (one per initial path) integrate in parallel.
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, nogil=True)
 def erk_fixed(Y0, t0, t1, nsteps, k, A, b, p, obs, weight, exponent, T_out, Z_out):
     """``nsteps`` equal steps; returns (Y1, status). Records (t, z, cost) if T_out has room."""
     n = Y0.size
@@ -157,7 +158,7 @@ def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent,
     return min(100 * h0, h1, abs(t1 - t0))
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, nogil=True)
 def erk_adaptive(
     Y0,
     t0,
