@@ -213,15 +213,13 @@ class Flow:
 
     def _trajectory(self, T, Z, samples) -> Trajectory:
         if samples > 1 and T.size > 1:
-            from scipy.interpolate import CubicHermiteSpline  # slow to import; only needed here
-
             dZ = np.empty_like(Z)
             self.kernels.rhs_along(Z, self._p, self._obs, self._w, self._n, dZ)
-            spline = CubicHermiteSpline(T, Z, dZ, axis=0)
             t = np.unique(np.concatenate([np.linspace(T[0], T[-1], samples), T]))
             if T[-1] < T[0]:
                 t = t[::-1]
-            Zs = spline(t)
+            Zs = np.empty((t.size, Z.shape[1]))
+            self.kernels.hermite_dense(T, Z, dZ, t, Zs)
             at_step = np.zeros(t.size, dtype=bool)
             idx = np.searchsorted(t, T) if T[-1] > T[0] else np.searchsorted(-t, -T)
             Zs[idx] = Z  # exact values at the steps

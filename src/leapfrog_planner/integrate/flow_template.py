@@ -278,3 +278,30 @@ def rhs_along(Z, p, obs, weight, exponent, dZ):
     """Time derivative of (z, cost) at each row of Z, for Hermite interpolation between steps."""
     for r in range(Z.shape[0]):
         aug_rhs(Z[r], 0, p, obs, weight, exponent, dZ[r])
+
+
+@njit(cache=True, error_model="numpy")
+def hermite_dense(T, Z, dZ, t, out):
+    """Cubic Hermite interpolation between steps: rows ``Z`` with derivatives ``dZ`` at ``T``,
+    sampled at ``t`` (monotone in the same direction as ``T``). Part of the integrator's dense
+    output, compiled with it; the tests compare it with SciPy's CubicHermiteSpline."""
+    n = T.size
+    forward = T[n - 1] >= T[0]
+    j = 0
+    for i in range(t.size):
+        ti = t[i]
+        if forward:
+            while j < n - 2 and ti > T[j + 1]:
+                j += 1
+        else:
+            while j < n - 2 and ti < T[j + 1]:
+                j += 1
+        h = T[j + 1] - T[j]
+        s = (ti - T[j]) / h
+        s1 = 1.0 - s
+        h00 = (1.0 + 2.0 * s) * s1 * s1
+        h10 = s * s1 * s1 * h
+        h01 = s * s * (3.0 - 2.0 * s)
+        h11 = s * s * (s - 1.0) * h
+        for c in range(Z.shape[1]):
+            out[i, c] = h00 * Z[j, c] + h10 * dZ[j, c] + h01 * Z[j + 1, c] + h11 * dZ[j + 1, c]
