@@ -20,9 +20,9 @@ from leapfrog_planner.generate import GeneratorSpec, generate
 from leapfrog_planner.sweep import SweepMethod, SweepSettings, run_sweep
 from leapfrog_planner.sweep_store import ResultStore, StoreError, read_records, strip_timings
 
-SPEC = ["--n", "8", "--obstacles", "3", "--seed", "5"]
+SPEC = ["--n", "6", "--obstacles", "3", "--seed", "5"]
 METHODS = ["--methods", "newton,modified-newton"]
-PAIRS = 16
+PAIRS = 12
 
 
 def _sweep_cmd(out, *extra):
@@ -76,7 +76,7 @@ def test_store_cuts_a_torn_line_and_refuses_duplicates_and_a_second_writer(tmp_p
 
 def test_reference_sweep_is_complete_and_sorted(reference):
     recs = read_records(reference)
-    names = [sc.name for sc in generate(GeneratorSpec(n=8, obstacles=(3, 3), seed=5))]
+    names = [sc.name for sc in generate(GeneratorSpec(n=6, obstacles=(3, 3), seed=5))]
     assert [(r["scenario"], r["method"]) for r in recs] == [
         (n, m) for n in names for m in ("newton", "modified-newton")
     ]
@@ -215,3 +215,52 @@ def test_settings_are_validated():
     s = SweepSettings(planner={"partitions": 4})
     assert s.options() == {"initial_paths": 1, "partitions": 4}
     assert SweepSettings(planner={"initial_paths": 3}).options()["initial_paths"] == 3
+
+
+def faulty_in_threads(sc, options):
+    """Like :func:`faulty` for Dask, whose tasks run in threads (no signals there)."""
+    i = int(sc.name.rsplit("-", 1)[1])
+    if i == 1:
+        os.kill(os.getpid(), signal.SIGKILL)
+    elif i == 2:
+        time.sleep(120)  # a hang nothing inside the worker interrupts
+    elif i == 3:
+        raise ValueError("bad luck")
+    return {"status": "converged", "cost": float(i), "message": "fine"}
+
+
+def test_dask_crash_and_hang_are_recorded_and_the_sweep_goes_on(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    import dask
+
+    scenarios = list(generate(GeneratorSpec(n=5, obstacles=(1, 1), seed=1)))
+    # One worker death is enough to give up on a task (the default, 3, means 4 restarts).
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": 0}),
+        distributed.LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+        ) as cluster,
+    ):
+        settings = SweepSettings(
+            methods=(SweepMethod("faulty", faulty_in_threads),),
+            time_limit=2.0,
+            kill_grace=3.0,
+            scheduler=cluster.scheduler_address,
+            chunk_size=1,
+        )
+        summary = run_sweep(scenarios, tmp_path / "r.jsonl", settings)
+    recs = {r["scenario"].rsplit("-", 1)[1]: r for r in read_records(tmp_path / "r.jsonl")}
+    got = {k: (r["status"], r["failure"]) for k, r in recs.items()}
+    assert got == {
+        "00000": ("converged", None),
+        "00001": ("failed", "crash"),
+        "00002": ("failed", "timeout"),
+        "00003": ("failed", "error"),
+        "00004": ("converged", None),
+    }
+    assert "restarted" in recs["00002"]["message"]
+    assert summary.complete and summary.engine == "dask"

@@ -298,7 +298,7 @@ def _with_progress(scenarios, out_path, settings):
         TimeElapsedColumn(),
         TimeRemainingColumn(),
     ]
-    with Progress(*columns, console=err, transient=False) as bar:
+    with Progress(*columns, console=err, transient=True) as bar:  # bad input: one line only
         task = bar.add_task("sweep", total=None, info="starting")
 
         def on_event(ev):

@@ -14,13 +14,16 @@ scheduler's per-task cost is small against the planning time. Dask itself re-run
 worker that died; a chunk that keeps killing workers ends in ``KilledWorker`` and is split into
 single pairs, and a single pair that kills workers is recorded as a crash. Time limits are
 checked inside the worker at each Leapfrog progress event (Dask runs tasks in threads, where no
-alarm signal can interrupt them).
+alarm signal can interrupt them). A chunk still processing after twice its pairs' time limits
+plus ``kill_grace`` has its worker restarted (through the worker's nanny) and is split into
+single pairs; a single pair that hangs so is recorded as a timeout.
 """
 
 from __future__ import annotations
 
 import math
 import multiprocessing as mp
+import threading
 import time
 from collections import deque
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -174,52 +177,140 @@ class DaskEngine:
 
     def run(self, tasks: list[PairTask], on_record) -> None:
         from distributed import as_completed
-        from distributed.client import FutureCancelledError
-        from distributed.scheduler import KilledWorker
 
         from .sweep import run_chunk
 
         live: dict = {}  # key -> (future, chunk)
+        seen: dict = {}  # key -> when the scheduler was first seen to have it processing
+        self._innocent: set = set()  # keys on a worker restarted because of another chunk
+        k = self.chunk_size(len(tasks))
+        waiting = deque(tasks[i : i + k] for i in range(0, len(tasks), k))
+        ac = as_completed([], loop=self.client.loop, with_results=False)  # our own client
 
         def submit(chunk):
             f = self.client.submit(run_chunk, chunk, pure=False)
             live[f.key] = (f, chunk)
-            return f
+            ac.add(f)
 
         try:
-            k = self.chunk_size(len(tasks))
-            ac = as_completed(
-                [submit(tasks[i : i + k]) for i in range(0, len(tasks), k)],
-                loop=self.client.loop,  # our client is not the process's default one
-                with_results=False,
-            )
-            for f in ac:
-                _, chunk = live.pop(f.key)
-                try:
-                    records = f.result()
-                except KilledWorker:
-                    if len(chunk) > 1:  # find the culprit: one pair per task
-                        for t in chunk:
-                            ac.add(submit([t]))
-                    else:
-                        on_record(
-                            failure_record(
-                                chunk[0], "crash", "killed its Dask worker (KilledWorker)"
-                            )
-                        )
-                    continue
-                except (FutureCancelledError, Exception) as exc:
-                    msg = " ".join(f"{type(exc).__name__}: {exc}".split())[:500]
-                    for t in chunk:
-                        on_record(failure_record(t, "error", msg))
-                    continue
-                finally:
-                    f.release()
-                for r in records:
-                    on_record(r)
+            # No more chunks in flight than worker threads: a chunk is then running, not queued,
+            # from its submission, which the hang watchdog needs. Dask still places the tasks,
+            # moves the data and replaces dead workers.
+            slots = self._threads()
+            checked = time.monotonic()
+            while live or waiting:
+                while waiting and len(live) < slots:
+                    submit(waiting.popleft())
+                batch = ac.next_batch(block=False) if ac.has_ready() else []
+                for f in batch:
+                    if f.key in live:  # not one the watchdog gave up on
+                        _, chunk = live.pop(f.key)
+                        self._collect(f, chunk, on_record, waiting)
+                if not batch:
+                    time.sleep(0.01)
+                if time.monotonic() - checked > 1.0:
+                    checked = time.monotonic()
+                    slots = self._threads()
+                    self._watchdog(live, seen, on_record, waiting)
         except BaseException:  # interrupted: the cluster should not go on with our work
             self.client.cancel([f for f, _ in live.values()])
             raise
+
+    def _executing(self, key) -> bool | None:
+        """Whether a worker thread runs ``key`` now; None when the workers do not answer in 5 s.
+
+        Asked from a daemon thread: a worker stuck while holding the GIL cannot answer.
+        """
+        answer: list = []
+
+        def ask():
+            try:
+                answer.append(any(key in v for v in self.client.call_stack(keys=[key]).values()))
+            except Exception:
+                answer.append(None)
+
+        th = threading.Thread(target=ask, daemon=True)
+        th.start()
+        th.join(5.0)
+        return answer[0] if answer else None
+
+    def _threads(self) -> int:
+        try:
+            return max(1, sum(self.client.nthreads().values()))
+        except Exception:  # the scheduler is busy: keep going with one chunk at a time
+            return 1
+
+    def _collect(self, f, chunk, on_record, waiting) -> None:
+        from distributed.client import FutureCancelledError
+        from distributed.scheduler import KilledWorker
+
+        try:
+            records = f.result()
+        except KilledWorker:
+            if f.key in self._innocent:  # its worker was restarted for another chunk's hang
+                self._innocent.discard(f.key)
+                waiting.appendleft(chunk)
+            elif len(chunk) > 1:  # find the culprit: one pair per task
+                waiting.extendleft([t] for t in reversed(chunk))
+            else:
+                on_record(
+                    failure_record(chunk[0], "crash", "killed its Dask worker (KilledWorker)")
+                )
+            return
+        except (FutureCancelledError, Exception) as exc:
+            msg = " ".join(f"{type(exc).__name__}: {exc}".split())[:500]
+            for t in chunk:
+                on_record(failure_record(t, "error", msg))
+            return
+        finally:
+            f.release()
+        for r in records:
+            on_record(r)
+
+    def _watchdog(self, live, seen, on_record, waiting) -> None:
+        """Restart the worker of a chunk far past its time limits: a hang the limit missed.
+
+        The budget is twice the chunk's limits plus the grace: generous, since the clock starts
+        when the scheduler reports the chunk processing (this also counts the transfer).
+        """
+        now = time.monotonic()
+        try:
+            processing = self.client.processing()
+        except Exception:  # the scheduler is busy or away: check again later
+            return
+        for addr, keys in processing.items():
+            for key in keys:
+                if key not in live:
+                    continue
+                start = seen.setdefault(key, now)
+                f, chunk = live[key]
+                budget = 2 * len(chunk) * self.settings.time_limit + self.settings.kill_grace
+                if now - start <= budget:
+                    continue
+                if self._executing(key) is False:  # still unpacking (a new worker's imports)
+                    seen[key] = now
+                    continue
+                del live[key]
+                f.cancel()
+                self._innocent.update(k for k in keys if k in live)
+                try:
+                    self.client.restart_workers([addr], raise_for_error=False)
+                except Exception:  # no nanny: the worker stays stuck, the sweep goes on
+                    pass
+                if len(chunk) == 1:
+                    on_record(
+                        failure_record(
+                            chunk[0],
+                            "timeout",
+                            f"still running after {now - start:.1f} s, past the time limit"
+                            f" {self.settings.time_limit:g} s: Dask worker restarted",
+                            now - start,
+                        )
+                    )
+                else:
+                    waiting.extendleft([t] for t in reversed(chunk))
+        for key in [k for k in seen if k not in live]:
+            del seen[key]
 
     def close(self) -> None:
         self.client.close()
