@@ -336,8 +336,9 @@ def profile_markdown(p: ProfileSplit) -> list[str]:
     lines = [
         f"## Where the time goes: one Leapfrog solve of {p.scenario} ({p.method})",
         "",
-        f"Wall time {p.wall_s * 1e3:.0f} ms, split by timers around the functions of each part "
-        "(exclusive; see `leapfrog_planner.profiling`).",
+        f"Wall time {p.wall_s * 1e3:.0f} ms with the initial paths run one after the other "
+        "(`threads=1`), split by timers around the functions of each part (exclusive; see "
+        "`leapfrog_planner.profiling`).",
         "",
         "| part | time (ms) | share | calls |",
         "|---|---|---|---|",

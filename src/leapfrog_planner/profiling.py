@@ -22,6 +22,7 @@ from __future__ import annotations
 import cProfile
 import io
 import pstats
+import threading
 import time
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
@@ -54,16 +55,24 @@ class _Clock:
     def __init__(self):
         self.total = dict.fromkeys(PARTS[:-1], 0.0)
         self.calls = dict.fromkeys(PARTS[:-1], 0)
-        self.stack: list[list] = []  # [category, time spent in nested categories]
+        self._local = threading.local()  # a stack per thread: nesting is per thread
+        self._lock = threading.Lock()
         self.steps = self.jacobian_calls = 0
+
+    @property
+    def stack(self) -> list[list]:  # [category, time spent in nested categories]
+        if not hasattr(self._local, "stack"):
+            self._local.stack = []
+        return self._local.stack
 
     def counted_run(self, run):
         """``Flow._run`` that also counts steps and integrations with sensitivities."""
 
         def counted(flow, t0, z0, t1, seed, *args, **kwargs):
             out = run(flow, t0, z0, t1, seed, *args, **kwargs)
-            self.steps += int(out[2])
-            self.jacobian_calls += seed.shape[1] > 0
+            with self._lock:
+                self.steps += int(out[2])
+                self.jacobian_calls += seed.shape[1] > 0
             return out
 
         return counted
@@ -76,11 +85,13 @@ class _Clock:
                 return fn(*args, **kwargs)
             finally:
                 dt = time.perf_counter() - t
-                _, nested = self.stack.pop()
-                self.total[category] += dt - nested
-                self.calls[category] += 1
-                if self.stack:
-                    self.stack[-1][1] += dt
+                stack = self.stack
+                _, nested = stack.pop()
+                with self._lock:
+                    self.total[category] += dt - nested
+                    self.calls[category] += 1
+                if stack:
+                    stack[-1][1] += dt
 
         return timed
 
@@ -110,10 +121,14 @@ def _patched(clock: _Clock):
 def profile_split(
     scenario="paper-case-4", method: str = "modified-newton", top: int = 15
 ) -> ProfileSplit:
-    """Profile one ``Planner.plan()`` (after a warm-up run) of ``scenario`` with ``method``."""
+    """Profile one ``Planner.plan()`` (after a warm-up run) of ``scenario`` with ``method``.
+
+    The initial paths run one after the other (``threads=1``): with the planner's parallel
+    threads the parts would overlap in time and could not add up to the wall time.
+    """
     from .planner import Planner
 
-    planner = Planner(scenario, method=method)
+    planner = Planner(scenario, method=method, threads=1)
     planner.plan()  # warm-up: kernels loaded, caches filled
     prof = cProfile.Profile()
     prof.enable()
