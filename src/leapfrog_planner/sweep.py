@@ -334,6 +334,17 @@ def _run_shooting(sc: Scenario, options: dict) -> dict:
     }
 
 
+def _plain(v):
+    """A JSON value: numpy scalars as Python numbers, non-finite as null, others as text."""
+    if v is None or isinstance(v, bool | str):
+        return v
+    if isinstance(v, int | np.integer):
+        return int(v)
+    if isinstance(v, float | np.floating):
+        return _num(v)
+    return str(v)
+
+
 _RECORD_FIELDS = (
     "message",
     "cost",
@@ -359,8 +370,7 @@ def _record(task: PairTask, out: dict, failure: str | None, task_time: float, wa
         "failure": failure,
     }
     for k in _RECORD_FIELDS:
-        v = out.get(k)
-        rec[k] = _num(v) if isinstance(v, float | np.floating) else v
+        rec[k] = _plain(out.get(k))
     rec["obstacles"] = int(task.scenario.obstacles.shape[0])
     rec["scenario_hash"] = task.scenario_hash
     rec["settings_hash"] = task.settings_hash
