@@ -30,7 +30,7 @@ from pathlib import Path
 
 from leapfrog_planner.generate import GeneratorSpec, generate
 from leapfrog_planner.planner import Planner
-from leapfrog_planner.sweep import SweepSettings, run_sweep
+from leapfrog_planner.sweep import DEFAULT_PLANNER_OPTIONS, SweepSettings, run_sweep
 from leapfrog_planner.sweep_store import read_records
 
 TARGET_PAIRS_PER_S, TARGET_OVERHEAD = 20.0, 0.10
@@ -116,7 +116,7 @@ def main() -> int:
     ap.add_argument("--out", default="benchmarks/out")
     args = ap.parse_args()
     methods = tuple(args.methods.split(","))
-    options = {"initial_paths": args.initial_paths}
+    options = {**DEFAULT_PLANNER_OPTIONS, "initial_paths": args.initial_paths}
     spec = GeneratorSpec(n=args.n, seed=args.seed, obstacles=(args.obstacles, args.obstacles))
     scenarios = list(generate(spec))
     print(f"cores: {os.cpu_count()}, load average at start: {os.getloadavg()}")

@@ -213,7 +213,7 @@ def test_settings_are_validated():
     with pytest.raises(SettingsError, match="unknown option"):
         SweepSettings(planner={"partitionz": 3})
     s = SweepSettings(planner={"partitions": 4})
-    assert s.options() == {"initial_paths": 1, "partitions": 4}
+    assert s.options() == {"initial_paths": 1, "threads": 1, "partitions": 4}
     assert SweepSettings(planner={"initial_paths": 3}).options()["initial_paths"] == 3
 
 

@@ -11,8 +11,9 @@ plans every (scenario, method) pair not yet in the results file and appends one 
 
 Every answer is re-integrated and checked the same way (:func:`.results.validate`), so the costs
 are comparable. The planner runs with ``SweepSettings.planner`` options; the sweep's default is
-``initial_paths=1`` (one Leapfrog run per pair, the inner solver's own merit, about ten times
-faster than the planner's default of three paths); any planner option may be given instead.
+``initial_paths=1`` (one Leapfrog run per pair, the inner solver's own merit, several times
+faster than the planner's default of three paths) and ``threads=1`` (the sweep is parallel over
+pairs already); any planner option may be given instead.
 
 Execution (:mod:`.sweep_exec`): local worker processes, or an existing Dask cluster. Each worker
 process loads the compiled kernels once and keeps them. A pair that raises, exceeds its time limit
@@ -69,7 +70,8 @@ __all__ = [
 PLANNER_METHODS = ("newton", "modified-newton", "nleq-err")
 BUILTIN_METHODS = (*PLANNER_METHODS, "shooting")
 #: The sweep's planner defaults (see the module docstring); overridden by ``SweepSettings.planner``.
-DEFAULT_PLANNER_OPTIONS = {"initial_paths": 1}
+# threads=1: the sweep already runs one pair per core; path threads would only oversubscribe.
+DEFAULT_PLANNER_OPTIONS = {"initial_paths": 1, "threads": 1}
 FAILURES = ("solver", "timeout", "crash", "error")
 
 
