@@ -233,6 +233,7 @@ def test_default_settings_are_documented_values():
         ("attempt_iterations", 1.5, "attempt_iterations"),
         ("continuation_min_step", 0.5, "continuation_min_step"),  # above the first step
         ("continuation_first_step", 0.0, "continuation_first_step"),
+        ("continuation_steps", 0, "continuation_steps"),
     ],
 )
 def test_leapfrog_settings_reject_bad_values(option, value, message):

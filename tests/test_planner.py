@@ -524,6 +524,7 @@ def test_unknown_option_is_named():
         ("attempt_iterations", 0, "attempt_iterations"),
         ("continuation_min_step", 0.0, "continuation_min_step"),
         ("continuation_first_step", 2.0, "continuation_first_step"),
+        ("continuation_steps", 2.5, "continuation_steps"),
         ("margin", -0.1, "margin"),
         ("margin", float("nan"), "margin"),
         ("samples", 1, "samples"),
