@@ -387,3 +387,20 @@ def test_shooting_is_deterministic(case, method):
     assert first.cost == second.cost
     assert np.array_equal(first.root.residual_norms, second.root.residual_norms)
     assert np.array_equal(first.trajectory.x, second.trajectory.x)
+
+
+@pytest.mark.parametrize("turns", [-1, 1, 2])
+def test_affine_guess_does_not_depend_on_whole_turns_of_the_heading(turns):
+    """Headings are not wrapped. A chord pointing left (atan2 near -pi) with end headings near
+    +pi once linearised about the heading 2 pi away and gave costates ~1e3 (measured on a random
+    scenario whose first segment then failed even after splitting)."""
+    problem = OptimalControlProblem.create("unicycle")
+    x0 = np.array([1.536, 1.27, 3.833])
+    x1 = np.array([1.392, 1.191, 3.459])
+    shift = np.array([0.0, 0.0, 2.0 * np.pi * turns])
+    base = affine_costate_guess(problem, 0.0, x0, 0.125, x1)
+    moved = affine_costate_guess(problem, 0.0, x0 + shift, 0.125, x1 + shift)
+    np.testing.assert_allclose(moved, base, rtol=1e-9, atol=1e-9)
+    assert np.abs(base).max() < 50.0
+    r = solve_shooting(problem, 0.0, x0, 0.125, x1, method="newton", guess=base)
+    assert r.success, r.message

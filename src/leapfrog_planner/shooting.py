@@ -137,7 +137,10 @@ def affine_costate_guess(
     length = float(np.hypot(*chord))
     xbar = 0.5 * (x0 + x1)
     if length > 1e-9:
-        xbar[2] = np.arctan2(chord[1], chord[0]) + (np.pi if reverse else 0.0)
+        heading = np.arctan2(chord[1], chord[0]) + (np.pi if reverse else 0.0)
+        # Headings are not wrapped: take the chord's heading nearest the end states' mean, since
+        # c = f - A x_bar - B u_bar would otherwise carry a 2 pi error times d f / d theta.
+        xbar[2] = heading + 2.0 * np.pi * np.round((xbar[2] - heading) / (2.0 * np.pi))
         speed = length / T
     else:  # no chord to follow: keep the mean heading and a small forward speed for controllability
         speed = 1e-3 / T
