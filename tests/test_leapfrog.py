@@ -13,9 +13,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from conftest import CASES
+from conftest import CASES, EXTREMAL_COSTATE
 from leapfrog_planner.errors import SettingsError
-from leapfrog_planner.leapfrog import LeapfrogSettings, SweepRecord, leapfrog
+from leapfrog_planner.generate import GeneratorSpec, generate_one
+from leapfrog_planner.leapfrog import LeapfrogSettings, SweepRecord, _Arcs, leapfrog
 from leapfrog_planner.planner import Planner, plan
 from leapfrog_planner.results import validate
 from leapfrog_planner.shooting import solve_shooting
@@ -234,6 +235,7 @@ def test_default_settings_are_documented_values():
         ("continuation_min_step", 0.5, "continuation_min_step"),  # above the first step
         ("continuation_first_step", 0.0, "continuation_first_step"),
         ("continuation_steps", 0, "continuation_steps"),
+        ("max_refinements", -1, "max_refinements"),
     ],
 )
 def test_leapfrog_settings_reject_bad_values(option, value, message):
@@ -278,3 +280,58 @@ def test_an_unsolvable_initial_segment_fails_cleanly():
     assert run.costate0 is None and run.final_solver is None
     assert run.history == () and run.initial_cost == math.inf
     assert "initial segment" in run.message
+
+
+# --------------------------------------------------------------------------- refinement
+
+
+def test_refined_arcs_are_the_same_piecewise_extremal(case1):
+    """Case 1's optimal extremal cut into 4 arcs, then refined: same junctions every other
+    point, same cost, and no costate jump at the new junctions."""
+    planner, _ = case1
+    flow = planner.flow
+    t = np.linspace(0.0, 1.0, 5)
+    z = [np.concatenate([CASE1.start, EXTREMAL_COSTATE[1]])]
+    cost = []
+    for i in range(4):
+        r = flow(t[i], z[-1], t[i + 1])
+        z.append(r.z)
+        cost.append(r.cost)
+    Z = np.array(z)
+    arcs = _Arcs(t=t, X=Z[:, :3].copy(), lam0=Z[:-1, 3:].copy(), lam1=Z[1:, 3:].copy(),
+                 cost=np.array(cost))  # fmt: skip
+    fine = arcs.refined(flow)
+    assert fine.q == 8
+    np.testing.assert_array_equal(fine.t[::2], t)
+    np.testing.assert_array_equal(fine.X[::2], arcs.X)
+    assert rel(fine.cost.sum(), arcs.cost.sum()) <= 1e-12
+    assert np.all(fine.cost > 0)
+    assert fine.max_jump() <= 1e-9
+
+
+def test_a_level_ending_with_a_failing_local_problem_is_refined():
+    """Random scenario 52 of seed 1 (the sweep's default generator): classical Newton, one
+    initial path. At q = 4 one local problem keeps failing; halving on from there made the final
+    solve diverge (measured). Refining (q = 4 -> 8) lets it converge."""
+    sc = generate_one(GeneratorSpec(n=500, seed=1, obstacles=(3, 10)), 52)
+    planner = Planner(sc, method="newton", initial_paths=1, threads=1)
+    path = planner.initial_paths()[0]
+    t, X = path.junctions(8, sc.horizon)
+
+    def curve(tq):
+        xy, th = path.curve(np.array([tq / sc.horizon]))
+        return np.array([xy[0, 0], xy[0, 1], th[0]])
+
+    def run(**options):
+        settings = replace(planner.settings.leapfrog, **options)
+        return leapfrog(planner.problem, t, X, curve=curve, settings=settings, flow=planner.flow)
+
+    without = run(max_refinements=0)
+    assert not without.success
+    refined = run()
+    assert refined.success, refined.message
+    qs = [h.q for h in refined.history]
+    assert any(b == 2 * a for a, b in zip(qs, qs[1:], strict=False))  # a level was refined
+    assert refined.cost_increases == 0
+    v = validate(planner.problem, 0.0, sc.start, sc.horizon, sc.goal, refined.costate0)
+    assert v.end_state_error <= 1e-8

@@ -21,8 +21,10 @@ from 0 to ``W`` with step-size control and a secant predictor. On the initial pa
 still fails is split at its middle (up to ``max_split_depth`` times). In a sweep, a failed local
 problem leaves its junction where it is, so the arcs and the cost stay defined; ``q`` is not
 reduced while a level still has failures (unless two sweeps in a row made no progress, or its
-sweep budget is spent). The method itself (classical Newton included) is never changed: this
-robustness lives at the Leapfrog level.
+sweep budget is spent); a level that ends with a local problem still failing is refined (every
+arc split at its middle) rather than halved, at most ``max_refinements`` times, and the refined
+level must converge ten times further before q is halved again. The method itself (classical
+Newton included) is never changed: this robustness lives at the Leapfrog level.
 """
 
 from __future__ import annotations
@@ -57,6 +59,9 @@ class LeapfrogSettings:
     jump_tol: float = 1e-6
     final: str = "auto"
     max_split_depth: int = 4
+    # Levels that end with a failing local problem are split (q doubled) instead of halved, at
+    # most this many times per run.
+    max_refinements: int = 2
     # Iterations of a direct attempt at a local problem (warm guess, then affine guess) before
     # continuation in the obstacle weight takes over; converging local solves need 3 to 8.
     attempt_iterations: int = 10
@@ -123,6 +128,10 @@ class LeapfrogSettings:
                 "need 0 < continuation_min_step <= continuation_first_step <= 1, got "
                 f"{self.continuation_min_step} and {self.continuation_first_step}"
             )
+        if int(self.max_refinements) != self.max_refinements or self.max_refinements < 0:
+            raise SettingsError(
+                f"max_refinements must be an integer >= 0, got {self.max_refinements}"
+            )
         if int(self.max_split_depth) != self.max_split_depth or self.max_split_depth < 0:
             raise SettingsError(
                 f"max_split_depth must be an integer >= 0, got {self.max_split_depth}"
@@ -183,6 +192,25 @@ class _Arcs:
         jumps = np.linalg.norm(self.lam1[:-1] - self.lam0[1:], axis=1)
         scale = max(1.0, float(np.abs(self.lam0).max()))
         return float(jumps.max() / scale)
+
+    def refined(self, flow: Flow) -> _Arcs:
+        """Every arc split at its middle time: the same piecewise extremal, twice the junctions."""
+        nx = self.X.shape[1]
+        q = self.q
+        t = np.empty(2 * q + 1)
+        X = np.empty((2 * q + 1, nx))
+        lam0, lam1 = np.empty((2 * q, nx)), np.empty((2 * q, nx))
+        cost = np.empty(2 * q)
+        for j in range(q):
+            tm = 0.5 * (self.t[j] + self.t[j + 1])
+            half = flow(self.t[j], np.concatenate([self.X[j], self.lam0[j]]), tm)
+            t[2 * j], t[2 * j + 1] = self.t[j], tm
+            X[2 * j], X[2 * j + 1] = self.X[j], half.x
+            lam0[2 * j], lam0[2 * j + 1] = self.lam0[j], half.lam
+            lam1[2 * j], lam1[2 * j + 1] = half.lam, self.lam1[j]
+            cost[2 * j], cost[2 * j + 1] = half.cost, self.cost[j] - half.cost
+        t[-1], X[-1] = self.t[-1], self.X[-1]
+        return _Arcs(t=t, X=X, lam0=lam0, lam1=lam1, cost=cost)
 
     def halved(self) -> _Arcs:
         keep = list(range(0, self.q, 2)) + [self.q]
@@ -352,7 +380,7 @@ def leapfrog(
     history: list[SweepRecord] = []
     increases = 0
     last_multi = arcs  # junctions for the multiple-shooting fallback
-    sweeps_here = stalls = 0
+    sweeps_here = stalls = refinements = 0
     prev_cost = initial_cost
     while arcs.q > 2 and len(history) < settings.max_sweeps:
         t_sweep = time.perf_counter()
@@ -400,11 +428,19 @@ def leapfrog(
         # A level with failed local problems keeps sweeping while that still pays (their
         # neighbours move, and the next attempt may succeed); two sweeps in a row without
         # progress, or the level's sweep budget, end it anyway.
-        settled = decrease < settings.reduce_tol or jump < settings.jump_tol
+        # After a refinement the level must converge further before q is halved again.
+        settled = decrease < settings.reduce_tol * 0.1**refinements or jump < settings.jump_tol
         stalls = stalls + 1 if settled else 0
         if (settled and failures == 0) or stalls >= 2 or sweeps_here >= settings.sweeps_per_level:
-            last_multi = arcs
-            arcs = arcs.halved()
+            if failures and refinements < settings.max_refinements:
+                # A level that ends with a local problem still failing would hand the final
+                # solve a large costate jump: split every arc instead (shorter local problems)
+                # and sweep on.
+                arcs = arcs.refined(flow)
+                refinements += 1
+            else:
+                last_multi = arcs
+                arcs = arcs.halved()
             sweeps_here = stalls = 0
     sweep_time = time.perf_counter() - t_start
     final_jump = arcs.max_jump()
