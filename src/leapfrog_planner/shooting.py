@@ -18,6 +18,7 @@ from .integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
 from .penalty import penalty_terms
 from .problem import OptimalControlProblem
 from .roots import RootResult, RootSettings, RootStatus, solve_root
+from .roots.steps import vnorm
 
 
 @dataclass(frozen=True)
@@ -80,7 +81,7 @@ class ShootingSystem:
             self.last = None
             return None, None
         F = r.z[: self.nx] - self.x1
-        norm = float(np.linalg.norm(F))
+        norm = vnorm(F)
         if rtol > self._base[0] and norm <= 1e3 * rtol:
             # Too close to the integration error to trust: redo at the full tolerance.
             r = self.flow(self.t0, self._z0, self.t1, sensitivity=sens)
@@ -88,7 +89,7 @@ class ShootingSystem:
                 self.last = None
                 return None, None
             F = r.z[: self.nx] - self.x1
-            norm = float(np.linalg.norm(F))
+            norm = vnorm(F)
         self._norm = min(self._norm, norm)
         self.last = (np.array(s, dtype=float), r)
         return F, (r.sensitivity[: self.nx] if jacobian else None)

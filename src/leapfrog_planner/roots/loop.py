@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import SettingsError
 from .result import RootResult, RootStatus
-from .steps import _Evaluator, get_strategy
+from .steps import _Evaluator, get_strategy, vnorm
 
 
 @dataclass(frozen=True)
@@ -43,7 +43,7 @@ def solve_root(
     evaluate = _Evaluator(system)
     memo = strategy.start()
     x = np.array(x0, dtype=float, copy=True).reshape(-1)
-    bound = settings.divergence * (1.0 + np.linalg.norm(x))
+    bound = settings.divergence * (1.0 + vnorm(x))
     F, J = evaluate(x, jacobian=True)
     norms: list[float] = []
     lams: list[float] = []
@@ -64,7 +64,7 @@ def solve_root(
     if F is None:
         return done(RootStatus.NON_FINITE, "F is not finite at the starting point")
     for it in range(settings.max_iterations + 1):
-        norms.append(float(np.linalg.norm(F)))
+        norms.append(vnorm(F))
         if norms[-1] <= settings.tol:
             return done(
                 RootStatus.CONVERGED,
@@ -90,11 +90,9 @@ def solve_root(
             return done(step.failed, step.message)
         x, F, J = step.x, step.F, step.J
         lams.append(step.lam)
-        if not np.all(np.isfinite(x)) or np.linalg.norm(x) > bound:
+        if not np.isfinite(x).all() or vnorm(x) > bound:
             F = F if F is not None else np.full(x.shape, np.nan)
-            return done(
-                RootStatus.DIVERGED, f"|x| = {np.linalg.norm(x):.3g} left the bound {bound:.3g}"
-            )
+            return done(RootStatus.DIVERGED, f"|x| = {vnorm(x):.3g} left the bound {bound:.3g}")
         if F is None:
             F, J = evaluate(x, jacobian=True)
             if F is None:

@@ -7,6 +7,7 @@ the strategy already evaluated them, and the damping factor used.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +26,12 @@ class Step:
     message: str = ""
 
 
+def vnorm(v) -> float:
+    """Euclidean norm of a short vector: ``np.linalg.norm``'s generality costs more than the
+    arithmetic at this size, and the loop takes several norms per evaluation."""
+    return math.sqrt(float(v @ v))
+
+
 class _Evaluator:
     """Counts evaluations for the loop; handed to strategies for their trial points."""
 
@@ -37,9 +44,9 @@ class _Evaluator:
         self.f_evals += 1
         self.jac_evals += bool(jacobian)
         F, J = self.system.evaluate(x, jacobian)
-        if F is not None and not np.all(np.isfinite(F)):
+        if F is not None and not np.isfinite(F).all():
             F, J = None, None
-        if J is not None and not np.all(np.isfinite(J)):
+        if J is not None and not np.isfinite(J).all():
             F, J = None, None  # a NaN Jacobian makes the point as unusable as a NaN residual
         return F, J
 
@@ -80,7 +87,7 @@ class ModifiedNewtonStep:
         d = solve(F)
         gamma = 1.0 / cond
         h0 = float(F @ F)
-        slope = 0.25 * gamma * np.linalg.norm(d) * np.linalg.norm(2.0 * (J.T @ F))
+        slope = 0.25 * gamma * vnorm(d) * vnorm(2.0 * (J.T @ F))
         best = None
         for m in range(self.max_halvings + 1):
             lam = 2.0**-m
@@ -134,15 +141,14 @@ class NleqErrStep:
 
     def step(self, evaluate, x, F, J, solve, cond, memo: _NleqMemo) -> Step:
         dx = -solve(F)
-        ndx = np.linalg.norm(dx)
+        ndx = vnorm(dx)
         lam = memo.lam
         if memo.dx_prev is not None and memo.dxbar is not None:
-            denom = np.linalg.norm(memo.dxbar - dx) * ndx
+            denom = vnorm(memo.dxbar - dx) * ndx
             mu = (
                 np.inf
                 if denom == 0
-                else (np.linalg.norm(memo.dx_prev) * np.linalg.norm(memo.dxbar) / denom)
-                * memo.lam_prev
+                else (vnorm(memo.dx_prev) * vnorm(memo.dxbar) / denom) * memo.lam_prev
             )
             lam = min(1.0, mu)
         reduced = False  # once reduced in this step, the corrector may not raise lambda again
@@ -155,12 +161,12 @@ class NleqErrStep:
                 lam, reduced = lam / 2, True  # outside the domain of F (the flow blew up)
                 continue
             dxbar = -solve(Ft)
-            if lam == 1.0 and np.linalg.norm(dxbar) <= self.xtol * (1.0 + np.linalg.norm(xt)):
+            if lam == 1.0 and vnorm(dxbar) <= self.xtol * (1.0 + vnorm(xt)):
                 # Converged in Deuflhard's sense; the monotonicity test would only measure noise.
                 memo.dx_prev, memo.dxbar, memo.lam_prev, memo.lam = dx, dxbar, lam, lam
                 return Step(xt, lam, Ft, Jt)
-            theta = np.linalg.norm(dxbar) / ndx if ndx > 0 else 0.0
-            denom = np.linalg.norm(dxbar - (1.0 - lam) * dx)
+            theta = vnorm(dxbar) / ndx if ndx > 0 else 0.0
+            denom = vnorm(dxbar - (1.0 - lam) * dx)
             mu_c = np.inf if denom == 0 else 0.5 * ndx * lam * lam / denom
             if theta >= 1.0 - lam / 4.0:
                 lam, reduced = min(mu_c, lam / 2.0), True
