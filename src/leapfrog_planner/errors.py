@@ -15,3 +15,10 @@ class ScenarioError(LeapfrogError, ValueError):
 
 class SettingsError(LeapfrogError, ValueError):
     """An unknown option, or an option with a value outside its range."""
+
+
+def require_integer(name: str, value, minimum: int = 1) -> None:
+    """Raise :class:`SettingsError`, naming ``name``, unless ``value`` is an integer >= minimum."""
+    if int(value) != value or value < minimum:
+        what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
+        raise SettingsError(f"{name} must be {what}, got {value}")

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ._blas import blas_single_threaded
-from .errors import SettingsError
+from .errors import SettingsError, require_integer
 from .integrate.flow import Flow, IntegratorSettings
 from .multiple_shooting import MultipleShootingSystem
 from .problem import OptimalControlProblem
@@ -99,43 +99,25 @@ class LeapfrogSettings:
     def __post_init__(self):
         if self.method not in STRATEGIES:
             raise SettingsError(f"unknown method {self.method!r} (known: {', '.join(STRATEGIES)})")
-        if int(self.partitions) != self.partitions or self.partitions < 2:
-            raise SettingsError(f"partitions must be an integer >= 2, got {self.partitions}")
-        for name in ("max_sweeps", "sweeps_per_level"):
-            v = getattr(self, name)
-            if int(v) != v or v < 1:
-                raise SettingsError(f"{name} must be a positive integer, got {v}")
+        require_integer("partitions", self.partitions, 2)
+        require_integer("max_sweeps", self.max_sweeps)
+        require_integer("sweeps_per_level", self.sweeps_per_level)
         if not (self.reduce_tol > 0 and self.jump_tol > 0):
             raise SettingsError("reduce_tol and jump_tol must be > 0")
         if self.final not in FINAL_MODES:
             raise SettingsError(
                 f"final must be one of {', '.join(FINAL_MODES)}, got {self.final!r}"
             )
-        if int(self.local_halvings) != self.local_halvings or self.local_halvings < 1:
-            raise SettingsError(
-                f"local_halvings must be a positive integer, got {self.local_halvings}"
-            )
-        if int(self.attempt_iterations) != self.attempt_iterations or self.attempt_iterations < 1:
-            raise SettingsError(
-                f"attempt_iterations must be a positive integer, got {self.attempt_iterations}"
-            )
-        if int(self.continuation_steps) != self.continuation_steps or self.continuation_steps < 1:
-            raise SettingsError(
-                f"continuation_steps must be a positive integer, got {self.continuation_steps}"
-            )
+        require_integer("local_halvings", self.local_halvings)
+        require_integer("attempt_iterations", self.attempt_iterations)
+        require_integer("continuation_steps", self.continuation_steps)
         if not 0 < self.continuation_min_step <= self.continuation_first_step <= 1:
             raise SettingsError(
                 "need 0 < continuation_min_step <= continuation_first_step <= 1, got "
                 f"{self.continuation_min_step} and {self.continuation_first_step}"
             )
-        if int(self.max_refinements) != self.max_refinements or self.max_refinements < 0:
-            raise SettingsError(
-                f"max_refinements must be an integer >= 0, got {self.max_refinements}"
-            )
-        if int(self.max_split_depth) != self.max_split_depth or self.max_split_depth < 0:
-            raise SettingsError(
-                f"max_split_depth must be an integer >= 0, got {self.max_split_depth}"
-            )
+        require_integer("max_refinements", self.max_refinements, 0)
+        require_integer("max_split_depth", self.max_split_depth, 0)
 
 
 @dataclass(frozen=True)
@@ -295,6 +277,12 @@ def leapfrog(
             weighted[w] = (p, Flow(p, flow.settings))
         return weighted[w]
 
+    def direct(ta, xa, tb, xb, guess, local=problem, local_flow=flow) -> ShootingResult | None:
+        """The warm guess, then the affine guess, each for ``attempt_iterations`` iterations."""
+        return (
+            guess is not None and solve(ta, xa, tb, xb, guess, local, local_flow, attempt)
+        ) or solve(ta, xa, tb, xb, None, local, local_flow, attempt)
+
     def continuation(ta, xa, tb, xb, guess) -> ShootingResult | None:
         """Raise the obstacle weight from 0 to W, each solve warm-starting the next.
 
@@ -302,10 +290,7 @@ def leapfrog(
         ``continuation_min_step`` W); the next guess is extrapolated from the last two solutions
         (secant predictor), so each solve starts close to its answer.
         """
-        p0, f0 = at_weight(0.0)
-        r = (guess is not None and solve(ta, xa, tb, xb, guess, p0, f0, attempt)) or solve(
-            ta, xa, tb, xb, None, p0, f0, attempt
-        )
+        r = direct(ta, xa, tb, xb, guess, *at_weight(0.0))
         if r is None:
             return None
         w, s, prev = 0.0, r.costate0, None
@@ -331,9 +316,7 @@ def leapfrog(
 
     def local_solve(ta, xa, tb, xb, guess) -> ShootingResult | None:
         """Warm guess, then the affine guess, then continuation in the obstacle weight."""
-        r = (guess is not None and solve(ta, xa, tb, xb, guess, settings=attempt)) or solve(
-            ta, xa, tb, xb, settings=attempt
-        )
+        r = direct(ta, xa, tb, xb, guess)
         if r is None and has_obstacles:
             r = continuation(ta, xa, tb, xb, guess)
         return r

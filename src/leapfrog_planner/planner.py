@@ -17,7 +17,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ._blas import held_by_parent, single_threaded_blas
-from .errors import ScenarioError, SettingsError
+from .errors import ScenarioError, SettingsError, require_integer
 from .initial_path import InitialPath, initial_paths
 from .integrate.flow import Flow
 from .leapfrog import LeapfrogRun, LeapfrogSettings, SweepRecord, leapfrog
@@ -59,20 +59,12 @@ class PlannerSettings:
     leapfrog: LeapfrogSettings = LeapfrogSettings()
 
     def __post_init__(self):
-        if int(self.initial_paths) != self.initial_paths or self.initial_paths < 1:
-            raise SettingsError(
-                f"initial_paths must be a positive integer, got {self.initial_paths}"
-            )
-        if int(self.candidate_paths) != self.candidate_paths or self.candidate_paths < 1:
-            raise SettingsError(
-                f"candidate_paths must be a positive integer, got {self.candidate_paths}"
-            )
-        if int(self.threads) != self.threads or self.threads < 0:
-            raise SettingsError(f"threads must be an integer >= 0, got {self.threads}")
+        require_integer("initial_paths", self.initial_paths)
+        require_integer("candidate_paths", self.candidate_paths)
+        require_integer("threads", self.threads, 0)
         if not self.margin >= 0:
             raise SettingsError(f"margin must be >= 0, got {self.margin}")
-        if int(self.samples) != self.samples or self.samples < 2:
-            raise SettingsError(f"samples must be an integer >= 2, got {self.samples}")
+        require_integer("samples", self.samples, 2)
 
     @classmethod
     def from_options(cls, base: PlannerSettings | None = None, **options) -> PlannerSettings:

@@ -13,7 +13,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from ..errors import SettingsError
+from ..errors import SettingsError, require_integer
 from ..problem import OptimalControlProblem
 from .tableaux import TABLEAUX, get_tableau
 
@@ -45,12 +45,8 @@ class IntegratorSettings:
             raise SettingsError(
                 f"integrator tolerances need 0 < rtol < 1, atol > 0; got {self.rtol}, {self.atol}"
             )
-        if int(self.steps) != self.steps or self.steps < 1:
-            raise SettingsError(f"integrator steps must be a positive integer, got {self.steps}")
-        if int(self.max_steps) != self.max_steps or self.max_steps < 1:
-            raise SettingsError(
-                f"integrator max_steps must be a positive integer, got {self.max_steps}"
-            )
+        require_integer("integrator steps", self.steps)
+        require_integer("integrator max_steps", self.max_steps)
 
 
 @dataclass(frozen=True)

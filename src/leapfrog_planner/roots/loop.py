@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import SettingsError
+from ..errors import SettingsError, require_integer
 from .result import RootResult, RootStatus
 from .steps import _Evaluator, get_strategy, vnorm
 
@@ -24,10 +24,7 @@ class RootSettings:
     def __post_init__(self):
         if not self.tol > 0:
             raise SettingsError(f"tol must be > 0, got {self.tol}")
-        if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
-            raise SettingsError(
-                f"max_iterations must be a positive integer, got {self.max_iterations}"
-            )
+        require_integer("max_iterations", self.max_iterations)
         if not self.max_cond > 1:
             raise SettingsError(f"max_cond must be > 1, got {self.max_cond}")
         if not self.divergence > 1:
