@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from .initial_path import InitialPath
-from .penalty import penalty_along
 from .problem import OptimalControlProblem
 
 
@@ -47,10 +46,7 @@ def estimated_cost(
     Bt = np.swapaxes(B, 1, 2)
     u = np.linalg.solve(Bt @ B, (Bt @ r[..., None]))[..., 0]  # least squares, all samples at once
     energy = 0.5 * np.einsum("ni,nij,nj->n", u, R, u)
-    pen = problem.penalty
-    running = energy
-    if pen.obstacles.shape[0]:
-        running = energy + penalty_along(xy, pen.obstacles, pen.weight, pen.exponent)
+    running = energy + problem.penalty(xy)
     return float(np.sum(0.5 * (running[1:] + running[:-1]) * np.diff(t)))  # trapezoidal rule
 
 

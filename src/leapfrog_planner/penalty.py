@@ -61,12 +61,3 @@ def clearance(xy: np.ndarray, obstacles: np.ndarray) -> np.ndarray:
         return np.zeros(0)
     d = np.linalg.norm(xy[:, None, :] - obstacles[None, :, :2], axis=2) - obstacles[None, :, 2]
     return d.min(axis=0)
-
-
-@njit(cache=True)
-def penalty_along(xy, obs, weight, exponent):
-    """``P`` at each row of ``xy`` (n, 2)."""
-    out = np.empty(xy.shape[0])
-    for i in range(xy.shape[0]):
-        out[i] = penalty_terms(xy[i, 0], xy[i, 1], obs, weight, exponent, False)[0]
-    return out

@@ -103,10 +103,10 @@ def _penalty_integral(problem: OptimalControlProblem, tr: Trajectory, samples: i
     """
     t = tr.t
     uniform = np.isin(t, np.linspace(t[0], t[-1], samples))
-    tu, P = t[uniform], problem.penalty(tr.x[uniform, :2])
-    if tu.size != samples or samples % 2 == 0:  # not the expected grid: trapezoid on all rows
+    if uniform.sum() != samples or samples % 2 == 0:  # not the expected grid: trapezoid
         P = problem.penalty(tr.x[:, :2])
         return float(np.sum(0.5 * (P[1:] + P[:-1]) * np.diff(t)))
+    tu, P = t[uniform], problem.penalty(tr.x[uniform, :2])
     h = (tu[-1] - tu[0]) / (samples - 1)
     return float(h / 3.0 * (P[0] + P[-1] + 4.0 * P[1:-1:2].sum() + 2.0 * P[2:-1:2].sum()))
 
