@@ -255,11 +255,9 @@ def sweep(
         chunk_size=chunk_size,
         sort=not no_sort,
     )
-    out_path = Path(out)
-    if not (out_path.parent if str(out_path.parent) else Path(".")).is_dir():
-        raise click.UsageError(f"--out: folder {str(out_path.parent)!r} does not exist")
-    if out_path.is_dir():
-        raise click.UsageError(f"--out: {out!r} is a folder")
+    from .cli import _output_path  # the check every file-writing command uses
+
+    out_path = _output_path(out, "--out")
     scenarios = _load_sources(sources)
     if gen["n"] is not None:
         from .generate import generate as gen_scenarios
