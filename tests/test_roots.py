@@ -243,13 +243,44 @@ def test_a_nan_jacobian_gives_a_status_not_an_exception(method):
     assert r.status in (RootStatus.NON_FINITE, RootStatus.SINGULAR_JACOBIAN)
 
 
+# --------------------------------------------------------------------------- stall
+
+
+@pytest.mark.parametrize("method", ["newton", "modified-newton"])
+def test_a_creeping_iteration_stops_as_stalled_when_asked(method):
+    """x^2 + 1 has no root: NM wanders and MNM creeps towards |F| = 1. With a stall window they
+    stop early with their own status; without one they run on (NLEQ-ERR's damping fails here
+    first, after 2 iterations, whatever the window)."""
+    on = solve_root(NO_ROOT, [2.0], method, RootSettings(max_iterations=50, stall_window=3))
+    assert on.status is RootStatus.STALLED
+    assert "last 3 iterations" in on.message
+    assert 3 <= on.iterations < 50
+    norms = on.residual_norms
+    assert norms[-1] > 0.5 * norms[-4:-1].max()  # the rule that fired
+    # ... and it did not fire at an earlier iteration
+    assert all(norms[k] <= 0.5 * norms[k - 3 : k].max() for k in range(3, norms.size - 1))
+    off = solve_root(NO_ROOT, [2.0], method, RootSettings(max_iterations=50))
+    assert off.status is not RootStatus.STALLED
+
+
+def test_a_converging_iteration_never_stalls():
+    """Quadratic convergence halves |F| every iteration: the window never fires. Nor does it
+    when classical Newton first climbs (Freudenstein-Roth from (6, 3): |F| up 60%, then down)."""
+    r = solve_root(SQRT2, [10.0], "newton", RootSettings(stall_window=1, stall_factor=0.9))
+    assert r.success
+    r = solve_root(FR, [6.0, 3.0], "newton", RootSettings(stall_window=3))
+    assert r.success
+    assert r.residual_norms[1] > 1.5 * r.residual_norms[0]
+
+
 # --------------------------------------------------------------------------- settings
 
 
 @pytest.mark.parametrize(
     "kw",
     [{"tol": 0.0}, {"max_iterations": 0}, {"max_iterations": 2.5}, {"max_cond": 1.0},
-     {"divergence": 0.5}],
+     {"divergence": 0.5}, {"stall_window": -1}, {"stall_window": 1.5}, {"stall_factor": 1.0},
+     {"stall_factor": 0.0}],
 )  # fmt: skip
 def test_bad_root_settings_are_refused(kw):
     with pytest.raises(SettingsError):

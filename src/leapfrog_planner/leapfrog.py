@@ -15,16 +15,18 @@ at this ``q``. At ``q = 2`` the final
 simple shooting over the whole horizon runs from the costate of the first arc; if it fails, a
 multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over.
 
-Local failures: a local problem is tried from the warm start, then from the affine guess, each
-for at most ``attempt_iterations`` Newton iterations; then by continuation in the obstacle weight
-from 0 to ``W`` with step-size control and a secant predictor. On the initial path a segment that
-still fails is split at its middle (up to ``max_split_depth`` times). In a sweep, a failed local
-problem leaves its junction where it is, so the arcs and the cost stay defined; ``q`` is not
-reduced while a level still has failures (unless two sweeps in a row made no progress, or its
-sweep budget is spent); a level that ends with a local problem still failing is refined (every
+Local failures: a local problem is tried from the warm start, for at most ``attempt_iterations``
+Newton iterations (cut short when ``|F|`` does not halve in ``attempt_stall_window``); in a sweep,
+then as a two-arc multiple-shooting problem through the current middle junction, whose only initial
+residual is the costate jump there; then from the affine guess; then by continuation in the
+obstacle weight from 0 to ``W`` with step-size control and a secant predictor. On the initial path
+a segment that still fails is split at its middle (up to ``max_split_depth`` times). In a sweep, a
+failed local problem leaves its junction where it is, so the arcs and the cost stay defined; ``q``
+is not reduced while a level still has failures (unless two sweeps in a row made no progress, or
+its sweep budget is spent); a level that ends with a local problem still failing is refined (every
 arc split at its middle) rather than halved, at most ``max_refinements`` times, and the refined
-level must converge ten times further before q is halved again. The method itself (classical
-Newton included) is never changed: this robustness lives at the Leapfrog level.
+level must converge ten times further before q is halved again. The method itself (classical Newton
+included) is never changed: this robustness lives at the Leapfrog level.
 """
 
 from __future__ import annotations
@@ -65,6 +67,16 @@ class LeapfrogSettings:
     # Iterations of a direct attempt at a local problem (warm guess, then affine guess) before
     # continuation in the obstacle weight takes over; converging local solves need 3 to 8.
     attempt_iterations: int = 10
+    # A direct attempt whose |F| has not halved in this many iterations is creeping (measured on
+    # failing attempts: 40 iterations at |F| ~ 0.05) and is cut short; 0 disables. Random
+    # scenarios: a third fewer failed-attempt evaluations, the same successes.
+    attempt_stall_window: int = 3
+    # A local problem whose warm attempt fails is next solved as two arcs through the current
+    # junction (multiple shooting, same Newton method, unknowns lambda_a, x_i, lambda_i): its
+    # starting residual is only the costate jump at the junction, and its Jacobian is far better
+    # conditioned than the full local shot. Paper case 3 (MNM): continuation work 447 -> 25 flow
+    # evaluations. False keeps the paper's local simple shooting only.
+    two_arc_attempt: bool = True
     # Weight continuation: first increment and smallest increment, as fractions of W.
     continuation_first_step: float = 0.25
     continuation_min_step: float = 1.0 / 64
@@ -110,6 +122,11 @@ class LeapfrogSettings:
             )
         require_integer("local_halvings", self.local_halvings)
         require_integer("attempt_iterations", self.attempt_iterations)
+        require_integer("attempt_stall_window", self.attempt_stall_window, 0)
+        if not isinstance(self.two_arc_attempt, bool):
+            raise SettingsError(
+                f"two_arc_attempt must be true or false, got {self.two_arc_attempt!r}"
+            )
         require_integer("continuation_steps", self.continuation_steps)
         if not 0 < self.continuation_min_step <= self.continuation_first_step <= 1:
             raise SettingsError(
@@ -267,7 +284,11 @@ def leapfrog(
     # in the weight is then cheaper than more Newton steps on the hard problem.
     attempt = replace(
         shoot_settings,
-        root=replace(shoot_settings.root, max_iterations=settings.attempt_iterations),
+        root=replace(
+            shoot_settings.root,
+            max_iterations=settings.attempt_iterations,
+            stall_window=settings.attempt_stall_window,
+        ),
     )
     weighted: dict[float, tuple[OptimalControlProblem, Flow]] = {}
 
@@ -314,9 +335,25 @@ def leapfrog(
             dw *= 2.0
         return None  # the step budget is spent: a failure, handled like any other
 
-    def local_solve(ta, xa, tb, xb, guess) -> ShootingResult | None:
-        """Warm guess, then the affine guess, then continuation in the obstacle weight."""
-        r = direct(ta, xa, tb, xb, guess)
+    def two_arcs(ta, xa, tb, xb, guess, mid) -> ShootingResult | None:
+        """The local problem as two arcs through the junction ``mid = (t_i, x_i, lambda_i)``.
+
+        Unknowns ``(lambda_a, x_i, lambda_i)`` start at the current arcs, so the only residual is
+        the costate jump at ``t_i``. A solution is an extremal from ``xa`` to ``xb``; one simple
+        shooting from its ``lambda_a`` (already a root) returns it as a local solve does.
+        """
+        ms = MultipleShootingSystem(flow, np.array([ta, mid[0], tb]), xa, xb)
+        root = solve_root(ms, np.concatenate([guess, mid[1], mid[2]]), local_method, attempt.root)
+        count.add(root)
+        return solve(ta, xa, tb, xb, root.x[: xa.size], settings=attempt) if root.success else None
+
+    def local_solve(ta, xa, tb, xb, guess, mid=None) -> ShootingResult | None:
+        """Warm guess, then two arcs through ``mid`` (in sweeps), then the affine guess, then
+        continuation in the obstacle weight."""
+        r = guess is not None and solve(ta, xa, tb, xb, guess, settings=attempt)
+        if not r and mid is not None and settings.two_arc_attempt:
+            r = two_arcs(ta, xa, tb, xb, guess, mid)
+        r = r or solve(ta, xa, tb, xb, None, settings=attempt)
         if r is None and has_obstacles:
             r = continuation(ta, xa, tb, xb, guess)
         return r
@@ -372,7 +409,8 @@ def leapfrog(
         for i in range(1, arcs.q):
             ta, tb = arcs.t[i - 1], arcs.t[i + 1]
             xa, xb = arcs.X[i - 1], arcs.X[i + 1]
-            r = local_solve(ta, xa, tb, xb, arcs.lam0[i - 1])
+            mid = (arcs.t[i], arcs.X[i], arcs.lam0[i])
+            r = local_solve(ta, xa, tb, xb, arcs.lam0[i - 1], mid)
             if r is None:
                 failures += 1
                 continue

@@ -14,12 +14,16 @@ from .steps import _Evaluator, get_strategy, vnorm
 @dataclass(frozen=True)
 class RootSettings:
     """``tol``: converged when ``|F| <= tol``. ``max_cond``: above it the Jacobian counts as
-    singular. Diverged when ``|x|`` exceeds ``divergence * (1 + |x0|)``."""
+    singular. Diverged when ``|x|`` exceeds ``divergence * (1 + |x0|)``. Stalled when
+    ``stall_window > 0`` and ``|F|`` is above ``stall_factor`` times the largest of the
+    ``stall_window`` norms before it (off by default: a caller with a fallback sets it)."""
 
     tol: float = 1e-10
     max_iterations: int = 50
     max_cond: float = 1e13
     divergence: float = 1e8
+    stall_window: int = 0
+    stall_factor: float = 0.5
 
     def __post_init__(self):
         if not self.tol > 0:
@@ -29,6 +33,9 @@ class RootSettings:
             raise SettingsError(f"max_cond must be > 1, got {self.max_cond}")
         if not self.divergence > 1:
             raise SettingsError(f"divergence must be > 1, got {self.divergence}")
+        require_integer("stall_window", self.stall_window, 0)
+        if not 0 < self.stall_factor < 1:
+            raise SettingsError(f"stall_factor must be in (0, 1), got {self.stall_factor}")
 
 
 def solve_root(
@@ -69,6 +76,15 @@ def solve_root(
             )
         if it == settings.max_iterations:
             break
+        w = settings.stall_window
+        # Against the largest of the last w norms, so that classical Newton's excursions (|F|
+        # up, then quadratically down) are not taken for creeping.
+        if w and it >= w and norms[-1] > settings.stall_factor * max(norms[-1 - w : -1]):
+            return done(
+                RootStatus.STALLED,
+                f"|F| = {norms[-1]:.3g} did not fall below {settings.stall_factor:g} times the "
+                f"largest of the last {w} iterations",
+            )
         if J is None:
             F, J = evaluate(x, jacobian=True)
             if F is None:  # cannot happen for a deterministic F, kept for safety

@@ -15,6 +15,7 @@ class RootStatus(StrEnum):
     LINE_SEARCH_FAILED = "line-search-failed"
     NON_FINITE = "non-finite"
     DIVERGED = "diverged"
+    STALLED = "stalled"
 
 
 @dataclass(frozen=True)
