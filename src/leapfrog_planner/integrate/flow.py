@@ -89,6 +89,7 @@ class FlowResult:
 
 
 _SEEDS = (None, "costate", "full")
+_STATUS = tuple(FlowStatus)  # kernel status code -> enum, without the enum call
 
 
 class Flow:
@@ -110,17 +111,23 @@ class Flow:
         self._no_Z = np.zeros((0, self.nz + 1))
         eye = np.eye(self.nz)
         self._seed = {None: eye[:, :0], "costate": eye[:, self.nx :], "full": eye}
+        # Initial augmented states [z, cost, seed] per named seed: a call copies one and writes z.
+        self._Y0 = {
+            key: np.concatenate([np.zeros(self.nz + 1), seed.ravel()])
+            for key, seed in self._seed.items()
+        }
 
     def with_settings(self, settings: IntegratorSettings) -> Flow:
         return Flow(self.problem, settings)
 
-    def _run(self, t0, z0, t1, seed, T_out, Z_out, rtol=None, atol=None):
+    def _run(self, t0, z0, t1, seed, T_out, Z_out, rtol=None, atol=None, Y0=None):
         nz = self.nz
         k = seed.shape[1]
-        Y0 = np.empty(nz + 1 + nz * k)
+        if Y0 is None:
+            Y0 = np.empty(nz + 1 + nz * k)
+            Y0[nz] = 0.0
+            Y0[nz + 1 :] = seed.ravel()
         Y0[:nz] = z0
-        Y0[nz] = 0.0
-        Y0[nz + 1 :] = seed.ravel()
         K = self.kernels
         tab = self.tableau
         if tab.adaptive:
@@ -151,7 +158,7 @@ class Flow:
                 Y0, t0, t1, n, k, tab.A, tab.b, self._p, self._obs, self._w, self._n, T_out, Z_out
             )
             rej = 0
-        return Y, FlowStatus(status), acc, rej
+        return Y, _STATUS[status], acc, rej
 
     def __call__(
         self,
@@ -172,10 +179,12 @@ class Flow:
         view ``samples`` uniform times interpolated by cubic Hermite splines between steps.
         ``rtol``, ``atol`` override the settings' tolerances for this call (adaptive methods).
         """
+        Y0 = None
         if isinstance(sensitivity, np.ndarray):
             seed = np.ascontiguousarray(sensitivity, dtype=np.float64).reshape(self.nz, -1)
         elif sensitivity in _SEEDS:
             seed = self._seed[sensitivity]
+            Y0 = self._Y0[sensitivity].copy()
         else:
             raise SettingsError(
                 f"sensitivity must be one of {_SEEDS} or an array, got {sensitivity!r}"
@@ -189,7 +198,9 @@ class Flow:
             Z_out = np.empty((cap, self.nz + 1))
         else:
             T_out, Z_out = self._no_T, self._no_Z
-        Y, status, acc, rej = self._run(float(t0), z0, float(t1), seed, T_out, Z_out, rtol, atol)
+        Y, status, acc, rej = self._run(
+            float(t0), z0, float(t1), seed, T_out, Z_out, rtol, atol, Y0
+        )
         nz = self.nz
         k = seed.shape[1]
         traj = None
@@ -199,9 +210,10 @@ class Flow:
             status=status,
             t0=float(t0),
             t1=float(t1),
-            z=Y[:nz].copy(),
+            # Views: the kernel returns a new Y on every call.
+            z=Y[:nz],
             cost=float(Y[nz]),
-            sensitivity=Y[nz + 1 :].reshape(nz, k).copy() if k else None,
+            sensitivity=Y[nz + 1 :].reshape(nz, k) if k else None,
             steps=int(acc),
             rejected=int(rej),
             trajectory=traj,

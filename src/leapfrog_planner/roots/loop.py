@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SettingsError, require_integer
+from .linear import newton_correction
 from .result import RootResult, RootStatus
 from .steps import _Evaluator, get_strategy, vnorm
 
@@ -89,16 +90,15 @@ def solve_root(
             F, J = evaluate(x, jacobian=True)
             if F is None:  # cannot happen for a deterministic F, kept for safety
                 return done(RootStatus.NON_FINITE, "F is not finite")
-        sv = np.linalg.svd(J, compute_uv=False)
-        cond = sv[0] / sv[-1] if sv[-1] > 0 else np.inf
+        d, cond = newton_correction(J, F, settings.max_cond)
         if not cond <= settings.max_cond:
             return done(
                 RootStatus.SINGULAR_JACOBIAN, f"cond(DF) = {cond:.3g} > {settings.max_cond:g}"
             )
         # The systems are tiny (3x3 for shooting): numpy's solve is a few microseconds, where
-        # SciPy's lu_factor/lu_solve wrappers cost tens; so "reusing the factorisation" is
-        # reusing J itself.
-        step = strategy.step(evaluate, x, F, J, lambda b, J=J: np.linalg.solve(J, b), cond, memo)
+        # SciPy's lu_factor/lu_solve wrappers cost tens; so "reusing the factorisation" for
+        # further right-hand sides (NLEQ-ERR's simplified corrections) is reusing J itself.
+        step = strategy.step(evaluate, x, F, J, d, lambda b, J=J: np.linalg.solve(J, b), cond, memo)
         if step.failed is not None:
             return done(step.failed, step.message)
         x, F, J = step.x, step.F, step.J

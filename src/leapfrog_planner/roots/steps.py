@@ -1,8 +1,9 @@
 """Step strategies. The iteration loop (:mod:`.loop`) is shared; a method is one of these.
 
-Each ``step`` gets the current iterate with its residual ``F``, Jacobian ``J`` and ``solve(b)``
-for ``J^-1 b``, and returns a :class:`Step`: the next iterate, its residual (and Jacobian) if
-the strategy already evaluated them, and the damping factor used.
+Each ``step`` gets the current iterate with its residual ``F``, Jacobian ``J``, the Newton
+correction ``d = J^-1 F``, ``solve(b)`` for further ``J^-1 b`` and ``cond(J)``, and returns a
+:class:`Step`: the next iterate, its residual (and Jacobian) if the strategy already evaluated
+them, and the damping factor used.
 """
 
 from __future__ import annotations
@@ -32,6 +33,11 @@ def vnorm(v) -> float:
     return math.sqrt(float(v @ v))
 
 
+def _sumsq(A) -> float:
+    a = A.ravel()
+    return float(a @ a)
+
+
 class _Evaluator:
     """Counts evaluations for the loop; handed to strategies for their trial points."""
 
@@ -44,9 +50,10 @@ class _Evaluator:
         self.f_evals += 1
         self.jac_evals += bool(jacobian)
         F, J = self.system.evaluate(x, jacobian)
-        if F is not None and not np.isfinite(F).all():
+        # A sum of squares is finite iff every entry is (and |F| < 1e154): cheaper than isfinite.
+        if F is not None and not math.isfinite(F @ F):
             F, J = None, None
-        if J is not None and not np.isfinite(J).all():
+        if J is not None and not math.isfinite(_sumsq(J)):
             F, J = None, None  # a NaN Jacobian makes the point as unusable as a NaN residual
         return F, J
 
@@ -60,8 +67,8 @@ class NewtonStep:
     def start(self):
         return None
 
-    def step(self, evaluate, x, F, J, solve, cond, memo) -> Step:
-        return Step(x - solve(F), 1.0)
+    def step(self, evaluate, x, F, J, d, solve, cond, memo) -> Step:
+        return Step(x - d, 1.0)
 
 
 @dataclass(frozen=True)
@@ -83,8 +90,7 @@ class ModifiedNewtonStep:
     def start(self):
         return None
 
-    def step(self, evaluate, x, F, J, solve, cond, memo) -> Step:
-        d = solve(F)
+    def step(self, evaluate, x, F, J, d, solve, cond, memo) -> Step:
         gamma = 1.0 / cond
         h0 = float(F @ F)
         slope = 0.25 * gamma * vnorm(d) * vnorm(2.0 * (J.T @ F))
@@ -139,8 +145,8 @@ class NleqErrStep:
     def start(self):
         return _NleqMemo(lam=self.initial_damping)
 
-    def step(self, evaluate, x, F, J, solve, cond, memo: _NleqMemo) -> Step:
-        dx = -solve(F)
+    def step(self, evaluate, x, F, J, d, solve, cond, memo: _NleqMemo) -> Step:
+        dx = -d
         ndx = vnorm(dx)
         lam = memo.lam
         if memo.dx_prev is not None and memo.dxbar is not None:
