@@ -354,3 +354,24 @@ def test_two_arc_attempts_reach_the_same_optimum_with_less_work():
         assert r.status == "converged" and r.end_state_error <= 1e-8
     assert rel(runs[True].cost, runs[False].cost) <= 1e-8
     assert runs[True].f_evals < 0.75 * runs[False].f_evals
+
+
+@pytest.mark.parametrize("method", [NM, MNM])
+@pytest.mark.parametrize("case", [1, 3])
+def test_the_compiled_local_newton_changes_nothing_but_time(case, method):
+    """Leapfrog with every simple shooting in the shared Python loop, against the default (NM
+    and MNM compiled): same sweeps, iterations and evaluations, same optimum."""
+    s = LeapfrogSettings()
+    python = {
+        "shooting": replace(s.shooting, compiled=False),
+        "final_shooting": replace(s.final_shooting, compiled=False),
+    }
+    runs = [
+        Planner(CASES[case].name, method=method, initial_paths=1, threads=1, **kw).plan()
+        for kw in ({}, python)
+    ]
+    fast, ref = runs
+    assert fast.status == ref.status == "converged"
+    assert [h.q for h in fast.history] == [h.q for h in ref.history]
+    assert (fast.newton_iterations, fast.f_evals) == (ref.newton_iterations, ref.f_evals)
+    assert rel(fast.cost, ref.cost) <= 1e-10

@@ -349,7 +349,7 @@ def profile_markdown(p: ProfileSplit) -> list[str]:
             f"| {part.replace('_', ' ')} | {p.parts_s[part] * 1e3:.1f} "
             f"| {100 * p.fraction(part):.1f}% | {calls} |"
         )
-    n = p.calls.get("integration", 0)
+    n = p.integrations
     t_int = p.parts_s["integration"]
     lines += [
         "",

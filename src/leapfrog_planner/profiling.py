@@ -4,9 +4,10 @@
 and splits the wall time into exclusive parts:
 
 - ``integration``: inside ``Flow._run``, the call of the compiled flow kernel (all of them,
-  the final re-integration at rtol 1e-12 included);
-- ``linear_algebra``: ``numpy.linalg`` (solve, svd, lstsq, norm) and the affine guess's
-  ``scipy.linalg`` calls (expm, solve);
+  the final re-integration at rtol 1e-12 included), and the compiled Newton loops of simple
+  shooting with NM and MNM (their flows and their 3x3 linear algebra, one compiled call);
+- ``linear_algebra``: the Python Newton loop's compiled ``newton_correction``, ``numpy.linalg``
+  (solve, svd, lstsq, norm) and the affine guess's ``scipy.linalg`` calls (expm, solve);
 - ``initial_path``: building the initial feasible paths (``Planner.initial_paths``);
 - ``validation``: the rest of ``results.validate``: dense output, penalty and Pontryagin checks;
 - ``python``: everything else (the Newton loop, Leapfrog's bookkeeping, result objects).
@@ -41,6 +42,7 @@ class ProfileSplit:
     wall_s: float  # of the timed run
     parts_s: dict  # PARTS -> seconds, exclusive, summing to wall_s
     calls: dict  # category -> number of wrapped calls
+    integrations: int  # flow integrations, inside the compiled Newton loops included
     steps: int  # accepted integrator steps of all integrations (validation included)
     jacobian_calls: int  # integrations that also carried the variational equations
     top_functions: str  # cProfile's most expensive functions (cumulative), as text
@@ -57,7 +59,7 @@ class _Clock:
         self.calls = dict.fromkeys(PARTS[:-1], 0)
         self._local = threading.local()  # a stack per thread: nesting is per thread
         self._lock = threading.Lock()
-        self.steps = self.jacobian_calls = 0
+        self.steps = self.jacobian_calls = self.integrations = 0
 
     @property
     def stack(self) -> list[list]:  # [category, time spent in nested categories]
@@ -72,8 +74,22 @@ class _Clock:
             out = run(flow, t0, z0, t1, seed, *args, **kwargs)
             with self._lock:
                 self.steps += int(out[2])
+                self.integrations += 1
                 self.jacobian_calls += seed.shape[1] > 0
             return out
+
+        return counted
+
+    def counted_newton(self, run):
+        """``shooting._compiled_newton`` that also counts its steps and Jacobian evaluations."""
+
+        def counted(*args, **kwargs):
+            root, last, steps = run(*args, **kwargs)
+            with self._lock:
+                self.steps += int(steps)
+                self.integrations += root.f_evals  # each with the variational equations
+                self.jacobian_calls += root.jac_evals
+            return root, last, steps
 
         return counted
 
@@ -101,9 +117,12 @@ def _patched(clock: _Clock):
     from . import planner as planner_mod
     from . import shooting
     from .integrate.flow import Flow
+    from .roots import loop
 
     targets = [
         (Flow, "_run", "integration"),
+        (shooting, "_compiled_newton", "integration"),
+        (loop, "newton_correction", "linear_algebra"),
         (planner_mod.Planner, "initial_paths", "initial_path"),
         (planner_mod, "validate", "validation"),
         (shooting, "expm", "linear_algebra"),
@@ -113,7 +132,9 @@ def _patched(clock: _Clock):
         for owner, name, category in targets:
             original = getattr(owner, name)
             stack.callback(setattr, owner, name, original)
-            fn = clock.counted_run(original) if name == "_run" else original
+            fn = {"_run": clock.counted_run, "_compiled_newton": clock.counted_newton}.get(
+                name, lambda f: f
+            )(original)
             setattr(owner, name, clock.wrap(category, fn))
         yield
 
@@ -150,6 +171,7 @@ def profile_split(
         wall_s=wall,
         parts_s=parts,
         calls=dict(clock.calls),
+        integrations=clock.integrations,
         steps=clock.steps,
         jacobian_calls=clock.jacobian_calls,
         top_functions=buf.getvalue(),

@@ -14,10 +14,18 @@ from scipy.linalg import expm, solve
 
 from ._blas import blas_single_threaded
 from .errors import ScenarioError
-from .integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
+from .integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
 from .penalty import penalty_terms
 from .problem import OptimalControlProblem
-from .roots import RootResult, RootSettings, RootStatus, solve_root
+from .roots import (
+    ModifiedNewtonStep,
+    NewtonStep,
+    RootResult,
+    RootSettings,
+    RootStatus,
+    get_strategy,
+    solve_root,
+)
 from .roots.steps import vnorm
 
 
@@ -30,6 +38,9 @@ class ShootingSettings:
     # Inexact Newton: integrate loosely while |F| is large (tolerance ~ 1e-4 |F|, never looser
     # than 1e-6); the final iterations, and so the converged residual, use the full tolerance.
     inexact: bool = True
+    # NM and MNM with an adaptive integrator run as one compiled loop (same iterates as the
+    # shared Python loop, without its per-iteration overhead); False forces the Python loop.
+    compiled: bool = True
 
 
 @dataclass(frozen=True)
@@ -221,8 +232,90 @@ def solve_shooting(
     else:
         s0 = np.asarray(guess, dtype=float)
     system = ShootingSystem(flow, t0, x0, t1, x1, settings.inexact)
-    root = solve_root(system, s0, method, settings.root)
-    return shooting_result(flow, t0, x0, t1, x1, root, settings.samples, system.last)
+    strategy = get_strategy(method)
+    if settings.compiled and flow.tableau.adaptive and type(strategy) in _FUSED:
+        root, last, _ = _compiled_newton(system, s0, strategy, settings.root)
+    else:
+        root = solve_root(system, s0, strategy, settings.root)
+        last = system.last
+    return shooting_result(flow, t0, x0, t1, x1, root, settings.samples, last)
+
+
+_FUSED = (NewtonStep, ModifiedNewtonStep)
+_CODES = tuple(RootStatus)  # the compiled loop's status codes, in RootStatus order
+
+
+def _compiled_newton(
+    system: ShootingSystem, s0, strategy, settings: RootSettings
+) -> tuple[RootResult, tuple | None, int]:
+    """NM or MNM on the shooting system in one compiled call (``shoot_newton`` of the model's
+    kernels): the same iteration, statuses and counts as :func:`solve_root` with that strategy
+    on ``system`` (tested on the paper cases), without the Python layers per iteration.
+
+    Returns the root result, the latest evaluation ``(s, FlowResult)`` and the accepted
+    integrator steps of all evaluations."""
+    flow = system.flow
+    tab = flow.tableau
+    modified = isinstance(strategy, ModifiedNewtonStep)
+    m = settings.max_iterations
+    norms, lams = np.empty(m + 1), np.empty(m)
+    s0 = np.array(s0, dtype=float).reshape(-1)
+    fs = flow.settings
+    code, x, F, its, evals, n, cond, (last_s, last_Y, last_ok), steps = flow.kernels.shoot_newton(
+        (system.x0, system.x1, system.t0, system.t1),
+        s0,
+        modified,
+        (
+            settings.tol, m, settings.max_cond, settings.divergence, settings.stall_window,
+            settings.stall_factor, strategy.max_halvings if modified else 0,
+        ),
+        (fs.rtol, fs.atol, fs.max_steps, system.inexact, system.nx),
+        (
+            tab.A, tab.b, tab.e, flow._e3, tab.error_order, flow._p, flow._obs, flow._w,
+            flow._n, flow._no_T, flow._no_Z,
+        ),
+        norms,
+        lams,
+    )  # fmt: skip
+    fe = je = evals
+    status = _CODES[code]
+    norms = norms[:n].copy()
+    if status is RootStatus.CONVERGED:
+        msg = f"|F| = {norms[-1]:.3g} <= {settings.tol:g} after {its} iterations"
+    elif status is RootStatus.MAX_ITERATIONS:
+        msg = f"|F| = {norms[-1]:.3g} after {m} iterations"
+    elif status is RootStatus.STALLED:
+        msg = (
+            f"|F| = {norms[-1]:.3g} did not fall below {settings.stall_factor:g} times the "
+            f"largest of the last {settings.stall_window} iterations"
+        )
+    elif status is RootStatus.SINGULAR_JACOBIAN:
+        msg = f"cond(DF) = {cond:.3g} > {settings.max_cond:g}"
+    elif status is RootStatus.LINE_SEARCH_FAILED:
+        msg = f"no step 2^-m, m <= {strategy.max_halvings}, decreased |F|^2 enough"
+    elif status is RootStatus.DIVERGED:
+        bound = settings.divergence * (1.0 + vnorm(s0))
+        msg = f"|x| = {vnorm(x):.3g} left the bound {bound:.3g}"
+    else:  # non-finite
+        F = np.full(x.shape, np.nan)
+        msg = (
+            "F is not finite at the starting point"
+            if not its
+            else f"F is not finite after step {its}"
+        )
+    root = RootResult(
+        x=x, F=F, status=status, message=msg, iterations=int(its), f_evals=int(fe),
+        jac_evals=int(je), residual_norms=norms, step_sizes=lams[:its].copy(),
+    )  # fmt: skip
+    last = None
+    if last_ok:
+        nz = 2 * system.nx
+        r = FlowResult(
+            status=FlowStatus.OK, t0=system.t0, t1=system.t1, z=last_Y[:nz], cost=float(last_Y[nz]),
+            sensitivity=None, steps=0, rejected=0,  # not counted by the compiled loop
+        )  # fmt: skip
+        last = (last_s, r)
+    return root, last, int(steps)
 
 
 def shooting_result(

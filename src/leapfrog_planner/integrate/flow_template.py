@@ -2,9 +2,9 @@
 #
 # This file is a template, not an importable module: leapfrog_planner.codegen appends it to the
 # code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
-# controls, hamiltonian_model and dH_du. Keeping the integrator in the same module as the
-# model lets numba inline and cache everything (functions passed as arguments would not be
-# cached on disk).
+# controls, hamiltonian_model and dH_du, and imports penalty_terms, dot and transpose_times.
+# Keeping the integrator in the same module as the model lets numba inline and cache everything
+# (functions passed as arguments would not be cached on disk).
 #
 # The augmented state is Y = [z (NZ), cost (1), S (NZ x k, row-major)], with z = (x, lambda),
 # S = dz/d(seed) and k sensitivity columns (k = 0: flow only). A method is just its tableau
@@ -305,3 +305,157 @@ def hermite_dense(T, Z, dZ, t, out):
         h11 = s * s * (s - 1.0) * h
         for c in range(Z.shape[1]):
             out[i, c] = h00 * Z[j, c] + h10 * dZ[j, c] + h01 * Z[j + 1, c] + h11 * dZ[j + 1, c]
+
+
+# --------------------------------------------------------------------------------------------
+# Simple shooting with classical Newton or the paper's modified Newton, fused into one call.
+#
+# This is the compiled twin of roots.loop.solve_root + roots.steps.{NewtonStep,
+# ModifiedNewtonStep} + shooting.ShootingSystem (inexact evaluations included), for the local
+# problems of Leapfrog, where the Python layers cost as much as the integration (measured: ~50 us
+# per iteration against 10-100 us of flow). Same iteration, same statuses, same counts; the
+# tests compare the two. Status codes follow roots.result.RootStatus.
+CONVERGED = 0
+MAX_ITERATIONS = 1
+SINGULAR_JACOBIAN = 2
+LINE_SEARCH_FAILED = 3
+NON_FINITE_F = 4
+DIVERGED = 5
+STALLED = 6
+
+
+@njit(cache=True, error_model="numpy")
+def _shoot_eval(s, ends, accuracy, best_norm, kin):
+    """F(s) = x(t1) - x1 and DF(s), as ShootingSystem.evaluate.
+
+    ``ends = (x0, x1, t0, t1)``, ``accuracy = (rtol, atol, max_steps, inexact, k)``, ``kin``
+    the integrator's tableau and the problem data. Returns (ok, F, J, Y, |F|, accepted steps).
+    ``k`` (= NX, the costate columns) comes from the caller at run time, as in the Flow's
+    calls, so that both run the same code on the same values.
+    """
+    x0, x1, t0, t1 = ends
+    base_rtol, base_atol, max_steps, inexact, k = accuracy
+    A, b, e, e3, order, p, obs, weight, exponent, no_T, no_Z = kin
+    Y0 = np.zeros(NZ + 1 + NZ * k)
+    for m in range(NX):
+        Y0[m] = x0[m]
+        Y0[NX + m] = s[m]
+        Y0[NZ + 1 + (NX + m) * k + m] = 1.0  # seed: the costate columns of the identity
+    rtol, atol = base_rtol, base_atol
+    if inexact:
+        loose = min(1e-6, 1e-4 * best_norm)
+        rtol, atol = max(rtol, loose), max(atol, loose)
+    F = np.empty(NX)
+    J = np.empty((NX, NX))
+    steps = 0
+    norm = np.inf
+    for attempt in range(2):
+        Y, status, acc, _ = erk_adaptive(
+            Y0, t0, t1, k, A, b, e, e3, order, rtol, atol, max_steps, p, obs, weight, exponent,
+            no_T, no_Z,
+        )  # fmt: skip
+        steps += acc
+        if status != OK:
+            return False, F, J, Y, np.inf, steps
+        for m in range(NX):
+            F[m] = Y[m] - x1[m]
+        norm = math.sqrt(dot(F, F))
+        if attempt == 0 and rtol > base_rtol and norm <= 1e3 * rtol:
+            # Too close to the integration error to trust: redo at the full tolerance.
+            rtol, atol = base_rtol, base_atol
+            continue
+        break
+    for i in range(NX):
+        for j in range(NX):
+            J[i, j] = Y[NZ + 1 + i * k + j]
+    # As the Python evaluator: a point whose |F|^2 or |J|^2 is not finite is unusable.
+    ok = _finite(dot(F, F)) and _finite(np.sum(J * J))
+    return ok, F, J, Y, norm, steps
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def shoot_newton(ends, s0, modified, root, accuracy, kin, norms, lams):
+    """Simple shooting by Newton (``modified`` False) or MNM from ``s0``.
+
+    ``root = (tol, max_iterations, max_cond, divergence, stall_window, stall_factor,
+    max_halvings)``; ``norms`` (max_iterations + 1) and ``lams`` (max_iterations) receive the
+    histories. Returns (status, x, F, iterations, evaluations, n_norms, cond, last, steps):
+    the final iterate and its residual, ``last = (s, Y, ok)`` the latest evaluation (for the
+    result's cost and end costate) and the accepted integrator steps of all evaluations.
+    """
+    tol, max_iterations, max_cond, divergence, stall_window, stall_factor, max_halvings = root
+    x = s0.copy()
+    bound = divergence * (1.0 + math.sqrt(dot(x, x)))
+    ok, F, J, Y, best_norm, steps = _shoot_eval(x, ends, accuracy, np.inf, kin)
+    evals = 1
+    last = (x.copy(), Y, ok)
+    n = 0
+    it_done = 0
+    cond = 0.0
+    if not ok:
+        return NON_FINITE_F, x, F, 0, evals, n, cond, last, steps
+    for it in range(max_iterations + 1):
+        norms[n] = math.sqrt(dot(F, F))
+        n += 1
+        if norms[n - 1] <= tol:
+            return CONVERGED, x, F, it_done, evals, n, cond, last, steps
+        if it == max_iterations:
+            break
+        if stall_window > 0 and it >= stall_window:
+            big = 0.0
+            for j in range(n - 1 - stall_window, n - 1):
+                big = max(big, norms[j])
+            if norms[n - 1] > stall_factor * big:
+                return STALLED, x, F, it_done, evals, n, cond, last, steps
+        sv = np.linalg.svd(J)[1]
+        cond = sv[0] / sv[-1] if sv[-1] > 0.0 else np.inf
+        if not cond <= max_cond:
+            return SINGULAR_JACOBIAN, x, F, it_done, evals, n, cond, last, steps
+        d = np.linalg.solve(J, F)
+        have_F = False
+        if not modified:
+            x_new, lam = x - d, 1.0
+        else:
+            # h = F^T F must fall by 2^-m (gamma/4) |d| |Dh| for the smallest such m; the best
+            # of the tried steps is taken (roots.steps.ModifiedNewtonStep).
+            g = 2.0 * transpose_times(J, F)
+            slope = 0.25 * (1.0 / cond) * math.sqrt(dot(d, d)) * math.sqrt(dot(g, g))
+            h0 = dot(F, F)
+            found = False
+            best_h = np.inf
+            x_new, F_new, J_new, lam = x, F, J, 1.0
+            for m in range(max_halvings + 1):
+                lt = 2.0**-m
+                xt = x - lt * d
+                okt, Ft, Jt, Yt, nt, st = _shoot_eval(xt, ends, accuracy, best_norm, kin)
+                evals += 1
+                steps += st
+                last = (xt.copy(), Yt, okt)
+                best_norm = min(best_norm, nt)
+                h = dot(Ft, Ft) if okt else np.inf
+                if m == 0 or h < best_h:
+                    best_h, x_new, F_new, J_new, lam = h, xt, Ft, Jt, lt
+                if h <= h0 - lt * slope:
+                    found = True
+                    break
+            if not found:
+                return LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps
+            have_F = True  # the accepted trial passed the test, so its h is finite
+            F, J = F_new, J_new
+        x = x_new
+        lams[it_done] = lam
+        it_done += 1
+        xx = dot(x, x)
+        if not (_finite(xx) and math.sqrt(xx) <= bound):
+            if not have_F:
+                F = np.full(NX, np.nan)
+            return DIVERGED, x, F, it_done, evals, n, cond, last, steps
+        if not have_F:
+            ok, F, J, Y, nt, st = _shoot_eval(x, ends, accuracy, best_norm, kin)
+            evals += 1
+            steps += st
+            last = (x.copy(), Y, ok)
+            best_norm = min(best_norm, nt)
+            if not ok:
+                return NON_FINITE_F, x, F, it_done, evals, n, cond, last, steps
+    return MAX_ITERATIONS, x, F, it_done, evals, n, cond, last, steps

@@ -1,4 +1,4 @@
-"""The loop's linear algebra on one small Jacobian, compiled.
+"""The loop's small linear algebra, compiled.
 
 The systems are tiny (3x3 for shooting, up to about 50x50 for multiple shooting). At this size
 NumPy's LAPACK wrappers cost more than the arithmetic (about 7 us per call for a 3x3 SVD or
@@ -24,3 +24,25 @@ def newton_correction(J, F, max_cond):
     if not cond <= max_cond:
         return np.full(F.size, np.nan), cond
     return np.linalg.solve(J, F), cond
+
+
+# Dot products with one fixed summation order, shared by the Python loop and the compiled
+# shooting loop (the model kernels import them): NumPy's and numba's BLAS may round the same
+# 3-element dot product differently, and a last-bit difference in |F| moves the inexact
+# integration tolerance, an adaptive step, and then a chaotic Newton orbit.
+@njit(cache=True)
+def dot(u, v):
+    s = 0.0
+    for i in range(u.size):
+        s += u[i] * v[i]
+    return s
+
+
+@njit(cache=True)
+def transpose_times(J, F):
+    """``J^T F``."""
+    out = np.zeros(J.shape[1])
+    for i in range(J.shape[0]):
+        for j in range(J.shape[1]):
+            out[j] += J[i, j] * F[i]
+    return out

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SettingsError
+from .linear import dot, transpose_times
 from .result import RootStatus
 
 
@@ -29,8 +30,9 @@ class Step:
 
 def vnorm(v) -> float:
     """Euclidean norm of a short vector: ``np.linalg.norm``'s generality costs more than the
-    arithmetic at this size, and the loop takes several norms per evaluation."""
-    return math.sqrt(float(v @ v))
+    arithmetic at this size, and the loop takes several norms per evaluation. Summed in the
+    same order as the compiled shooting loop (:func:`.linear.dot`)."""
+    return math.sqrt(dot(v, v))
 
 
 def _sumsq(A) -> float:
@@ -92,8 +94,8 @@ class ModifiedNewtonStep:
 
     def step(self, evaluate, x, F, J, d, solve, cond, memo) -> Step:
         gamma = 1.0 / cond
-        h0 = float(F @ F)
-        slope = 0.25 * gamma * vnorm(d) * vnorm(2.0 * (J.T @ F))
+        h0 = dot(F, F)
+        slope = 0.25 * gamma * vnorm(d) * vnorm(2.0 * transpose_times(J, F))
         best = None
         for m in range(self.max_halvings + 1):
             lam = 2.0**-m
@@ -101,7 +103,7 @@ class ModifiedNewtonStep:
             # Fetch the Jacobian with every trial: it costs ~20% more than F alone, while the
             # accepted trial would otherwise be evaluated a second time by the loop.
             Ft, Jt = evaluate(xt, jacobian=True)
-            h = float(Ft @ Ft) if Ft is not None else np.inf
+            h = dot(Ft, Ft) if Ft is not None else np.inf
             if best is None or h < best[0]:
                 best = (h, Step(xt, lam, Ft, Jt))
             if h <= h0 - lam * slope:
