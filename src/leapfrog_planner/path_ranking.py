@@ -34,15 +34,12 @@ def estimated_cost(
     K = model.kernels
     p = np.asarray(problem.parameters, dtype=float)
     nx, nu = model.nx, model.nu
-    f = np.empty(nx)
-    A = np.empty((nx, nx))
+    f = np.empty((samples, nx))
+    A = np.empty((samples, nx, nx))
     B = np.empty((samples, nx, nu))
     R = np.empty((samples, nu, nu))
-    r = np.empty((samples, nx))
-    u0 = np.zeros(nu)
-    for i in range(samples):
-        K.linearize(X[i], u0, p, f, A, B[i], R[i])
-        r[i] = Xdot[i] - f
+    K.linearize_rows(X, np.zeros(nu), p, f, A, B, R)
+    r = Xdot - f
     Bt = np.swapaxes(B, 1, 2)
     u = np.linalg.solve(Bt @ B, (Bt @ r[..., None]))[..., 0]  # least squares, all samples at once
     energy = 0.5 * np.einsum("ni,nij,nj->n", u, R, u)

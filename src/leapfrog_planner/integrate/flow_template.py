@@ -2,9 +2,9 @@
 #
 # This file is a template, not an importable module: leapfrog_planner.codegen appends it to the
 # code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
-# controls, hamiltonian_model and dH_du, and imports penalty_terms, dot and transpose_times.
-# Keeping the integrator in the same module as the model lets numba inline and cache everything
-# (functions passed as arguments would not be cached on disk).
+# controls, hamiltonian_model, dH_du and linearize, and imports penalty_terms, dot and
+# transpose_times. Keeping the integrator in the same module as the model lets numba inline and
+# cache everything (functions passed as arguments would not be cached on disk).
 #
 # The augmented state is Y = [z (NZ), cost (1), S (NZ x k, row-major)], with z = (x, lambda),
 # S = dz/d(seed) and k sensitivity columns (k = 0: flow only). A method is just its tableau
@@ -271,6 +271,14 @@ def along_path(Z, p, obs, weight, exponent, U, H, dHdu):
         P, Px, Py, Pxx, Pxy, Pyy = penalty_terms(z[0], z[1], obs, weight, exponent, False)
         H[r] = hamiltonian_model(z, p) + P
         dH_du(z, U[r], p, dHdu[r])
+
+
+@njit(cache=True, error_model="numpy")
+def linearize_rows(X, u, p, f, A, B, R):
+    """``linearize`` at each row of ``X`` (controls ``u``), into row-indexed outputs: one call
+    for the whole path (path_ranking evaluates hundreds of points per candidate path)."""
+    for r in range(X.shape[0]):
+        linearize(X[r], u, p, f[r], A[r], B[r], R[r])
 
 
 @njit(cache=True, error_model="numpy")
