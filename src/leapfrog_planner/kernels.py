@@ -25,7 +25,16 @@ from .errors import ModelError
 from .models import MODELS, builtin_source, get_model
 
 _HERE = Path(__file__).parent
-_GENERATOR_FILES = ("codegen.py", "pmp.py", "integrate/flow_template.py", "models/base.py")
+# Everything compiled into the generated module, callees included: numba's disk cache does not
+# notice a change in a function that a cached function calls, so the key must.
+_GENERATOR_FILES = (
+    "codegen.py",
+    "pmp.py",
+    "integrate/flow_template.py",
+    "models/base.py",
+    "penalty.py",
+    "roots/linear.py",
+)
 
 
 def cache_dir() -> Path:

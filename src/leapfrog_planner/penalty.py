@@ -26,8 +26,10 @@ def penalty_terms(x, y, obs, weight, exponent, want_hessian):
         dy = y - obs[j, 1]
         s = (dx * dx + dy * dy) * inv_r2
         sn1 = s ** (n - 1) if n > 1 else 1.0
+        if sn1 * s > 746.0:  # far away: exp underflows to exactly 0, so skip computing it
+            continue
         e = weight * math.exp(-(sn1 * s))
-        if e == 0.0:  # far away: exp underflows, nothing to add
+        if e == 0.0:
             continue
         P += e
         dP_ds = -n * sn1 * e
