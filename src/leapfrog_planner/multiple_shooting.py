@@ -41,7 +41,9 @@ class MultipleShootingSystem:
         F = np.empty(n)
         J = np.zeros((n, n)) if jacobian else None
         for j in range(q):
-            r = self.flow(self.t[j], Z[j], self.t[j + 1], sensitivity="full" if jacobian else None)
+            # The first arc's state is fixed (x0): only its costate columns are unknowns.
+            sens = None if not jacobian else ("costate" if j == 0 else "full")
+            r = self.flow(self.t[j], Z[j], self.t[j + 1], sensitivity=sens)
             if r.status != FlowStatus.OK:
                 return None, None
             rows = slice(j * nz, (j + 1) * nz) if j < q - 1 else slice(j * nz, j * nz + nx)
@@ -52,7 +54,7 @@ class MultipleShootingSystem:
                 Phi = r.sensitivity if j < q - 1 else r.sensitivity[:nx]
                 # Column block of z_j: lambda_0 only for the first arc, all of z_j afterwards.
                 if j == 0:
-                    J[rows, :nx] = Phi[:, nx:]
+                    J[rows, :nx] = Phi
                 else:
                     c = nx + (j - 1) * nz
                     J[rows, c : c + nz] = Phi
