@@ -67,13 +67,13 @@ def run_all(jobs: dict[str, tuple[list[str], Path]]) -> dict[str, Run]:
 
 
 def test_module_runs_main():
-    """``python -m leapfrog_planner.cli`` (used below) must call ``main``, as the script does."""
+    """``python -m leapfrog_planner.cli`` (used below) must call ``run``, as the script does."""
     import leapfrog_planner.cli as cli
 
     text = Path(cli.__file__).read_text()
-    assert re.search(r'^if __name__ == "__main__":\n    main\(\)', text, re.M)
+    assert re.search(r'^if __name__ == "__main__":\n    run\(\)', text, re.M)
     (script,) = entry_points(group="console_scripts", name="leapfrog")
-    assert script.value == "leapfrog_planner.cli:main"
+    assert script.value == "leapfrog_planner.cli:run"
 
 
 # --------------------------------------------------------------------------- bad input

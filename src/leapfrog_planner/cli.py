@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import os
 import sys
 from pathlib import Path
@@ -327,5 +328,27 @@ def main(argv=None) -> None:
     sys.exit(code if isinstance(code, int) else EXIT_OK)
 
 
+def run() -> None:
+    """Console entry point: :func:`main`, then exit without the interpreter's teardown.
+
+    Tearing down numba and LLVM takes about half a second after the work is done (measured:
+    ``leapfrog solve paper-case-4`` 2.8 s -> 2.0 s). By then every output file is written and
+    closed (atomically), so only the standard streams and logging need flushing.
+    """
+    try:
+        main()
+        code = EXIT_OK
+    except SystemExit as e:
+        if e.code is None or isinstance(e.code, int):
+            code = e.code or EXIT_OK
+        else:
+            print(e.code, file=sys.stderr)
+            code = 1
+    logging.shutdown()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
 if __name__ == "__main__":
-    main()
+    run()
