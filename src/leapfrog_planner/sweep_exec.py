@@ -72,18 +72,31 @@ class LocalEngine:
         suspects: deque[PairTask] = deque()  # in flight when a worker died: re-run alone
         inflight: dict = {}  # future -> (task, start time, ran alone)
         pool = self._pool(started)
+
+        def submit(t: PairTask, alone: bool) -> bool:
+            """False when the pool is already broken (a worker died since the last check)."""
+            started[t.index] = 0.0
+            try:
+                inflight[pool.submit(run_task, t)] = (t, time.monotonic(), alone)
+            except BrokenProcessPool:
+                return False
+            return True
+
         try:
             while pending or suspects or inflight:
+                pool_broke = False
                 if suspects:
                     if not inflight:
-                        t = suspects.popleft()
-                        started[t.index] = 0.0
-                        inflight[pool.submit(run_task, t)] = (t, time.monotonic(), True)
+                        if submit(suspects[0], True):
+                            suspects.popleft()
+                        else:
+                            pool_broke = True
                 else:
                     while pending and len(inflight) < self.workers:
-                        t = pending.popleft()
-                        started[t.index] = 0.0
-                        inflight[pool.submit(run_task, t)] = (t, time.monotonic(), False)
+                        if not submit(pending[0], False):
+                            pool_broke = True
+                            break
+                        pending.popleft()
                 done, _ = wait(list(inflight), timeout=0.25, return_when=FIRST_COMPLETED)
                 broken = []
                 for f in done:
@@ -102,8 +115,9 @@ class LocalEngine:
                 }
                 if overdue:
                     _kill_workers(pool)
-                if broken or overdue:
-                    # Every pair still in flight fails with the pool; collect them all.
+                if broken or overdue or pool_broke:
+                    # Every pair still in flight fails with the pool; collect them all. (A pool
+                    # can also be found broken by submit, before any future reports it.)
                     rest, _ = wait(list(inflight), timeout=30)
                     for f in rest:
                         t, start, alone = inflight.pop(f)
