@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 
 from conftest import CASES, EXTREMAL_COSTATE, GOOD_GUESS, fd_jacobian, rel_err
-from leapfrog_planner import Flow, IntegratorSettings, OptimalControlProblem, ScenarioError
+from leapfrog_planner import (
+    Flow,
+    IntegratorSettings,
+    OptimalControlProblem,
+    ScenarioError,
+    SettingsError,
+)
 from leapfrog_planner.roots import ModifiedNewtonStep, RootSettings, RootStatus, solve_root
 from leapfrog_planner.shooting import (
     ShootingSettings,
@@ -452,3 +458,20 @@ def test_compiled_newton_is_the_python_loop_bit_for_bit(case, guess, method, roo
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     for name in ("costate1", "cost", "end_state_error"):
         np.testing.assert_array_equal(getattr(fast, name), getattr(ref, name), err_msg=name)
+
+
+@pytest.mark.parametrize(
+    ("kw", "message"),
+    [
+        ({"method": "secant"}, "unknown method"),
+        ({"samples": -1}, "samples"),
+        ({"samples": 2.5}, "samples"),
+        ({"inexact": "yes"}, "inexact"),
+        ({"compiled": 1}, "compiled"),
+        ({"root": {"tol": 1e-8}}, "root must be RootSettings"),
+        ({"integrator": "dop853"}, "integrator must be IntegratorSettings"),
+    ],
+)
+def test_bad_shooting_settings_are_refused(kw, message):
+    with pytest.raises(SettingsError, match=message):
+        ShootingSettings(**kw)

@@ -13,11 +13,12 @@ import numpy as np
 from scipy.linalg import expm, solve
 
 from ._blas import blas_single_threaded
-from .errors import ScenarioError
+from .errors import ScenarioError, SettingsError, require_integer
 from .integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
 from .penalty import penalty_terms
 from .problem import OptimalControlProblem
 from .roots import (
+    STRATEGIES,
     ModifiedNewtonStep,
     NewtonStep,
     RootResult,
@@ -41,6 +42,20 @@ class ShootingSettings:
     # NM and MNM with an adaptive integrator run as one compiled loop (same iterates as the
     # shared Python loop, without its per-iteration overhead); False forces the Python loop.
     compiled: bool = True
+
+    def __post_init__(self):
+        if isinstance(self.method, str) and self.method not in STRATEGIES:
+            raise SettingsError(f"unknown method {self.method!r} (known: {', '.join(STRATEGIES)})")
+        if not isinstance(self.root, RootSettings):
+            raise SettingsError(f"root must be RootSettings, got {type(self.root).__name__}")
+        if not isinstance(self.integrator, IntegratorSettings):
+            raise SettingsError(
+                f"integrator must be IntegratorSettings, got {type(self.integrator).__name__}"
+            )
+        require_integer("samples", self.samples, 0)
+        for name in ("inexact", "compiled"):
+            if not isinstance(getattr(self, name), bool):
+                raise SettingsError(f"{name} must be true or false, got {getattr(self, name)!r}")
 
 
 @dataclass(frozen=True)
