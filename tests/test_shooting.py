@@ -435,11 +435,17 @@ def test_affine_guess_does_not_depend_on_whole_turns_of_the_heading(turns):
         (1, "huge", "modified-newton", None),  # non-finite
         (4, "fails", ModifiedNewtonStep(max_halvings=1), None),  # line-search-failed
         (2, None, "modified-newton", RootSettings(stall_window=3)),  # stalled
+        (1, "good", "nleq-err", None),
+        (1, None, "nleq-err", None),
+        (2, None, "nleq-err", None),
+        (3, None, "nleq-err", None),
+        (4, "fails", "nleq-err", None),  # line-search-failed: the damping collapses
+        (1, "huge", "nleq-err", None),  # non-finite
     ],
 )
 def test_compiled_newton_is_the_python_loop_bit_for_bit(case, guess, method, root):
-    """NM and MNM on simple shooting run as one compiled call; the shared Python loop with the
-    same step object is the reference. Everything is identical, bit for bit, even on orbits
+    """NM, MNM and NLEQ-ERR on simple shooting run as one compiled call; the shared Python loop
+    with the same step object is the reference. Everything is identical, bit for bit, even on orbits
     where Newton wanders chaotically (a last-bit difference would show there)."""
     guess = {
         "good": GOOD_GUESS.get(case), "zeros": np.zeros(3), "huge": np.full(3, 1e200),

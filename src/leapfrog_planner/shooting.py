@@ -21,6 +21,7 @@ from .roots import (
     STRATEGIES,
     ModifiedNewtonStep,
     NewtonStep,
+    NleqErrStep,
     RootResult,
     RootSettings,
     RootStatus,
@@ -39,8 +40,9 @@ class ShootingSettings:
     # Inexact Newton: integrate loosely while |F| is large (tolerance ~ 1e-4 |F|, never looser
     # than 1e-6); the final iterations, and so the converged residual, use the full tolerance.
     inexact: bool = True
-    # NM and MNM with an adaptive integrator run as one compiled loop (same iterates as the
-    # shared Python loop, without its per-iteration overhead); False forces the Python loop.
+    # NM, MNM and NLEQ-ERR with an adaptive integrator run as one compiled loop (the same
+    # iterates, bit for bit, as the shared Python loop, without its per-iteration overhead);
+    # False forces the Python loop.
     compiled: bool = True
 
     def __post_init__(self):
@@ -256,22 +258,22 @@ def solve_shooting(
     return shooting_result(flow, t0, x0, t1, x1, root, settings.samples, last)
 
 
-_FUSED = (NewtonStep, ModifiedNewtonStep)
+_FUSED = (NewtonStep, ModifiedNewtonStep, NleqErrStep)  # codes 0, 1, 2 of shoot_newton
 _CODES = tuple(RootStatus)  # the compiled loop's status codes, in RootStatus order
 
 
 def _compiled_newton(
     system: ShootingSystem, s0, strategy, settings: RootSettings
 ) -> tuple[RootResult, tuple | None, int]:
-    """NM or MNM on the shooting system in one compiled call (``shoot_newton`` of the model's
-    kernels): the same iteration, statuses and counts as :func:`solve_root` with that strategy
-    on ``system`` (tested on the paper cases), without the Python layers per iteration.
+    """NM, MNM or NLEQ-ERR on the shooting system in one compiled call (``shoot_newton`` of the
+    model's kernels): the same iterates, bit for bit, statuses and counts as :func:`solve_root`
+    with that strategy on ``system`` (tested), without the Python layers per iteration.
 
     Returns the root result, the latest evaluation ``(s, FlowResult)`` and the accepted
     integrator steps of all evaluations."""
     flow = system.flow
     tab = flow.tableau
-    modified = isinstance(strategy, ModifiedNewtonStep)
+    method = _FUSED.index(type(strategy))
     m = settings.max_iterations
     norms, lams = np.empty(m + 1), np.empty(m)
     s0 = np.array(s0, dtype=float).reshape(-1)
@@ -279,10 +281,15 @@ def _compiled_newton(
     code, x, F, its, evals, n, cond, (last_s, last_Y, last_ok), steps = flow.kernels.shoot_newton(
         (system.x0, system.x1, system.t0, system.t1),
         s0,
-        modified,
+        method,
         (
             settings.tol, m, settings.max_cond, settings.divergence, settings.stall_window,
-            settings.stall_factor, strategy.max_halvings if modified else 0,
+            settings.stall_factor,
+        ),
+        (
+            getattr(strategy, "max_halvings", 0), getattr(strategy, "initial_damping", 1.0),
+            getattr(strategy, "min_damping", 0.0), getattr(strategy, "xtol", 0.0),
+            getattr(strategy, "max_trials", 0),
         ),
         (fs.rtol, fs.atol, fs.max_steps, system.inexact, system.nx),
         (
@@ -306,6 +313,8 @@ def _compiled_newton(
         )
     elif status is RootStatus.SINGULAR_JACOBIAN:
         msg = f"cond(DF) = {cond:.3g} > {settings.max_cond:g}"
+    elif status is RootStatus.LINE_SEARCH_FAILED and isinstance(strategy, NleqErrStep):
+        msg = f"no acceptable damping factor >= {strategy.min_damping:g}"
     elif status is RootStatus.LINE_SEARCH_FAILED:
         msg = f"no step 2^-m, m <= {strategy.max_halvings}, decreased |F|^2 enough"
     elif status is RootStatus.DIVERGED:

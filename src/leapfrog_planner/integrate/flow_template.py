@@ -316,13 +316,14 @@ def hermite_dense(T, Z, dZ, t, out):
 
 
 # --------------------------------------------------------------------------------------------
-# Simple shooting with classical Newton or the paper's modified Newton, fused into one call.
+# Simple shooting with classical Newton, the paper's modified Newton or NLEQ-ERR, fused into
+# one call.
 #
 # This is the compiled twin of roots.loop.solve_root + roots.steps.{NewtonStep,
-# ModifiedNewtonStep} + shooting.ShootingSystem (inexact evaluations included), for the local
-# problems of Leapfrog, where the Python layers cost as much as the integration (measured: ~50 us
-# per iteration against 10-100 us of flow). Same iteration, same statuses, same counts; the
-# tests compare the two. Status codes follow roots.result.RootStatus.
+# ModifiedNewtonStep, NleqErrStep} + shooting.ShootingSystem (inexact evaluations included), for
+# the local problems of Leapfrog, where the Python layers cost as much as the integration
+# (measured: ~50 us per iteration against 10-100 us of flow). Same iterates bit for bit, same
+# statuses, same counts; the tests compare the two. Status codes follow roots.result.RootStatus.
 CONVERGED = 0
 MAX_ITERATIONS = 1
 SINGULAR_JACOBIAN = 2
@@ -382,16 +383,24 @@ def _shoot_eval(s, ends, accuracy, best_norm, kin):
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def shoot_newton(ends, s0, modified, root, accuracy, kin, norms, lams):
-    """Simple shooting by Newton (``modified`` False) or MNM from ``s0``.
+def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
+    """Simple shooting from ``s0`` by Newton (``method`` 0), MNM (1) or NLEQ-ERR (2).
 
-    ``root = (tol, max_iterations, max_cond, divergence, stall_window, stall_factor,
-    max_halvings)``; ``norms`` (max_iterations + 1) and ``lams`` (max_iterations) receive the
-    histories. Returns (status, x, F, iterations, evaluations, n_norms, cond, last, steps):
-    the final iterate and its residual, ``last = (s, Y, ok)`` the latest evaluation (for the
-    result's cost and end costate) and the accepted integrator steps of all evaluations.
+    ``root = (tol, max_iterations, max_cond, divergence, stall_window, stall_factor)``, ``step =
+    (max_halvings, initial_damping, min_damping, xtol, max_trials)`` (the step object's
+    fields); ``norms`` (max_iterations + 1) and ``lams`` (max_iterations) receive the histories.
+    Returns (status, x, F, iterations, evaluations, n_norms, cond, last, steps): the final
+    iterate and its residual, ``last = (s, Y, ok)`` the latest evaluation (for the result's cost
+    and end costate) and the accepted integrator steps of all evaluations.
     """
-    tol, max_iterations, max_cond, divergence, stall_window, stall_factor, max_halvings = root
+    tol, max_iterations, max_cond, divergence, stall_window, stall_factor = root
+    max_halvings, initial_damping, min_damping, xtol, max_trials = step
+    # NLEQ-ERR's memory between steps (roots.steps._NleqMemo)
+    lam_memo = initial_damping
+    lam_prev = 1.0
+    has_memo = False
+    dx_prev = np.zeros(NX)
+    dxbar_prev = np.zeros(NX)
     x = s0.copy()
     bound = divergence * (1.0 + math.sqrt(dot(x, x)))
     ok, F, J, Y, best_norm, steps = _shoot_eval(x, ends, accuracy, np.inf, kin)
@@ -421,8 +430,67 @@ def shoot_newton(ends, s0, modified, root, accuracy, kin, norms, lams):
             return SINGULAR_JACOBIAN, x, F, it_done, evals, n, cond, last, steps
         d = np.linalg.solve(J, F)
         have_F = False
-        if not modified:
+        if method == 0:
             x_new, lam = x - d, 1.0
+        elif method == 2:
+            # NLEQ-ERR (roots.steps.NleqErrStep): damping from the simplified correction
+            # dxbar = -J^-1 F(x + lam dx), predicted from the last step, corrected per trial.
+            dx = -d
+            ndx = math.sqrt(dot(dx, dx))
+            lam = lam_memo
+            if has_memo:
+                diff = dxbar_prev - dx
+                denom = math.sqrt(dot(diff, diff)) * ndx
+                if denom == 0:
+                    mu = np.inf
+                else:
+                    mu = (
+                        math.sqrt(dot(dx_prev, dx_prev))
+                        * math.sqrt(dot(dxbar_prev, dxbar_prev))
+                        / denom
+                    ) * lam_prev
+                lam = min(1.0, mu)
+            reduced = False
+            found = False
+            x_new, F_new, J_new = x, F, J
+            for _ in range(max_trials):
+                if lam < min_damping:
+                    break
+                xt = x + lam * dx
+                okt, Ft, Jt, Yt, nt, st = _shoot_eval(xt, ends, accuracy, best_norm, kin)
+                evals += 1
+                steps += st
+                last = (xt.copy(), Yt, okt)
+                best_norm = min(best_norm, nt)
+                if not okt:
+                    lam, reduced = lam / 2, True  # outside the domain of F (the flow blew up)
+                    continue
+                dxbar = -np.linalg.solve(J, Ft)
+                nbar = math.sqrt(dot(dxbar, dxbar))
+                if lam == 1.0 and nbar <= xtol * (1.0 + math.sqrt(dot(xt, xt))):
+                    found = True  # converged in Deuflhard's sense
+                else:
+                    theta = nbar / ndx if ndx > 0 else 0.0
+                    r = dxbar - (1.0 - lam) * dx
+                    denom = math.sqrt(dot(r, r))
+                    mu_c = np.inf if denom == 0 else 0.5 * ndx * lam * lam / denom
+                    if theta >= 1.0 - lam / 4.0:
+                        lam, reduced = min(mu_c, lam / 2.0), True
+                        continue
+                    lam_c = min(1.0, mu_c)
+                    if not reduced and lam_c >= 4.0 * lam and lam < 1.0:
+                        lam = lam_c
+                        continue
+                    found = True
+                if found:
+                    dx_prev, dxbar_prev, lam_prev, lam_memo = dx, dxbar, lam, lam
+                    has_memo = True
+                    x_new, F_new, J_new = xt, Ft, Jt
+                    break
+            if not found:
+                return LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps
+            have_F = True
+            F, J = F_new, J_new
         else:
             # h = F^T F must fall by 2^-m (gamma/4) |d| |Dh| for the smallest such m; the best
             # of the tried steps is taken (roots.steps.ModifiedNewtonStep).

@@ -46,3 +46,10 @@ def transpose_times(J, F):
         for j in range(J.shape[1]):
             out[j] += J[i, j] * F[i]
     return out
+
+
+@njit(cache=True)
+def solve(J, b):
+    """``J^-1 b`` through the same LAPACK call as :func:`newton_correction` and the compiled
+    shooting loop (NumPy's own LAPACK build may round differently)."""
+    return np.linalg.solve(J, b)

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..errors import SettingsError, require_integer
 from .linear import newton_correction
+from .linear import solve as linear_solve
 from .result import RootResult, RootStatus
 from .steps import _Evaluator, get_strategy, vnorm
 
@@ -98,7 +99,7 @@ def solve_root(
         # The systems are tiny (3x3 for shooting): numpy's solve is a few microseconds, where
         # SciPy's lu_factor/lu_solve wrappers cost tens; so "reusing the factorisation" for
         # further right-hand sides (NLEQ-ERR's simplified corrections) is reusing J itself.
-        step = strategy.step(evaluate, x, F, J, d, lambda b, J=J: np.linalg.solve(J, b), cond, memo)
+        step = strategy.step(evaluate, x, F, J, d, lambda b, J=J: linear_solve(J, b), cond, memo)
         if step.failed is not None:
             return done(step.failed, step.message)
         x, F, J = step.x, step.F, step.J
