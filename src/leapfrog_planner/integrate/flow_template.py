@@ -382,6 +382,14 @@ def _shoot_eval(s, ends, accuracy, best_norm, kin):
     return ok, F, J, Y, norm, steps
 
 
+@njit(cache=True, error_model="numpy")
+def _trial(s, ends, accuracy, best_norm, kin):
+    """:func:`_shoot_eval` at ``s`` as the loop records it: (ok, F, J, the latest evaluation
+    ``(s, Y, ok)``, the smallest |F| so far, accepted steps)."""
+    ok, F, J, Y, norm, steps = _shoot_eval(s, ends, accuracy, best_norm, kin)
+    return ok, F, J, (s.copy(), Y, ok), min(best_norm, norm), steps
+
+
 @njit(cache=True, error_model="numpy", nogil=True)
 def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     """Simple shooting from ``s0`` by Newton (``method`` 0), MNM (1) or NLEQ-ERR (2).
@@ -403,9 +411,8 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     dxbar_prev = np.zeros(NX)
     x = s0.copy()
     bound = divergence * (1.0 + math.sqrt(dot(x, x)))
-    ok, F, J, Y, best_norm, steps = _shoot_eval(x, ends, accuracy, np.inf, kin)
+    ok, F, J, last, best_norm, steps = _trial(x, ends, accuracy, np.inf, kin)
     evals = 1
-    last = (x.copy(), Y, ok)
     n = 0
     it_done = 0
     cond = 0.0
@@ -457,11 +464,9 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                 if lam < min_damping:
                     break
                 xt = x + lam * dx
-                okt, Ft, Jt, Yt, nt, st = _shoot_eval(xt, ends, accuracy, best_norm, kin)
+                okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, best_norm, kin)
                 evals += 1
                 steps += st
-                last = (xt.copy(), Yt, okt)
-                best_norm = min(best_norm, nt)
                 if not okt:
                     lam, reduced = lam / 2, True  # outside the domain of F (the flow blew up)
                     continue
@@ -503,11 +508,9 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
             for m in range(max_halvings + 1):
                 lt = 2.0**-m
                 xt = x - lt * d
-                okt, Ft, Jt, Yt, nt, st = _shoot_eval(xt, ends, accuracy, best_norm, kin)
+                okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, best_norm, kin)
                 evals += 1
                 steps += st
-                last = (xt.copy(), Yt, okt)
-                best_norm = min(best_norm, nt)
                 h = dot(Ft, Ft) if okt else np.inf
                 if m == 0 or h < best_h:
                     best_h, x_new, F_new, J_new, lam = h, xt, Ft, Jt, lt
@@ -527,11 +530,9 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                 F = np.full(NX, np.nan)
             return DIVERGED, x, F, it_done, evals, n, cond, last, steps
         if not have_F:
-            ok, F, J, Y, nt, st = _shoot_eval(x, ends, accuracy, best_norm, kin)
+            ok, F, J, last, best_norm, st = _trial(x, ends, accuracy, best_norm, kin)
             evals += 1
             steps += st
-            last = (x.copy(), Y, ok)
-            best_norm = min(best_norm, nt)
             if not ok:
                 return NON_FINITE_F, x, F, it_done, evals, n, cond, last, steps
     return MAX_ITERATIONS, x, F, it_done, evals, n, cond, last, steps
