@@ -26,6 +26,7 @@ from .roots import (
     RootSettings,
     RootStatus,
     get_strategy,
+    messages,
     solve_root,
 )
 from .roots.steps import vnorm
@@ -299,37 +300,26 @@ def _compiled_newton(
         norms,
         lams,
     )  # fmt: skip
-    fe = je = evals
     status = _CODES[code]
     norms = norms[:n].copy()
     if status is RootStatus.CONVERGED:
-        msg = f"|F| = {norms[-1]:.3g} <= {settings.tol:g} after {its} iterations"
+        msg = messages.converged(norms[-1], settings.tol, its)
     elif status is RootStatus.MAX_ITERATIONS:
-        msg = f"|F| = {norms[-1]:.3g} after {m} iterations"
+        msg = messages.max_iterations(norms[-1], m)
     elif status is RootStatus.STALLED:
-        msg = (
-            f"|F| = {norms[-1]:.3g} did not fall below {settings.stall_factor:g} times the "
-            f"largest of the last {settings.stall_window} iterations"
-        )
+        msg = messages.stalled(norms[-1], settings.stall_factor, settings.stall_window)
     elif status is RootStatus.SINGULAR_JACOBIAN:
-        msg = f"cond(DF) = {cond:.3g} > {settings.max_cond:g}"
-    elif status is RootStatus.LINE_SEARCH_FAILED and isinstance(strategy, NleqErrStep):
-        msg = f"no acceptable damping factor >= {strategy.min_damping:g}"
+        msg = messages.singular(cond, settings.max_cond)
     elif status is RootStatus.LINE_SEARCH_FAILED:
-        msg = f"no step 2^-m, m <= {strategy.max_halvings}, decreased |F|^2 enough"
+        msg = strategy.failure_message
     elif status is RootStatus.DIVERGED:
-        bound = settings.divergence * (1.0 + vnorm(s0))
-        msg = f"|x| = {vnorm(x):.3g} left the bound {bound:.3g}"
+        msg = messages.diverged(vnorm(x), settings.divergence * (1.0 + vnorm(s0)))
     else:  # non-finite
         F = np.full(x.shape, np.nan)
-        msg = (
-            "F is not finite at the starting point"
-            if not its
-            else f"F is not finite after step {its}"
-        )
+        msg = messages.non_finite(its)
     root = RootResult(
-        x=x, F=F, status=status, message=msg, iterations=int(its), f_evals=int(fe),
-        jac_evals=int(je), residual_norms=norms, step_sizes=lams[:its].copy(),
+        x=x, F=F, status=status, message=msg, iterations=int(its), f_evals=int(evals),
+        jac_evals=int(evals), residual_norms=norms, step_sizes=lams[:its].copy(),
     )  # fmt: skip
     last = None
     if last_ok:

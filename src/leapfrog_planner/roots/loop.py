@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SettingsError, require_integer
+from . import messages
 from .linear import newton_correction
 from .linear import solve as linear_solve
 from .result import RootResult, RootStatus
@@ -68,35 +69,26 @@ def solve_root(
         )
 
     if F is None:
-        return done(RootStatus.NON_FINITE, "F is not finite at the starting point")
+        return done(RootStatus.NON_FINITE, messages.non_finite(0))
     for it in range(settings.max_iterations + 1):
         norms.append(vnorm(F))
         if norms[-1] <= settings.tol:
-            return done(
-                RootStatus.CONVERGED,
-                f"|F| = {norms[-1]:.3g} <= {settings.tol:g} after {it} iterations",
-            )
+            return done(RootStatus.CONVERGED, messages.converged(norms[-1], settings.tol, it))
         if it == settings.max_iterations:
             break
         w = settings.stall_window
         # Against the largest of the last w norms, so that classical Newton's excursions (|F|
         # up, then quadratically down) are not taken for creeping.
         if w and it >= w and norms[-1] > settings.stall_factor * max(norms[-1 - w : -1]):
-            return done(
-                RootStatus.STALLED,
-                f"|F| = {norms[-1]:.3g} did not fall below {settings.stall_factor:g} times the "
-                f"largest of the last {w} iterations",
-            )
+            return done(RootStatus.STALLED, messages.stalled(norms[-1], settings.stall_factor, w))
         if J is None:
             F, J = evaluate(x, jacobian=True)
             if F is None:  # cannot happen for a deterministic F, kept for safety
                 return done(RootStatus.NON_FINITE, "F is not finite")
         d, cond = newton_correction(J, F, settings.max_cond)
         if not cond <= settings.max_cond:
-            return done(
-                RootStatus.SINGULAR_JACOBIAN, f"cond(DF) = {cond:.3g} > {settings.max_cond:g}"
-            )
-        # The systems are tiny (3x3 for shooting): numpy's solve is a few microseconds, where
+            return done(RootStatus.SINGULAR_JACOBIAN, messages.singular(cond, settings.max_cond))
+        # The systems are tiny (3x3 for shooting): a compiled solve is a few microseconds, where
         # SciPy's lu_factor/lu_solve wrappers cost tens; so "reusing the factorisation" for
         # further right-hand sides (NLEQ-ERR's simplified corrections) is reusing J itself.
         step = strategy.step(evaluate, x, F, J, d, lambda b, J=J: linear_solve(J, b), cond, memo)
@@ -106,12 +98,11 @@ def solve_root(
         lams.append(step.lam)
         if not np.isfinite(x).all() or vnorm(x) > bound:
             F = F if F is not None else np.full(x.shape, np.nan)
-            return done(RootStatus.DIVERGED, f"|x| = {vnorm(x):.3g} left the bound {bound:.3g}")
+            return done(RootStatus.DIVERGED, messages.diverged(vnorm(x), bound))
         if F is None:
             F, J = evaluate(x, jacobian=True)
             if F is None:
-                return done(RootStatus.NON_FINITE, f"F is not finite after step {it + 1}")
+                return done(RootStatus.NON_FINITE, messages.non_finite(it + 1))
     return done(
-        RootStatus.MAX_ITERATIONS,
-        f"|F| = {norms[-1]:.3g} after {settings.max_iterations} iterations",
+        RootStatus.MAX_ITERATIONS, messages.max_iterations(norms[-1], settings.max_iterations)
     )

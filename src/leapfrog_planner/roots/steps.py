@@ -112,8 +112,13 @@ class ModifiedNewtonStep:
             x,
             0.0,
             failed=RootStatus.LINE_SEARCH_FAILED,
-            message=f"no step 2^-m, m <= {self.max_halvings}, decreased |F|^2 enough",
+            message=self.failure_message,
         )
+
+    @property
+    def failure_message(self) -> str:
+        """Why a step failed (also reported by the compiled shooting loop)."""
+        return f"no step 2^-m, m <= {self.max_halvings}, decreased |F|^2 enough"
 
 
 @dataclass
@@ -189,8 +194,13 @@ class NleqErrStep:
             x,
             0.0,
             failed=RootStatus.LINE_SEARCH_FAILED,
-            message=f"no acceptable damping factor >= {self.min_damping:g}",
+            message=self.failure_message,
         )
+
+    @property
+    def failure_message(self) -> str:
+        """Why a step failed (also reported by the compiled shooting loop)."""
+        return f"no acceptable damping factor >= {self.min_damping:g}"
 
 
 STRATEGIES = {"newton": NewtonStep, "modified-newton": ModifiedNewtonStep, "nleq-err": NleqErrStep}
