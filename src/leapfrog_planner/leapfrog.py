@@ -16,9 +16,9 @@ simple shooting over the whole horizon runs from the costate of the first arc; i
 multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over.
 
 Local failures: a local problem is tried from the warm start, for at most ``attempt_iterations``
-Newton iterations (cut short when ``|F|`` does not halve in ``attempt_stall_window``); in a sweep,
-then as a two-arc multiple-shooting problem through the current middle junction, whose only initial
-residual is the costate jump there; then from the affine guess; then by continuation in the
+Newton iterations (cut short when ``|F|`` stalls over ``attempt_stall_window`` iterations); in a
+sweep, then as a two-arc multiple-shooting problem through the current middle junction, whose only
+initial residual is the costate jump there; then from the affine guess; then by continuation in the
 obstacle weight from 0 to ``W`` with step-size control and a secant predictor. On the initial path
 a segment that still fails is split at its middle (up to ``max_split_depth`` times). In a sweep, a
 failed local problem leaves its junction where it is, so the arcs and the cost stay defined; ``q``
@@ -67,9 +67,10 @@ class LeapfrogSettings:
     # Iterations of a direct attempt at a local problem (warm guess, then affine guess) before
     # continuation in the obstacle weight takes over; converging local solves need 3 to 8.
     attempt_iterations: int = 10
-    # A direct attempt whose |F| has not halved in this many iterations is creeping (measured on
-    # failing attempts: 40 iterations at |F| ~ 0.05) and is cut short; 0 disables. Random
-    # scenarios: a third fewer failed-attempt evaluations, the same successes.
+    # A direct attempt whose |F| is not below half the largest of its last this-many norms is
+    # creeping (measured on failing attempts: 40 iterations at |F| ~ 0.05) and is cut short
+    # (RootSettings.stall_window); 0 disables. Random scenarios: a third fewer failed-attempt
+    # evaluations, the same successes.
     attempt_stall_window: int = 3
     # A local problem whose warm attempt fails is next solved as two arcs through the current
     # junction (multiple shooting, same Newton method, unknowns lambda_a, x_i, lambda_i): its
@@ -299,11 +300,15 @@ def leapfrog(
             weighted[w] = (p, Flow(p, flow.settings))
         return weighted[w]
 
-    def direct(ta, xa, tb, xb, guess, local=problem, local_flow=flow) -> ShootingResult | None:
-        """The warm guess, then the affine guess, each for ``attempt_iterations`` iterations."""
-        return (
-            guess is not None and solve(ta, xa, tb, xb, guess, local, local_flow, attempt)
-        ) or solve(ta, xa, tb, xb, None, local, local_flow, attempt)
+    def direct(
+        ta, xa, tb, xb, guess, local=problem, local_flow=flow, mid=None
+    ) -> ShootingResult | None:
+        """The warm guess; in a sweep (``mid`` given), two arcs through the middle junction; then
+        the affine guess. Each attempt gets ``attempt_iterations`` iterations."""
+        r = guess is not None and solve(ta, xa, tb, xb, guess, local, local_flow, attempt)
+        if not r and mid is not None and settings.two_arc_attempt:
+            r = two_arcs(ta, xa, tb, xb, guess, mid)
+        return r or solve(ta, xa, tb, xb, None, local, local_flow, attempt)
 
     def continuation(ta, xa, tb, xb, guess) -> ShootingResult | None:
         """Raise the obstacle weight from 0 to W, each solve warm-starting the next.
@@ -349,12 +354,8 @@ def leapfrog(
         return solve(ta, xa, tb, xb, root.x[: xa.size], settings=attempt) if root.success else None
 
     def local_solve(ta, xa, tb, xb, guess, mid=None) -> ShootingResult | None:
-        """Warm guess, then two arcs through ``mid`` (in sweeps), then the affine guess, then
-        continuation in the obstacle weight."""
-        r = guess is not None and solve(ta, xa, tb, xb, guess, settings=attempt)
-        if not r and mid is not None and settings.two_arc_attempt:
-            r = two_arcs(ta, xa, tb, xb, guess, mid)
-        r = r or solve(ta, xa, tb, xb, None, settings=attempt)
+        """The direct attempts, then continuation in the obstacle weight."""
+        r = direct(ta, xa, tb, xb, guess, mid=mid)
         if r is None and has_obstacles:
             r = continuation(ta, xa, tb, xb, guess)
         return r
