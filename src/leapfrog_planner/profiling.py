@@ -5,8 +5,9 @@ and splits the wall time into exclusive parts:
 
 - ``integration``: inside ``Flow._run``, the call of the compiled flow kernel (all of them,
   the final re-integration at rtol 1e-12 included), and the compiled Newton loops of simple
-  shooting with NM and MNM (their flows and their 3x3 linear algebra, one compiled call);
-- ``linear_algebra``: the Python Newton loop's compiled ``newton_correction``, ``numpy.linalg``
+  shooting (their flows and their 3x3 linear algebra, one compiled call);
+- ``linear_algebra``: the Python Newton loop's compiled ``newton_correction`` and
+  ``linear_solve`` (multiple shooting goes through it), ``numpy.linalg``
   (solve, svd, lstsq, norm) and the affine guess's ``scipy.linalg`` calls (expm, solve);
 - ``initial_path``: building the initial feasible paths (``Planner.initial_paths``);
 - ``validation``: the rest of ``results.validate``: dense output, penalty and Pontryagin checks;
@@ -123,6 +124,7 @@ def _patched(clock: _Clock):
         (Flow, "_run", "integration"),
         (shooting, "_compiled_newton", "integration"),
         (loop, "newton_correction", "linear_algebra"),
+        (loop, "linear_solve", "linear_algebra"),
         (planner_mod.Planner, "initial_paths", "initial_path"),
         (planner_mod, "validate", "validation"),
         (shooting, "expm", "linear_algebra"),
