@@ -164,6 +164,12 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):
 # --------------------------------------------------------------------------- faulty pairs
 
 
+def outcomes(path):
+    """The records of a faulty sweep by scenario index ("00003"), and their (status, failure)."""
+    recs = {r["scenario"].rsplit("-", 1)[1]: r for r in read_records(path)}
+    return recs, {k: (r["status"], r["failure"]) for k, r in recs.items()}
+
+
 def faulty(sc, options):
     """A user method that misbehaves in a different way on each scenario (by its index)."""
     i = int(sc.name.rsplit("-", 1)[1])
@@ -187,9 +193,8 @@ def test_crash_hang_timeout_and_errors_are_recorded_and_the_sweep_goes_on(tmp_pa
     )
     out = tmp_path / "r.jsonl"
     summary = run_sweep(scenarios, out, settings)
-    recs = {r["scenario"].rsplit("-", 1)[1]: r for r in read_records(out)}
+    recs, got = outcomes(out)
     assert len(recs) == 6 and summary.ran == 6 and summary.complete
-    got = {k: (r["status"], r["failure"]) for k, r in recs.items()}
     assert got == {
         "00000": ("converged", None),
         "00001": ("failed", "crash"),
@@ -253,8 +258,7 @@ def test_dask_crash_and_hang_are_recorded_and_the_sweep_goes_on(tmp_path):
             chunk_size=1,
         )
         summary = run_sweep(scenarios, tmp_path / "r.jsonl", settings)
-    recs = {r["scenario"].rsplit("-", 1)[1]: r for r in read_records(tmp_path / "r.jsonl")}
-    got = {k: (r["status"], r["failure"]) for k, r in recs.items()}
+    recs, got = outcomes(tmp_path / "r.jsonl")
     assert got == {
         "00000": ("converged", None),
         "00001": ("failed", "crash"),
