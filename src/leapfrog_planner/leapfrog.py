@@ -16,17 +16,18 @@ simple shooting over the whole horizon runs from the costate of the first arc; i
 multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over.
 
 Local failures: a local problem is tried from the warm start, for at most ``attempt_iterations``
-Newton iterations (cut short when ``|F|`` stalls over ``attempt_stall_window`` iterations); in a
-sweep, then as a two-arc multiple-shooting problem through the current middle junction, whose only
-initial residual is the costate jump there; then from the affine guess; then by continuation in the
-obstacle weight from 0 to ``W`` with step-size control and a secant predictor. On the initial path
-a segment that still fails is split at its middle (up to ``max_split_depth`` times). In a sweep, a
-failed local problem leaves its junction where it is, so the arcs and the cost stay defined; ``q``
-is not reduced while a level still has failures (unless two sweeps in a row made no progress, or
-its sweep budget is spent); a level that ends with a local problem still failing is refined (every
-arc split at its middle) rather than halved, at most ``max_refinements`` times, and the refined
-level must converge ten times further before q is halved again. The method itself (classical Newton
-included) is never changed: this robustness lives at the Leapfrog level.
+Newton iterations (cut short when ``|F|`` stalls over ``attempt_stall_window`` iterations); then,
+in a sweep, as a two-arc multiple-shooting problem through the current middle junction, whose only
+initial residual is the costate jump there, and on the initial path from the affine guess; then by
+continuation in the obstacle weight from 0 to ``W`` with step-size control and a secant predictor.
+On the initial path a segment that still fails is split at its middle (up to ``max_split_depth``
+times). In a sweep, a failed local problem leaves its junction where it is, so the arcs and the
+cost stay defined; ``q`` is not reduced while a level still has failures (unless two sweeps in a
+row made no progress, or its sweep budget is spent); a level that ends with a local problem still
+failing is refined (every arc split at its middle) rather than halved, at most
+``max_refinements`` times, and the refined level must converge ten times further before q is
+halved again. The method itself (classical Newton included) is never changed: this robustness
+lives at the Leapfrog level.
 """
 
 from __future__ import annotations
@@ -64,7 +65,7 @@ class LeapfrogSettings:
     # Levels that end with a failing local problem are split (q doubled) instead of halved, at
     # most this many times per run.
     max_refinements: int = 2
-    # Iterations of a direct attempt at a local problem (warm guess, then affine guess) before
+    # Iterations of a direct attempt at a local problem (warm guess, two arcs, affine guess) before
     # continuation in the obstacle weight takes over; converging local solves need 3 to 8.
     attempt_iterations: int = 10
     # A direct attempt whose |F| is not below half the largest of its last this-many norms is
@@ -308,11 +309,15 @@ def leapfrog(
     def direct(
         ta, xa, tb, xb, guess, local=problem, local_flow=flow, mid=None
     ) -> ShootingResult | None:
-        """The warm guess; in a sweep (``mid`` given), two arcs through the middle junction; then
-        the affine guess. Each attempt gets ``attempt_iterations`` iterations."""
+        """The warm guess; in a sweep (``mid`` given), two arcs through the middle junction;
+        otherwise the affine guess. Each attempt gets ``attempt_iterations`` iterations.
+
+        The affine guess is not tried after the two arcs: where both attempts from the current
+        arcs fail, it succeeded too rarely to pay (2 x 150 random scenarios without it: the same
+        successes and optima, 5% fewer integrator steps); continuation takes over."""
         r = guess is not None and solve(ta, xa, tb, xb, guess, local, local_flow, attempt)
         if not r and mid is not None and settings.two_arc_attempt:
-            r = two_arcs(ta, xa, tb, xb, guess, mid)
+            return two_arcs(ta, xa, tb, xb, guess, mid)
         return r or solve(ta, xa, tb, xb, None, local, local_flow, attempt)
 
     def continuation(ta, xa, tb, xb, guess) -> ShootingResult | None:
