@@ -87,12 +87,15 @@ class LeapfrogSettings:
     # keeps a hopeless local problem from costing seconds (measured: a random scenario of the
     # benchmark, 24 s unbounded, 10 s with 24).
     continuation_steps: int = 24
-    # MNM's line search in local problems stops at 2^-3: a step eight times shorter than Newton's
-    # that still fails the test means the local problem is failing, and Leapfrog handles that
-    # (warm-started local problems that converge take full or half steps). Measured against 2^-10
-    # on 2 x 150 random scenarios: the same successes and optima, 29-32% fewer integrator steps
-    # for MNM; paper cases: the same optima. (2^-10 was itself 3x faster than 2^-20 on case 4.)
+    # MNM's line search in the sweeps' local problems stops at 2^-3: a step eight times shorter
+    # than Newton's that still fails the test means the warm-started local problem is failing,
+    # and Leapfrog handles that. Measured against 2^-10 on 2 x 150 random scenarios: the same
+    # successes and optima, about 30% fewer integrator steps for MNM; paper cases: the same optima.
     local_halvings: int = 3
+    # The initial path's segments start from the affine guess, far from their answer: there the
+    # line search goes down to 2^-10 (2^-3 lost one of 500 random scenarios; 2^-10 was itself 3x
+    # faster than 2^-20 on paper case 4, with the same results).
+    fit_halvings: int = 10
     # Local problems are short and warm-started: a solve that needs more than 25 iterations, whose
     # costates grow a thousandfold, or whose flow needs more than 200 steps, is failing and is cut
     # short (failures are handled). Converging local flows take 10 steps on average and at most
@@ -129,6 +132,7 @@ class LeapfrogSettings:
                 f"final must be one of {', '.join(FINAL_MODES)}, got {self.final!r}"
             )
         require_integer("local_halvings", self.local_halvings)
+        require_integer("fit_halvings", self.fit_halvings)
         require_integer("attempt_iterations", self.attempt_iterations)
         require_integer("attempt_stall_window", self.attempt_stall_window, 0)
         if not isinstance(self.two_arc_attempt, bool):
@@ -269,8 +273,10 @@ def leapfrog(
     if flow is None or flow.settings != shoot_settings.integrator:
         flow = Flow(problem, shoot_settings.integrator)
     local_method = settings.method
+    sweep_method = settings.method
     if settings.method == "modified-newton":
-        local_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
+        local_method = ModifiedNewtonStep(max_halvings=settings.fit_halvings)
+        sweep_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
     count = _Counter()
 
     def solve(ta, xa, tb, xb, guess=None, local=problem, local_flow=flow, settings=shoot_settings):
@@ -409,6 +415,7 @@ def leapfrog(
         cost=np.array([p[4] for p in pieces]),
     )
     initial_cost = float(arcs.cost.sum())
+    local_method = sweep_method
     history: list[SweepRecord] = []
     increases = 0
     last_multi = arcs  # junctions for the multiple-shooting fallback
