@@ -238,6 +238,8 @@ def test_default_settings_are_documented_values():
         ("max_refinements", -1, "max_refinements"),
         ("attempt_stall_window", -1, "attempt_stall_window"),
         ("two_arc_attempt", "yes", "two_arc_attempt"),
+        ("local_halvings", -1, "local_halvings"),
+        ("fit_halvings", 2.5, "fit_halvings"),
     ],
 )
 def test_leapfrog_settings_reject_bad_values(option, value, message):
@@ -337,6 +339,18 @@ def test_a_level_ending_with_a_failing_local_problem_is_refined():
     assert refined.cost_increases == 0
     v = validate(planner.problem, 0.0, sc.start, sc.horizon, sc.goal, refined.costate0)
     assert v.end_state_error <= 1e-8
+
+
+def test_initial_segments_keep_a_longer_line_search_than_the_sweeps():
+    """Random scenario 382 of seed 1, MNM, one initial path: with the sweeps' short line search
+    (2^-3) on the initial path too, a segment fails even after splitting (measured); with the
+    initial path's own 2^-10 (``fit_halvings``) the run converges."""
+    sc = generate_one(GeneratorSpec(n=500, seed=1, obstacles=(3, 10)), 382)
+    short = plan(sc, method=MNM, initial_paths=1, threads=1, fit_halvings=3)
+    assert not short.success and "initial segment" in short.message
+    r = plan(sc, method=MNM, initial_paths=1, threads=1)
+    assert r.success, r.message
+    assert (LeapfrogSettings().local_halvings, LeapfrogSettings().fit_halvings) == (3, 10)
 
 
 # --------------------------------------------------------------------------- two-arc attempt
