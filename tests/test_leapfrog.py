@@ -240,6 +240,8 @@ def test_default_settings_are_documented_values():
         ("two_arc_attempt", "yes", "two_arc_attempt"),
         ("local_halvings", -1, "local_halvings"),
         ("fit_halvings", 2.5, "fit_halvings"),
+        ("final_retry_sweeps", -1, "final_retry_sweeps"),
+        ("final_retry_jump", 0.0, "final_retry_jump"),
     ],
 )
 def test_leapfrog_settings_reject_bad_values(option, value, message):
@@ -330,7 +332,7 @@ def test_a_level_ending_with_a_failing_local_problem_is_refined():
         settings = replace(planner.settings.leapfrog, **options)
         return leapfrog(planner.problem, t, X, curve=curve, settings=settings, flow=planner.flow)
 
-    without = run(max_refinements=0)
+    without = run(max_refinements=0, final_retry_sweeps=0)  # (the retry rescues it as well)
     assert not without.success
     refined = run()
     assert refined.success, refined.message
@@ -351,6 +353,26 @@ def test_initial_segments_keep_a_longer_line_search_than_the_sweeps():
     r = plan(sc, method=MNM, initial_paths=1, threads=1)
     assert r.success, r.message
     assert (LeapfrogSettings().local_halvings, LeapfrogSettings().fit_halvings) == (3, 10)
+
+
+def test_failed_final_solves_are_retried_after_more_sweeps_at_the_last_level():
+    """Random scenario 250 of seed 1, classical Newton, one initial path: q = 4 was left at a
+    costate jump of 0.05, and simple and multiple shooting over the whole horizon both diverged
+    from there (measured). Sweeping q = 4 on brings the jump down, and simple shooting converges."""
+    sc = generate_one(GeneratorSpec(n=500, seed=1, obstacles=(3, 10)), 250)
+    without = plan(sc, method=NM, initial_paths=1, threads=1, final_retry_sweeps=0)
+    assert not without.success and "final solve failed" in without.message
+    r = plan(sc, method=NM, initial_paths=1, threads=1)
+    assert r.success, r.message
+    assert r.final_solver == "shooting" and "after the final solves had failed" in r.message
+    retry = r.history[without.sweeps :]
+    assert 0 < len(retry) <= LeapfrogSettings().final_retry_sweeps
+    assert all(h.q == 4 for h in retry)
+    # the same sweeps up to the first final solves
+    assert [h.cost for h in r.history[: without.sweeps]] == [h.cost for h in without.history]
+    costs = np.array([r.initial_cost] + [h.cost for h in r.history])
+    assert np.all(np.diff(costs) <= 1e-12 * costs[:-1]) and r.cost_increases == 0
+    assert r.end_state_error <= 1e-8
 
 
 # --------------------------------------------------------------------------- two-arc attempt

@@ -13,7 +13,9 @@ cost by less than ``reduce_tol`` (relative) or brought the largest costate jump 
 below ``jump_tol`` (relative to the costate size), or when ``sweeps_per_level`` sweeps were made
 at this ``q``. At ``q = 2`` the final
 simple shooting over the whole horizon runs from the costate of the first arc; if it fails, a
-multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over.
+multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over. If
+both fail, that level is swept on (at most ``final_retry_sweeps`` more sweeps, until its jump is
+below ``final_retry_jump``) and both are tried again from there.
 
 Local failures: a local problem is tried from the warm start, for at most ``attempt_iterations``
 Newton iterations (cut short when ``|F|`` stalls over ``attempt_stall_window`` iterations); then,
@@ -61,6 +63,13 @@ class LeapfrogSettings:
     reduce_tol: float = 1e-3
     jump_tol: float = 1e-6
     final: str = "auto"
+    # When both final solves fail (final="auto"), the last level with q > 2 is swept on, at most
+    # this many more sweeps (beyond max_sweeps), until its costate jump is below final_retry_jump
+    # or a sweep no longer lowers the cost, and both are tried again from there; 0 disables.
+    # The level was left at a cost decrease below reduce_tol, which on some random scenarios
+    # still left a jump of 0.05 (measured), too far for classical Newton over the whole horizon.
+    final_retry_sweeps: int = 10
+    final_retry_jump: float = 1e-4
     max_split_depth: int = 4
     # Levels that end with a failing local problem are split (q doubled) instead of halved, at
     # most this many times per run.
@@ -132,8 +141,9 @@ class LeapfrogSettings:
         require_integer("partitions", self.partitions, 2)
         require_integer("max_sweeps", self.max_sweeps)
         require_integer("sweeps_per_level", self.sweeps_per_level)
-        if not (self.reduce_tol > 0 and self.jump_tol > 0):
-            raise SettingsError("reduce_tol and jump_tol must be > 0")
+        if not (self.reduce_tol > 0 and self.jump_tol > 0 and self.final_retry_jump > 0):
+            raise SettingsError("reduce_tol, jump_tol and final_retry_jump must be > 0")
+        require_integer("final_retry_sweeps", self.final_retry_sweeps, 0)
         if self.final not in FINAL_MODES:
             raise SettingsError(
                 f"final must be one of {', '.join(FINAL_MODES)}, got {self.final!r}"
@@ -425,10 +435,11 @@ def leapfrog(
     local_method = sweep_method
     history: list[SweepRecord] = []
     increases = 0
-    last_multi = arcs  # junctions for the multiple-shooting fallback
-    sweeps_here = stalls = refinements = 0
     prev_cost = initial_cost
-    while arcs.q > 2 and len(history) < settings.max_sweeps:
+
+    def sweep(arcs: _Arcs) -> SweepRecord:
+        """One Gauss-Seidel sweep over the junctions of ``arcs`` (updated in place), recorded."""
+        nonlocal increases
         t_sweep = time.perf_counter()
         it0, fe0 = count.iterations, count.f_evals
         failures = rejected = 0
@@ -450,7 +461,8 @@ def leapfrog(
             arcs.lam0[i - 1], arcs.lam1[i - 1], arcs.cost[i - 1] = r.costate0, half.lam, half.cost
             arcs.lam0[i], arcs.lam1[i], arcs.cost[i] = half.lam, r.costate1, r.cost - half.cost
         cost = float(arcs.cost.sum())
-        increases += cost > prev_cost + 1e-9 * max(1.0, abs(prev_cost))
+        before = history[-1].cost if history else initial_cost
+        increases += cost > before + 1e-9 * max(1.0, abs(before))
         jump = arcs.max_jump()
         rec = SweepRecord(
             sweep=len(history) + 1,
@@ -469,17 +481,30 @@ def leapfrog(
         log.debug("sweep %d: q=%d cost=%.10g jump=%.3g", rec.sweep, rec.q, cost, jump)
         if progress is not None:
             progress(rec)
+        return rec
+
+    last_multi = arcs  # junctions for the multiple-shooting fallback
+    sweeps_here = stalls = refinements = 0
+    while arcs.q > 2 and len(history) < settings.max_sweeps:
+        rec = sweep(arcs)
         sweeps_here += 1
-        decrease = (prev_cost - cost) / max(abs(cost), 1e-12)
-        prev_cost = cost
+        decrease = (prev_cost - rec.cost) / max(abs(rec.cost), 1e-12)
+        prev_cost = rec.cost
         # A level with failed local problems keeps sweeping while that still pays (their
         # neighbours move, and the next attempt may succeed); two sweeps in a row without
         # progress, or the level's sweep budget, end it anyway.
         # After a refinement the level must converge further before q is halved again.
-        settled = decrease < settings.reduce_tol * 0.1**refinements or jump < settings.jump_tol
+        settled = (
+            decrease < settings.reduce_tol * 0.1**refinements
+            or rec.max_costate_jump < settings.jump_tol
+        )
         stalls = stalls + 1 if settled else 0
-        if (settled and failures == 0) or stalls >= 2 or sweeps_here >= settings.sweeps_per_level:
-            if failures and refinements < settings.max_refinements:
+        if (
+            (settled and rec.failures == 0)
+            or stalls >= 2
+            or sweeps_here >= settings.sweeps_per_level
+        ):
+            if rec.failures and refinements < settings.max_refinements:
                 # A level that ends with a local problem still failing would hand the final
                 # solve a large costate jump: split every arc instead (shorter local problems)
                 # and sweep on.
@@ -492,36 +517,63 @@ def leapfrog(
     sweep_time = time.perf_counter() - t_start
     final_jump = arcs.max_jump()
 
+    def final_solve(lam0, junctions: _Arcs):
+        """Simple shooting over the whole horizon from ``lam0``; if it fails (``final="auto"``),
+        multiple shooting over ``junctions``. Returns (costate0, solver name, last root result)."""
+        root = None
+        if settings.final in ("auto", "shooting"):
+            r = solve_shooting(
+                problem, T0, start, T1, goal, guess=lam0, settings=final_settings, flow=final_flow
+            )
+            count.add(r)
+            root = r.root
+            if r.success:
+                return r.costate0, "shooting", root
+        if settings.final in ("auto", "multiple-shooting"):
+            ms = MultipleShootingSystem(final_flow, junctions.t, start, goal)
+            Z = np.hstack([junctions.X[:-1], junctions.lam0])
+            root = solve_root(
+                ms, ms.pack(junctions.lam0[0], Z), settings.method, final_settings.root
+            )
+            count.add(root)
+            if root.success:
+                return root.x[: start.size].copy(), "multiple-shooting", root
+        return None, None, root
+
     # Final step: simple shooting over the whole horizon from the first arc's costate.
     t_final = time.perf_counter()
-    costate0, solver, root = None, None, None
-    if settings.final in ("auto", "shooting"):
-        r = solve_shooting(
-            problem,
-            T0,
-            start,
-            T1,
-            goal,
-            guess=arcs.lam0[0],
-            settings=final_settings,
-            flow=final_flow,
+    retry_time = 0.0
+    retried = ""
+    sweeps_before_retry = len(history)
+    costate0, solver, root = final_solve(arcs.lam0[0], last_multi)
+    level = last_multi
+    if costate0 is None and settings.final_retry_sweeps and arcs.q == 2 and level.q > 2:
+        # Both final solves failed after the sweeps reached q = 2 from a level that was left with
+        # a large costate jump: sweep that level on (at most final_retry_sweeps more sweeps, until
+        # the jump is below final_retry_jump or a sweep no longer lowers the cost) and try both
+        # again. (A run that spent max_sweeps before reaching q = 2 is not retried.)
+        t_more = time.perf_counter()
+        first_failure = root
+        for _ in range(settings.final_retry_sweeps):
+            before = history[-1].cost if history else initial_cost
+            rec = sweep(level)
+            if rec.max_costate_jump < settings.final_retry_jump or not rec.cost < before:
+                break
+        retry_time = time.perf_counter() - t_more
+        final_jump = level.max_jump()
+        costate0, solver, root = final_solve(level.lam0[0], level)
+        retried = (
+            f" ({len(history) - sweeps_before_retry} of them at q = {level.q} after the final"
+            f" solves had failed: {first_failure.status})"
         )
-        count.add(r)
-        root = r.root
-        if r.success:
-            costate0, solver = r.costate0, "shooting"
-    if costate0 is None and settings.final in ("auto", "multiple-shooting"):
-        ms = MultipleShootingSystem(final_flow, last_multi.t, start, goal)
-        Z = np.hstack([last_multi.X[:-1], last_multi.lam0])
-        root = solve_root(ms, ms.pack(last_multi.lam0[0], Z), settings.method, final_settings.root)
-        count.add(root)
-        if root.success:
-            costate0, solver = root.x[: start.size].copy(), "multiple-shooting"
-    final_time = time.perf_counter() - t_final
+    final_time = time.perf_counter() - t_final - retry_time
+    sweep_time += retry_time
     if costate0 is None:
         msg = f"final solve failed ({root.status}: {root.message})" if root else "no final solve"
+        if retried:
+            msg += f", also after {len(history) - sweeps_before_retry} more sweeps at q = {level.q}"
     else:
-        msg = f"converged by {solver} after {len(history)} sweeps"
+        msg = f"converged by {solver} after {len(history)} sweeps{retried}"
     return LeapfrogRun(
         success=costate0 is not None,
         message=msg,
