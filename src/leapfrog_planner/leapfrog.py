@@ -432,6 +432,8 @@ def leapfrog(
         cost=np.array([p[4] for p in pieces]),
     )
     initial_cost = float(arcs.cost.sum())
+    # From here on local problems are warm-started from the current arcs: the sweeps' shorter
+    # line search (``solve`` and ``two_arcs`` read ``local_method`` when called).
     local_method = sweep_method
     history: list[SweepRecord] = []
     increases = 0
