@@ -437,7 +437,9 @@ def leapfrog(
     local_method = sweep_method
     history: list[SweepRecord] = []
     increases = 0
-    prev_cost = initial_cost
+
+    def last_cost() -> float:
+        return history[-1].cost if history else initial_cost
 
     def sweep(arcs: _Arcs) -> SweepRecord:
         """One Gauss-Seidel sweep over the junctions of ``arcs`` (updated in place), recorded."""
@@ -463,7 +465,7 @@ def leapfrog(
             arcs.lam0[i - 1], arcs.lam1[i - 1], arcs.cost[i - 1] = r.costate0, half.lam, half.cost
             arcs.lam0[i], arcs.lam1[i], arcs.cost[i] = half.lam, r.costate1, r.cost - half.cost
         cost = float(arcs.cost.sum())
-        before = history[-1].cost if history else initial_cost
+        before = last_cost()
         increases += cost > before + 1e-9 * max(1.0, abs(before))
         jump = arcs.max_jump()
         rec = SweepRecord(
@@ -488,10 +490,10 @@ def leapfrog(
     last_multi = arcs  # junctions for the multiple-shooting fallback
     sweeps_here = stalls = refinements = 0
     while arcs.q > 2 and len(history) < settings.max_sweeps:
+        before = last_cost()
         rec = sweep(arcs)
         sweeps_here += 1
-        decrease = (prev_cost - rec.cost) / max(abs(rec.cost), 1e-12)
-        prev_cost = rec.cost
+        decrease = (before - rec.cost) / max(abs(rec.cost), 1e-12)
         # A level with failed local problems keeps sweeping while that still pays (their
         # neighbours move, and the next attempt may succeed); two sweeps in a row without
         # progress, or the level's sweep budget, end it anyway.
@@ -545,7 +547,7 @@ def leapfrog(
     # Final step: simple shooting over the whole horizon from the first arc's costate.
     t_final = time.perf_counter()
     retry_time = 0.0
-    retried = ""
+    first_failure = None  # the root result of the first final solves, when they were retried
     sweeps_before_retry = len(history)
     costate0, solver, root = final_solve(arcs.lam0[0], last_multi)
     level = last_multi
@@ -557,25 +559,27 @@ def leapfrog(
         t_more = time.perf_counter()
         first_failure = root
         for _ in range(settings.final_retry_sweeps):
-            before = history[-1].cost if history else initial_cost
+            before = last_cost()
             rec = sweep(level)
             if rec.max_costate_jump < settings.final_retry_jump or not rec.cost < before:
                 break
         retry_time = time.perf_counter() - t_more
         final_jump = level.max_jump()
         costate0, solver, root = final_solve(level.lam0[0], level)
-        retried = (
-            f" ({len(history) - sweeps_before_retry} of them at q = {level.q} after the final"
-            f" solves had failed: {first_failure.status})"
-        )
     final_time = time.perf_counter() - t_final - retry_time
     sweep_time += retry_time
+    more = len(history) - sweeps_before_retry
     if costate0 is None:
         msg = f"final solve failed ({root.status}: {root.message})" if root else "no final solve"
-        if retried:
-            msg += f", also after {len(history) - sweeps_before_retry} more sweeps at q = {level.q}"
+        if first_failure is not None:
+            msg += f", also after {more} more sweeps at q = {level.q}"
     else:
-        msg = f"converged by {solver} after {len(history)} sweeps{retried}"
+        msg = f"converged by {solver} after {len(history)} sweeps"
+        if first_failure is not None:
+            msg += (
+                f" ({more} of them at q = {level.q} after the final solves had failed:"
+                f" {first_failure.status})"
+            )
     return LeapfrogRun(
         success=costate0 is not None,
         message=msg,
