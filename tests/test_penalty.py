@@ -89,6 +89,32 @@ def test_far_away_and_without_obstacles_the_penalty_is_exactly_zero():
     np.testing.assert_array_equal(terms(pen, 1e200, -1e200), 0.0)
 
 
+@pytest.mark.parametrize("exponent", EXPONENTS)
+@pytest.mark.parametrize("weight", [1.0, 100.0, 1e6])
+@pytest.mark.parametrize("r", [0.01, 0.1, 1.0])
+def test_an_obstacle_beyond_the_cutoff_is_skipped_and_its_terms_are_negligible(exponent, weight, r):
+    """Obstacles with s^n > 60 + ln W are skipped. Just inside, the exact terms are kept; just
+    outside, the exact terms (NumPy, no cutoff) are below 1e-17 for the value and gradient and
+    1e-14 for the Hessian, whatever the disc size: far below the rounding of O(1) terms."""
+    far = 60.0 + max(np.log(weight), 0.0)
+    for sn, skipped in ((far * 0.999, False), (far * 1.001, True)):
+        d = r * sn ** (1.0 / (2 * exponent))  # distance from the centre where s^n = sn
+        got = terms(obstacle_penalty([[0.0, 0.0, r]], weight, exponent), d, 0.0)
+        s = (d / r) ** 2
+        e = weight * np.exp(-(s**exponent))
+        dP_ds = -exponent * s ** (exponent - 1) * e
+        n = exponent
+        d2P_ds2 = e * (n**2 * s ** (2 * n - 2) - n * (n - 1) * s ** (n - 2))
+        sx = 2 * d / r**2
+        exact = [e, dP_ds * sx, 0.0, d2P_ds2 * sx * sx + dP_ds * 2 / r**2, 0.0, dP_ds * 2 / r**2]
+        if skipped:
+            np.testing.assert_array_equal(got, 0.0)
+            assert abs(exact[0]) < 1e-24 and abs(exact[1]) < 1e-17
+            assert max(abs(exact[3]), abs(exact[5])) < 1e-14
+        else:
+            np.testing.assert_allclose(got, exact, rtol=1e-10, atol=0)
+
+
 def test_penalty_is_a_sum_over_obstacles():
     xy = np.array([0.85, 0.02])
     single = [terms(obstacle_penalty([o], 100.0, 2), *xy) for o in OBSTACLES]

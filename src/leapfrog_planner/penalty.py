@@ -20,6 +20,11 @@ def penalty_terms(x, y, obs, weight, exponent, want_hessian):
     Pxy = 0.0
     Pyy = 0.0
     n = exponent
+    # An obstacle with s^n > 60 + ln W adds at most e^-60 = 1e-26 to P, and (s^(n-1) and 1/r
+    # factors included) below 1e-17 to its derivatives even for small discs: far below the
+    # rounding of the other terms of the canonical system. Near the paths of the paper cases,
+    # most obstacles within exp's underflow range (s^n < 746) are that far.
+    far = 60.0 + (math.log(weight) if weight > 1.0 else 0.0)
     for j in range(obs.shape[0]):
         inv_r2 = 1.0 / (obs[j, 2] * obs[j, 2])
         dx = x - obs[j, 0]
@@ -33,7 +38,7 @@ def penalty_terms(x, y, obs, weight, exponent, want_hessian):
             sn1 = 1.0
             for _ in range(n - 1):
                 sn1 *= s
-        if sn1 * s > 746.0:  # far away: exp underflows to exactly 0, so skip computing it
+        if sn1 * s > far:  # negligible: skip the exp
             continue
         e = weight * math.exp(-(sn1 * s))
         if e == 0.0:
