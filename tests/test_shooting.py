@@ -19,6 +19,7 @@ from leapfrog_planner import (
 )
 from leapfrog_planner.roots import ModifiedNewtonStep, RootSettings, RootStatus, solve_root
 from leapfrog_planner.shooting import (
+    LocalShooter,
     ShootingSettings,
     ShootingSystem,
     affine_costate_guess,
@@ -464,6 +465,55 @@ def test_compiled_newton_is_the_python_loop_bit_for_bit(case, guess, method, roo
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
     for name in ("costate1", "cost", "end_state_error"):
         np.testing.assert_array_equal(getattr(fast, name), getattr(ref, name), err_msg=name)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize(
+    ("case", "guess", "method", "root"),
+    [
+        (1, "good", "newton", None),  # converged
+        (1, None, "modified-newton", None),  # affine guess, line searches
+        (3, None, "newton", None),
+        (4, "fails", "newton", None),  # max-iterations
+        (4, "fails", ModifiedNewtonStep(max_halvings=1), None),  # line-search-failed
+        (1, "huge", "modified-newton", None),  # non-finite
+        (2, None, "modified-newton", RootSettings(stall_window=3)),  # stalled
+        (1, None, "nleq-err", None),
+        (4, "fails", "nleq-err", None),
+    ],
+)
+def test_local_shooter_is_solve_shooting_bit_for_bit(case, guess, method, root, compiled):
+    """Leapfrog's LocalShooter (the compiled loop called directly, or solve_shooting for the
+    Python loop) keeps the costates, cost and counts of solve_shooting, bit for bit. A failure
+    keeps the last iterate and the counts, with NaN for the end costate and the cost (Leapfrog
+    uses only solutions)."""
+    c = CASES[case]
+    guess = {
+        "good": GOOD_GUESS.get(case), "huge": np.full(3, 1e200),
+        "fails": NEWTON_FAILS_MNM_CONVERGES[4][0], None: None,
+    }[guess]  # fmt: skip
+    settings = ShootingSettings(
+        samples=0, integrator=SHORT, root=root or RootSettings(), compiled=compiled
+    )
+    prob = c.problem("unicycle")
+    flow = Flow(prob, SHORT)
+    shooter = LocalShooter(prob, flow, settings, method)
+    start, goal = np.asarray(c.start, float), np.asarray(c.goal, float)
+    with np.errstate(over="ignore"):
+        ref = solve_shooting(
+            prob, 0.0, start, 1.0, goal, guess=guess, method=method, settings=settings, flow=flow
+        )
+        for _ in range(2):  # the reused buffers leave nothing behind
+            got = shooter(0.0, start, 1.0, goal, guess)
+            assert (got.success, got.iterations, got.f_evals) == (
+                ref.success, ref.root.iterations, ref.root.f_evals,
+            )  # fmt: skip
+            np.testing.assert_array_equal(got.costate0, ref.costate0)
+            if ref.success:
+                np.testing.assert_array_equal(got.costate1, ref.costate1)
+                assert got.cost == ref.cost
+            else:
+                assert np.isnan(got.costate1).all() and np.isnan(got.cost)
 
 
 @pytest.mark.parametrize(

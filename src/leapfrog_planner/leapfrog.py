@@ -47,7 +47,13 @@ from .integrate.flow import Flow, IntegratorSettings
 from .multiple_shooting import MultipleShootingSystem
 from .problem import OptimalControlProblem
 from .roots import STRATEGIES, ModifiedNewtonStep, RootResult, RootSettings, solve_root
-from .shooting import ShootingResult, ShootingSettings, solve_shooting
+from .shooting import (
+    LocalShooter,
+    LocalSolution,
+    ShootingResult,
+    ShootingSettings,
+    solve_shooting,
+)
 
 log = logging.getLogger(__name__)
 
@@ -263,7 +269,7 @@ class _Counter:
         self.iterations = 0
         self.f_evals = 0
 
-    def add(self, r: ShootingResult | RootResult):
+    def add(self, r: ShootingResult | RootResult | LocalSolution):
         root = r.root if isinstance(r, ShootingResult) else r
         self.iterations += root.iterations
         self.f_evals += root.f_evals
@@ -300,12 +306,15 @@ def leapfrog(
         sweep_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
     count = _Counter()
 
+    shooters: dict[tuple, LocalShooter] = {}
+
     def solve(ta, xa, tb, xb, guess=None, local=problem, local_flow=flow, settings=shoot_settings):
         """A local two-point problem; None when it fails (the callers handle failures)."""
-        r = solve_shooting(
-            local, ta, xa, tb, xb, method=local_method, guess=guess, settings=settings,
-            flow=local_flow,
-        )  # fmt: skip
+        key = (local_flow, settings, local_method)
+        shoot = shooters.get(key)
+        if shoot is None:
+            shoot = shooters[key] = LocalShooter(local, local_flow, settings, local_method)
+        r = shoot(ta, xa, tb, xb, guess)
         count.add(r)
         return r if r.success else None
 
@@ -335,7 +344,7 @@ def leapfrog(
 
     def direct(
         ta, xa, tb, xb, guess, local=problem, local_flow=flow, mid=None
-    ) -> ShootingResult | None:
+    ) -> LocalSolution | None:
         """The warm guess; in a sweep (``mid`` given), two arcs through the middle junction;
         otherwise the affine guess. Each attempt gets ``attempt_iterations`` iterations.
 
@@ -347,7 +356,7 @@ def leapfrog(
             return two_arcs(ta, xa, tb, xb, guess, mid)
         return r or solve(ta, xa, tb, xb, None, local, local_flow, attempt)
 
-    def continuation(ta, xa, tb, xb, guess) -> ShootingResult | None:
+    def continuation(ta, xa, tb, xb, guess) -> LocalSolution | None:
         """Raise the obstacle weight from 0 to W, each solve warm-starting the next.
 
         The increment doubles after a success and halves after a failure (down to
@@ -378,7 +387,7 @@ def leapfrog(
             dw *= 2.0
         return None  # the step budget is spent: a failure, handled like any other
 
-    def two_arcs(ta, xa, tb, xb, guess, mid) -> ShootingResult | None:
+    def two_arcs(ta, xa, tb, xb, guess, mid) -> LocalSolution | None:
         """The local problem as two arcs through the junction ``mid = (t_i, x_i, lambda_i)``.
 
         Unknowns ``(lambda_a, x_i, lambda_i)`` start at the current arcs, so the only residual is
@@ -390,7 +399,7 @@ def leapfrog(
         count.add(root)
         return solve(ta, xa, tb, xb, root.x[: xa.size], settings=attempt) if root.success else None
 
-    def local_solve(ta, xa, tb, xb, guess, mid=None) -> ShootingResult | None:
+    def local_solve(ta, xa, tb, xb, guess, mid=None) -> LocalSolution | None:
         """The direct attempts, then continuation in the obstacle weight."""
         r = direct(ta, xa, tb, xb, guess, mid=mid)
         if r is None and has_obstacles:
