@@ -306,11 +306,13 @@ def leapfrog(
         sweep_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
     count = _Counter()
 
+    # By identity: hashing the settings cost more than a local solve's bookkeeping. The shooter
+    # holds its flow, settings and method, so the ids stay theirs while it is in the table.
     shooters: dict[tuple, LocalShooter] = {}
 
     def solve(ta, xa, tb, xb, guess=None, local=problem, local_flow=flow, settings=shoot_settings):
         """A local two-point problem; None when it fails (the callers handle failures)."""
-        key = (local_flow, settings, local_method)
+        key = (id(local_flow), id(settings), id(local_method))
         shoot = shooters.get(key)
         if shoot is None:
             shoot = shooters[key] = LocalShooter(local, local_flow, settings, local_method)

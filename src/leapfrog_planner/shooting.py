@@ -313,7 +313,7 @@ class LocalShooter:
     def __init__(
         self, problem: OptimalControlProblem, flow: Flow, settings: ShootingSettings, method=None
     ):
-        self.problem, self.flow, self.settings = problem, flow, settings
+        self.problem, self.flow, self.settings, self.method = problem, flow, settings, method
         self.strategy = get_strategy(method or settings.method)
         self._fused = settings.compiled and flow.tableau.adaptive and type(self.strategy) in _FUSED
         if self._fused:
