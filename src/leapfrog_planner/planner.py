@@ -20,7 +20,7 @@ from ._blas import held_by_parent, single_threaded_blas
 from .errors import ScenarioError, SettingsError, require_integer
 from .initial_path import InitialPath, initial_paths
 from .integrate.flow import Flow
-from .leapfrog import LeapfrogRun, LeapfrogSettings, SweepRecord, leapfrog
+from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
 from .path_ranking import rank_paths
 from .results import LeapfrogResult, PathOutcome, PlanStatus, validate
 from .scenario import Scenario, load_scenario
@@ -149,7 +149,9 @@ class Planner:
         t_paths = time.perf_counter() - t_begin
         T0, T1 = 0.0, float(s.horizon)
 
-        def run_path(k: int, path: InitialPath) -> tuple[InitialPath, LeapfrogRun, tuple]:
+        def run_path(k: int, path: InitialPath) -> tuple:
+            """Leapfrog from ``path``, then the validation of its answer: (path, run, initial
+            junctions, validation or None, validation time)."""
             self._emit(PlanEvent("path", k, len(paths), path.label))
             t, X = path.junctions(st.leapfrog.partitions, s.horizon, T0)
 
@@ -170,8 +172,16 @@ class Planner:
                     flow=self.flow,
                     progress=on_sweep,
                 )
-            log.info("path %s: %s", path.label, run.message)
-            return path, run, (t, X)
+                log.info("path %s: %s", path.label, run.message)
+                # Validated here, in the path's own thread: the re-integration overlaps the
+                # other paths' sweeps.
+                t_val = time.perf_counter()
+                v = None
+                if run.success:
+                    v = validate(
+                        self.problem, T0, s.start, T1, s.goal, run.costate0, samples=st.samples
+                    )
+            return path, run, (t, X), v, time.perf_counter() - t_val
 
         workers = min(len(paths), st.threads or os.cpu_count() or 1)
         if workers > 1:
@@ -181,18 +191,10 @@ class Planner:
             runs = [run_path(k, path) for k, path in enumerate(paths)]
         t_runs = time.perf_counter() - t_begin - t_paths
         self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
-        t_val = time.perf_counter()
-        checked = []
-        for path, run, junctions in runs:
-            v = None
-            if run.success:
-                v = validate(
-                    self.problem, T0, s.start, T1, s.goal, run.costate0, samples=st.samples
-                )
-            checked.append((path, run, junctions, v))
+        checked = [c[:4] for c in runs]
         ok = [c for c in checked if _valid(c[3])]
         best = min(ok, key=lambda c: c[3].cost) if ok else checked[0]
-        t_val = time.perf_counter() - t_val
+        t_val = sum(c[4] for c in runs)
         return self._result(best, checked, t_paths, t_runs, t_val, time.perf_counter() - t_begin)
 
     def _emit(self, event: PlanEvent):
@@ -208,8 +210,11 @@ class Planner:
             PlanStatus.CONVERGED if v is not None and np.isfinite(v.cost) else PlanStatus.FAILED
         )
         nan = float("nan")
+        # The runs' wall time (paths in parallel threads, each validated in its thread), split
+        # in the ratio of the parts' own times.
         sweeps = sum(r.sweep_time_s for _, r, _, _ in checked)
         finals = sum(r.final_time_s for _, r, _, _ in checked)
+        share = t_runs / max(sweeps + finals + t_val, 1e-300)
         alternatives = tuple(
             PathOutcome(
                 label=p.label,
@@ -251,10 +256,9 @@ class Planner:
             f_evals=sum(r.f_evals for _, r, _, _ in checked),
             cost_increases=run.cost_increases,
             time_initial_path_s=t_paths,
-            # Wall time of the runs (in parallel threads), split in the ratio of their own times.
-            time_sweeps_s=t_runs * sweeps / max(sweeps + finals, 1e-300),
-            time_final_s=t_runs * finals / max(sweeps + finals, 1e-300),
-            time_validation_s=t_val,
+            time_sweeps_s=sweeps * share,
+            time_final_s=finals * share,
+            time_validation_s=t_val * share,
             wall_time_s=wall,
             alternatives=alternatives,
         )
