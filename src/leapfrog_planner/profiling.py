@@ -5,7 +5,8 @@ and splits the wall time into exclusive parts:
 
 - ``integration``: inside ``Flow._run``, the call of the compiled flow kernel (all of them,
   the final re-integration at rtol 1e-12 included), and the compiled Newton loops of simple
-  shooting (their flows and their 3x3 linear algebra, one compiled call);
+  shooting (their flows and their 3x3 linear algebra, one compiled call; Leapfrog's local
+  solves call them through ``LocalShooter._loop``);
 - ``linear_algebra``: the Python Newton loop's compiled ``newton_correction`` and
   ``linear_solve`` (multiple shooting goes through it), ``numpy.linalg``
   (solve, svd, lstsq, norm) and the affine guess's ``scipy.linalg`` calls (expm, solve);
@@ -94,6 +95,19 @@ class _Clock:
 
         return counted
 
+    def counted_loop(self, run):
+        """``LocalShooter._loop`` (the compiled loop's raw outputs) that also counts."""
+
+        def counted(*args, **kwargs):
+            out = run(*args, **kwargs)
+            with self._lock:
+                self.steps += int(out[8])
+                self.integrations += int(out[4])  # each with the variational equations
+                self.jacobian_calls += int(out[4])
+            return out
+
+        return counted
+
     def wrap(self, category, fn):
         def timed(*args, **kwargs):
             self.stack.append([category, 0.0])
@@ -123,6 +137,7 @@ def _patched(clock: _Clock):
     targets = [
         (Flow, "_run", "integration"),
         (shooting, "_compiled_newton", "integration"),
+        (shooting.LocalShooter, "_loop", "integration"),
         (loop, "newton_correction", "linear_algebra"),
         (loop, "linear_solve", "linear_algebra"),
         (planner_mod.Planner, "initial_paths", "initial_path"),
@@ -134,9 +149,12 @@ def _patched(clock: _Clock):
         for owner, name, category in targets:
             original = getattr(owner, name)
             stack.callback(setattr, owner, name, original)
-            fn = {"_run": clock.counted_run, "_compiled_newton": clock.counted_newton}.get(
-                name, lambda f: f
-            )(original)
+            counters = {
+                "_run": clock.counted_run,
+                "_compiled_newton": clock.counted_newton,
+                "_loop": clock.counted_loop,
+            }
+            fn = counters.get(name, lambda f: f)(original)
             setattr(owner, name, clock.wrap(category, fn))
         yield
 

@@ -343,8 +343,8 @@ class LocalShooter:
             return LocalSolution(
                 True, r.costate0, r.costate1, r.cost, r.root.iterations, r.root.f_evals
             )
-        code, x, _, its, evals, _, _, (last_s, Y, last_ok), _ = self.flow.kernels.shoot_newton(
-            (x0, x1, float(t0), float(t1)), s0, *self._args, self._norms, self._lams
+        code, x, _, its, evals, _, _, (last_s, Y, last_ok), _ = self._loop(
+            (x0, x1, float(t0), float(t1)), s0
         )
         nx = self._nx
         if code != _CONVERGED:
@@ -355,6 +355,11 @@ class LocalShooter:
                 return self._failed(x, its, evals)
             Y = np.concatenate([r.z, [r.cost]])
         return LocalSolution(True, x, Y[nx : 2 * nx].copy(), float(Y[2 * nx]), int(its), int(evals))
+
+    def _loop(self, ends, s0) -> tuple:
+        """The compiled loop's raw outputs (a method of its own so that the profiler can time
+        it: see :mod:`.profiling`)."""
+        return self.flow.kernels.shoot_newton(ends, s0, *self._args, self._norms, self._lams)
 
     def _failed(self, x, its, evals) -> LocalSolution:
         return LocalSolution(
