@@ -17,7 +17,13 @@ from leapfrog_planner import (
     ScenarioError,
     SettingsError,
 )
-from leapfrog_planner.roots import ModifiedNewtonStep, RootSettings, RootStatus, solve_root
+from leapfrog_planner.roots import (
+    ModifiedNewtonStep,
+    RootSettings,
+    RootStatus,
+    get_strategy,
+    solve_root,
+)
 from leapfrog_planner.shooting import (
     LocalShooter,
     ShootingSettings,
@@ -514,6 +520,43 @@ def test_local_shooter_is_solve_shooting_bit_for_bit(case, guess, method, root, 
                 assert got.cost == ref.cost
             else:
                 assert np.isnan(got.costate1).all() and np.isnan(got.cost)
+
+
+@pytest.mark.parametrize("method", ["newton", "modified-newton"])
+@pytest.mark.parametrize(("case", "tol"), [(1, 1e-6), (3, 1e-10)])
+def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
+    """With ``predict`` the compiled loop evaluates F alone where Newton's quadratic convergence
+    predicts the iterate to converge: the same iterates, statuses and costs, bit for bit, and
+    here the same number of evaluations, the last of them without the variational equations."""
+    from leapfrog_planner.shooting import _loop_arguments
+
+    c = CASES[case]
+    prob = c.problem("unicycle")
+    flow = Flow(prob, SHORT)
+    start, goal = np.asarray(c.start, float), np.asarray(c.goal, float)
+    s0 = affine_costate_guess(prob, 0.0, start, 1.0, goal)
+    out = {}
+    for predict in (False, True):
+        # Case 1 ends 1.7e-3, 6.8e-6 (NM; MNM alike): 1.7e-3^3 / 3.8e-2^2 = 3.4e-6 would not be
+        # predicted below 1e-6 / 100, 6.8e-6^3 / 1.7e-3^2 = 1.1e-10 is. Case 3 ends 8.1e-4,
+        # 1.5e-8: predicted 5e-18 <= 1e-10 / 100.
+        root = RootSettings(tol=tol)
+        args = _loop_arguments(flow, get_strategy(method), root, True, predict)
+        m = root.max_iterations
+        out[predict] = flow.kernels.shoot_newton(
+            (start, goal, 0.0, 1.0), s0, *args, np.empty(m + 1), np.empty(m)
+        )
+    (code0, x0, F0, it0, ev0, *_, last0, _), (code1, x1, F1, it1, ev1, *_, last1, _) = (
+        out[False],
+        out[True],
+    )
+    assert code0 == code1 == 0 and it0 == it1 >= 2 and ev0 == ev1
+    np.testing.assert_array_equal(x0, x1)
+    np.testing.assert_array_equal(F0, F1)
+    nz = 2 * prob.model.nx
+    assert last0[1].size == nz + 1 + nz * prob.model.nx  # the state, cost and sensitivities
+    assert last1[1].size == nz + 1  # F alone
+    np.testing.assert_array_equal(last0[1][: nz + 1], last1[1])
 
 
 @pytest.mark.parametrize(

@@ -263,15 +263,18 @@ _FUSED = (NewtonStep, ModifiedNewtonStep, NleqErrStep)  # codes 0, 1, 2 of shoot
 _CODES = tuple(RootStatus)  # the compiled loop's status codes, in RootStatus order
 
 
-def _loop_arguments(flow: Flow, strategy, settings: RootSettings, inexact: bool) -> tuple:
+def _loop_arguments(
+    flow: Flow, strategy, settings: RootSettings, inexact: bool, predict: bool = False
+) -> tuple:
     """``shoot_newton``'s arguments after the ends and the guess: (method, root, step,
-    accuracy, kin), which depend only on the flow, the strategy and the settings."""
+    accuracy, kin), which depend only on the flow, the strategy and the settings. ``predict``:
+    skip the Jacobian where convergence is predicted (see the loop)."""
     tab, fs = flow.tableau, flow.settings
     return (
         _FUSED.index(type(strategy)),
         (
             settings.tol, settings.max_iterations, settings.max_cond, settings.divergence,
-            settings.stall_window, settings.stall_factor,
+            settings.stall_window, settings.stall_factor, predict,
         ),
         (
             getattr(strategy, "max_halvings", 0), getattr(strategy, "initial_damping", 1.0),
@@ -318,7 +321,9 @@ class LocalShooter:
         self._fused = settings.compiled and flow.tableau.adaptive and type(self.strategy) in _FUSED
         if self._fused:
             m = settings.root.max_iterations
-            self._args = _loop_arguments(flow, self.strategy, settings.root, settings.inexact)
+            self._args = _loop_arguments(
+                flow, self.strategy, settings.root, settings.inexact, predict=True
+            )
             self._norms, self._lams = np.empty(m + 1), np.empty(m)
         self._nx = problem.model.nx
 

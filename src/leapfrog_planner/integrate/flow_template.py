@@ -334,22 +334,26 @@ STALLED = 6
 
 
 @njit(cache=True, error_model="numpy")
-def _shoot_eval(s, ends, accuracy, best_norm, kin):
+def _shoot_eval(s, ends, accuracy, best_norm, kin, jac):
     """F(s) = x(t1) - x1 and DF(s), as ShootingSystem.evaluate.
 
     ``ends = (x0, x1, t0, t1)``, ``accuracy = (rtol, atol, max_steps, inexact, k)``, ``kin``
     the integrator's tableau and the problem data. Returns (ok, F, J, Y, |F|, accepted steps).
     ``k`` (= NX, the costate columns) comes from the caller at run time, as in the Flow's
-    calls, so that both run the same code on the same values.
+    calls, so that both run the same code on the same values. ``jac`` False: F alone (J is
+    zero), from the same steps and to the same bits (the sensitivities do not steer the steps).
     """
     x0, x1, t0, t1 = ends
     base_rtol, base_atol, max_steps, inexact, k = accuracy
+    if not jac:
+        k = 0
     A, b, e, e3, order, p, obs, weight, exponent, no_T, no_Z = kin
     Y0 = np.zeros(NZ + 1 + NZ * k)
     for m in range(NX):
         Y0[m] = x0[m]
         Y0[NX + m] = s[m]
-        Y0[NZ + 1 + (NX + m) * k + m] = 1.0  # seed: the costate columns of the identity
+        if k:
+            Y0[NZ + 1 + (NX + m) * k + m] = 1.0  # seed: the costate columns of the identity
     rtol, atol = base_rtol, base_atol
     if inexact:
         loose = min(1e-6, 1e-4 * best_norm)
@@ -374,6 +378,9 @@ def _shoot_eval(s, ends, accuracy, best_norm, kin):
             rtol, atol = base_rtol, base_atol
             continue
         break
+    if not k:
+        J[:, :] = 0.0
+        return _finite(dot(F, F)), F, J, Y, norm, steps
     for i in range(NX):
         for j in range(NX):
             J[i, j] = Y[NZ + 1 + i * k + j]
@@ -383,25 +390,42 @@ def _shoot_eval(s, ends, accuracy, best_norm, kin):
 
 
 @njit(cache=True, error_model="numpy")
-def _trial(s, ends, accuracy, best_norm, kin):
+def _trial(s, ends, accuracy, best_norm, kin, jac=True):
     """:func:`_shoot_eval` at ``s`` as the loop records it: (ok, F, J, the latest evaluation
     ``(s, Y, ok)``, the smallest |F| so far, accepted steps)."""
-    ok, F, J, Y, norm, steps = _shoot_eval(s, ends, accuracy, best_norm, kin)
+    ok, F, J, Y, norm, steps = _shoot_eval(s, ends, accuracy, best_norm, kin, jac)
     return ok, F, J, (s.copy(), Y, ok), min(best_norm, norm), steps
+
+
+# F alone is evaluated where Newton's quadratic convergence predicts convergence with this
+# margin: |F_k+1| ~ |F_k|^3 / |F_k-1|^2 <= tol / PREDICT_MARGIN.
+PREDICT_MARGIN = 100.0
+
+
+@njit(cache=True, error_model="numpy")
+def _converges(norms, n, tol):
+    """Whether the next iterate is predicted to converge, from the last two norms."""
+    if n < 2 or not norms[n - 2] > 0.0:
+        return False
+    f = norms[n - 1]
+    return f * f * f / (norms[n - 2] * norms[n - 2]) * PREDICT_MARGIN <= tol
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     """Simple shooting from ``s0`` by Newton (``method`` 0), MNM (1) or NLEQ-ERR (2).
 
-    ``root = (tol, max_iterations, max_cond, divergence, stall_window, stall_factor)``, ``step =
-    (max_halvings, initial_damping, min_damping, xtol, max_trials)`` (the step object's
-    fields); ``norms`` (max_iterations + 1) and ``lams`` (max_iterations) receive the histories.
+    ``root = (tol, max_iterations, max_cond, divergence, stall_window, stall_factor,
+    predict)``, ``step = (max_halvings, initial_damping, min_damping, xtol, max_trials)`` (the
+    step object's fields); ``norms`` (max_iterations + 1) and ``lams`` (max_iterations) receive
+    the histories. With ``predict``, NM and MNM (its full step) evaluate F alone where
+    :func:`_converges` predicts convergence, and again with J if it does not come: the same
+    iterates, with one evaluation more per wrong prediction (evaluations count both kinds).
     Returns (status, x, F, iterations, evaluations, n_norms, cond, last, steps): the final
     iterate and its residual, ``last = (s, Y, ok)`` the latest evaluation (for the result's cost
     and end costate) and the accepted integrator steps of all evaluations.
     """
-    tol, max_iterations, max_cond, divergence, stall_window, stall_factor = root
+    tol, max_iterations, max_cond, divergence, stall_window, stall_factor, predict = root
     max_halvings, initial_damping, min_damping, xtol, max_trials = step
     # NLEQ-ERR's memory between steps (roots.steps._NleqMemo)
     lam_memo = initial_damping
@@ -508,10 +532,17 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
             for m in range(max_halvings + 1):
                 lt = 2.0**-m
                 xt = x - lt * d
-                okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, best_norm, kin)
+                jac = not (predict and m == 0 and _converges(norms, n, tol))
+                before = best_norm
+                okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, best_norm, kin, jac)
                 evals += 1
                 steps += st
                 h = dot(Ft, Ft) if okt else np.inf
+                if not jac and h <= h0 - lt * slope and not math.sqrt(h) <= tol:
+                    # Accepted but not converged: the next iteration needs J here (same F).
+                    okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, before, kin)
+                    evals += 1
+                    steps += st
                 if m == 0 or h < best_h:
                     best_h, x_new, F_new, J_new, lam = h, xt, Ft, Jt, lt
                 if h <= h0 - lt * slope:
@@ -530,9 +561,16 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                 F = np.full(NX, np.nan)
             return DIVERGED, x, F, it_done, evals, n, cond, last, steps
         if not have_F:
-            ok, F, J, last, best_norm, st = _trial(x, ends, accuracy, best_norm, kin)
+            jac = not (predict and _converges(norms, n, tol))
+            before = best_norm
+            ok, F, J, last, best_norm, st = _trial(x, ends, accuracy, best_norm, kin, jac)
             evals += 1
             steps += st
+            if not jac and not (ok and math.sqrt(dot(F, F)) <= tol):
+                # Not converged after all: the next iteration needs J here (same F).
+                ok, F, J, last, best_norm, st = _trial(x, ends, accuracy, before, kin)
+                evals += 1
+                steps += st
             if not ok:
                 return NON_FINITE_F, x, F, it_done, evals, n, cond, last, steps
     return MAX_ITERATIONS, x, F, it_done, evals, n, cond, last, steps
