@@ -537,9 +537,9 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
     s0 = affine_costate_guess(prob, 0.0, start, 1.0, goal)
     out = {}
     for predict in (False, True):
-        # Case 1 ends 1.7e-3, 6.8e-6 (NM; MNM alike): 1.7e-3^3 / 3.8e-2^2 = 3.4e-6 would not be
-        # predicted below 1e-6 / 100, 6.8e-6^3 / 1.7e-3^2 = 1.1e-10 is. Case 3 ends 8.1e-4,
-        # 1.5e-8: predicted 5e-18 <= 1e-10 / 100.
+        # Case 1 ends 1.7e-3, 6.8e-6 (NM; MNM alike): 1.7e-3^3 / 3.8e-2^2 = 3.4e-6 is not
+        # predicted below 1e-6 / 10, 6.8e-6^3 / 1.7e-3^2 = 1.1e-10 is. Case 3 ends 8.1e-4,
+        # 1.5e-8: predicted 5e-18 <= 1e-10 / 10.
         root = RootSettings(tol=tol)
         args = _loop_arguments(flow, get_strategy(method), root, True, predict)
         m = root.max_iterations

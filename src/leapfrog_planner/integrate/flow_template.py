@@ -398,8 +398,11 @@ def _trial(s, ends, accuracy, best_norm, kin, jac=True):
 
 
 # F alone is evaluated where Newton's quadratic convergence predicts convergence with this
-# margin: |F_k+1| ~ |F_k|^3 / |F_k-1|^2 <= tol / PREDICT_MARGIN.
-PREDICT_MARGIN = 100.0
+# margin: |F_k+1| ~ |F_k|^3 / |F_k-1|^2 <= tol / PREDICT_MARGIN. A wrong prediction costs an
+# evaluation, a right one the variational equations (about a quarter of one). Measured on 50
+# random scenarios: margin 100 skips J in 10% of the local evaluations for 0.3% more of them,
+# 10 in 14% for 0.4% more, 1 in 17% for 1.4% more.
+PREDICT_MARGIN = 10.0
 
 
 @njit(cache=True, error_model="numpy")
