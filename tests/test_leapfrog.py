@@ -396,7 +396,9 @@ def test_two_arc_attempts_reach_the_same_optimum_with_less_work():
 @pytest.mark.parametrize("case", [1, 3])
 def test_the_compiled_local_newton_changes_nothing_but_time(case, method):
     """Leapfrog with every simple shooting in the shared Python loop, against the default (NM
-    and MNM compiled): same sweeps, iterations and evaluations, same optimum."""
+    and MNM compiled): same sweeps and iterations, same optimum. The compiled local solves
+    evaluate F alone where convergence is predicted, and again with J where it then does not
+    come: at most a few more evaluations (measured: 0.3-1%)."""
     s = LeapfrogSettings()
     python = {
         "shooting": replace(s.shooting, compiled=False),
@@ -409,5 +411,6 @@ def test_the_compiled_local_newton_changes_nothing_but_time(case, method):
     fast, ref = runs
     assert fast.status == ref.status == "converged"
     assert [h.q for h in fast.history] == [h.q for h in ref.history]
-    assert (fast.newton_iterations, fast.f_evals) == (ref.newton_iterations, ref.f_evals)
+    assert fast.newton_iterations == ref.newton_iterations
+    assert ref.f_evals <= fast.f_evals <= 1.02 * ref.f_evals
     assert rel(fast.cost, ref.cost) <= 1e-10
