@@ -205,7 +205,7 @@ def _planner_options(items) -> dict:
     "--chunk-size",
     type=click.IntRange(min=1),
     default=None,
-    help="pairs per Dask task  [default: about 4 tasks per worker thread]",
+    help="pairs per Dask task  [default: about 8 tasks per worker thread]",
 )
 @click.option(
     "--initial-paths",

@@ -106,7 +106,7 @@ class SweepSettings:
     kill_grace: float = 10.0
     workers: int = 2
     scheduler: str | None = None  # a Dask scheduler address; None: local processes
-    chunk_size: int | None = None  # pairs per Dask task; None: about 4 tasks per worker thread
+    chunk_size: int | None = None  # pairs per Dask task; None: about 8 tasks per worker thread
     sort: bool = True  # rewrite the file in task order once every pair is done
 
     def __post_init__(self):
