@@ -546,11 +546,10 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
         out[predict] = flow.kernels.shoot_newton(
             (start, goal, 0.0, 1.0), s0, *args, np.empty(m + 1), np.empty(m)
         )
-    (code0, x0, F0, it0, ev0, *_, last0, _), (code1, x1, F1, it1, ev1, *_, last1, _) = (
-        out[False],
-        out[True],
-    )
+    code0, x0, F0, it0, ev0, *_, last0, _, jac0 = out[False]
+    code1, x1, F1, it1, ev1, *_, last1, _, jac1 = out[True]
     assert code0 == code1 == 0 and it0 == it1 >= 2 and ev0 == ev1
+    assert (jac0, jac1) == (ev0, ev1 - 1)  # the last evaluation alone went without J
     np.testing.assert_array_equal(x0, x1)
     np.testing.assert_array_equal(F0, F1)
     nz = 2 * prob.model.nx

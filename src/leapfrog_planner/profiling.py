@@ -102,8 +102,8 @@ class _Clock:
             out = run(*args, **kwargs)
             with self._lock:
                 self.steps += int(out[8])
-                self.integrations += int(out[4])  # each with the variational equations
-                self.jacobian_calls += int(out[4])
+                self.integrations += int(out[4])
+                self.jacobian_calls += int(out[9])  # F alone where convergence is predicted
             return out
 
         return counted

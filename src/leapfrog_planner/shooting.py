@@ -348,7 +348,7 @@ class LocalShooter:
             return LocalSolution(
                 True, r.costate0, r.costate1, r.cost, r.root.iterations, r.root.f_evals
             )
-        code, x, _, its, evals, _, _, (last_s, Y, last_ok), _ = self._loop(
+        code, x, _, its, evals, _, _, (last_s, Y, last_ok), _, _ = self._loop(
             (x0, x1, float(t0), float(t1)), s0
         )
         nx = self._nx
@@ -388,12 +388,14 @@ def _compiled_newton(
     m = settings.max_iterations
     norms, lams = np.empty(m + 1), np.empty(m)
     s0 = np.array(s0, dtype=float).reshape(-1)
-    code, x, F, its, evals, n, cond, (last_s, last_Y, last_ok), steps = flow.kernels.shoot_newton(
-        (system.x0, system.x1, system.t0, system.t1),
-        s0,
-        *_loop_arguments(flow, strategy, settings, system.inexact),
-        norms,
-        lams,
+    code, x, F, its, evals, n, cond, (last_s, last_Y, last_ok), steps, jacobians = (
+        flow.kernels.shoot_newton(
+            (system.x0, system.x1, system.t0, system.t1),
+            s0,
+            *_loop_arguments(flow, strategy, settings, system.inexact),
+            norms,
+            lams,
+        )
     )
     status = _CODES[code]
     norms = norms[:n].copy()
@@ -414,7 +416,7 @@ def _compiled_newton(
         msg = messages.non_finite(its)
     root = RootResult(
         x=x, F=F, status=status, message=msg, iterations=int(its), f_evals=int(evals),
-        jac_evals=int(evals), residual_norms=norms, step_sizes=lams[:its].copy(),
+        jac_evals=int(jacobians), residual_norms=norms, step_sizes=lams[:its].copy(),
     )  # fmt: skip
     last = None
     if last_ok:

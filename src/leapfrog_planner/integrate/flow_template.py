@@ -424,9 +424,10 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     the histories. With ``predict``, NM and MNM (its full step) evaluate F alone where
     :func:`_converges` predicts convergence, and again with J if it does not come: the same
     iterates, with one evaluation more per wrong prediction (evaluations count both kinds).
-    Returns (status, x, F, iterations, evaluations, n_norms, cond, last, steps): the final
-    iterate and its residual, ``last = (s, Y, ok)`` the latest evaluation (for the result's cost
-    and end costate) and the accepted integrator steps of all evaluations.
+    Returns (status, x, F, iterations, evaluations, n_norms, cond, last, steps, jacobians): the
+    final iterate and its residual, ``last = (s, Y, ok)`` the latest evaluation (for the result's
+    cost and end costate), the accepted integrator steps of all evaluations and the number of
+    evaluations that carried the variational equations.
     """
     tol, max_iterations, max_cond, divergence, stall_window, stall_factor, predict = root
     max_halvings, initial_damping, min_damping, xtol, max_trials = step
@@ -440,16 +441,17 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     bound = divergence * (1.0 + math.sqrt(dot(x, x)))
     ok, F, J, last, best_norm, steps = _trial(x, ends, accuracy, np.inf, kin)
     evals = 1
+    fonly = 0  # evaluations of F alone (predict)
     n = 0
     it_done = 0
     cond = 0.0
     if not ok:
-        return NON_FINITE_F, x, F, 0, evals, n, cond, last, steps
+        return NON_FINITE_F, x, F, 0, evals, n, cond, last, steps, evals - fonly
     for it in range(max_iterations + 1):
         norms[n] = math.sqrt(dot(F, F))
         n += 1
         if norms[n - 1] <= tol:
-            return CONVERGED, x, F, it_done, evals, n, cond, last, steps
+            return CONVERGED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
         if it == max_iterations:
             break
         if stall_window > 0 and it >= stall_window:
@@ -457,11 +459,11 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
             for j in range(n - 1 - stall_window, n - 1):
                 big = max(big, norms[j])
             if norms[n - 1] > stall_factor * big:
-                return STALLED, x, F, it_done, evals, n, cond, last, steps
+                return STALLED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
         sv = np.linalg.svd(J)[1]
         cond = sv[0] / sv[-1] if sv[-1] > 0.0 else np.inf
         if not cond <= max_cond:
-            return SINGULAR_JACOBIAN, x, F, it_done, evals, n, cond, last, steps
+            return SINGULAR_JACOBIAN, x, F, it_done, evals, n, cond, last, steps, evals - fonly
         d = np.linalg.solve(J, F)
         have_F = False
         if method == 0:
@@ -520,7 +522,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                     x_new, F_new, J_new = xt, Ft, Jt
                     break
             if not found:
-                return LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps
+                return LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
             have_F = True
             F, J = F_new, J_new
         else:
@@ -539,6 +541,8 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                 before = best_norm
                 okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, best_norm, kin, jac)
                 evals += 1
+                if not jac:
+                    fonly += 1
                 steps += st
                 h = dot(Ft, Ft) if okt else np.inf
                 if not jac and h <= h0 - lt * slope and not math.sqrt(h) <= tol:
@@ -552,7 +556,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                     found = True
                     break
             if not found:
-                return LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps
+                return LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
             have_F = True  # the accepted trial passed the test, so its h is finite
             F, J = F_new, J_new
         x = x_new
@@ -562,12 +566,14 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
         if not (_finite(xx) and math.sqrt(xx) <= bound):
             if not have_F:
                 F = np.full(NX, np.nan)
-            return DIVERGED, x, F, it_done, evals, n, cond, last, steps
+            return DIVERGED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
         if not have_F:
             jac = not (predict and _converges(norms, n, tol))
             before = best_norm
             ok, F, J, last, best_norm, st = _trial(x, ends, accuracy, best_norm, kin, jac)
             evals += 1
+            if not jac:
+                fonly += 1
             steps += st
             if not jac and not (ok and math.sqrt(dot(F, F)) <= tol):
                 # Not converged after all: the next iteration needs J here (same F).
@@ -575,5 +581,5 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                 evals += 1
                 steps += st
             if not ok:
-                return NON_FINITE_F, x, F, it_done, evals, n, cond, last, steps
-    return MAX_ITERATIONS, x, F, it_done, evals, n, cond, last, steps
+                return NON_FINITE_F, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+    return MAX_ITERATIONS, x, F, it_done, evals, n, cond, last, steps, evals - fonly
