@@ -319,6 +319,7 @@ class LocalShooter:
         self.problem, self.flow, self.settings, self.method = problem, flow, settings, method
         self.strategy = get_strategy(method or settings.method)
         self._fused = settings.compiled and flow.tableau.adaptive and type(self.strategy) in _FUSED
+        self._plain = replace(settings, samples=0)  # for solve_shooting (methods not fused)
         if self._fused:
             m = settings.root.max_iterations
             self._args = _loop_arguments(
@@ -341,7 +342,7 @@ class LocalShooter:
         if not self._fused:
             r = solve_shooting(
                 self.problem, t0, x0, t1, x1, method=self.strategy, guess=s0,
-                settings=replace(self.settings, samples=0), flow=self.flow,
+                settings=self._plain, flow=self.flow,
             )  # fmt: skip
             if not (r.success and np.isfinite(r.cost)):
                 return self._failed(r.costate0, r.root.iterations, r.root.f_evals)
