@@ -175,6 +175,53 @@ def test_multiple_shooting_final_solve_reaches_the_same_extremal(case1):
     c_shoot, c_multi = final_cost(planner, shoot.costate0), final_cost(planner, multi.costate0)
     assert rel(c_multi, c_shoot) <= 1e-8
     assert rel(c_shoot, OPTIMUM_1) <= 1e-5
+    # The coarse stage (rtol 1e-8) is polished to the final tolerance at the final integrator.
+    final_root = LeapfrogSettings().final_shooting.root
+    assert multi.final_root.residual_norms[-1] <= final_root.tol
+
+
+def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatch):
+    """Paper case 4's third initial path, MNM: the final simple shooting stalls and multiple
+    shooting takes over, first with the local problems' integrator, then, from its answer, with
+    the final one in at most two iterations. A failing coarse stage is the fallback's failure
+    (no second solve from the start)."""
+    import leapfrog_planner.leapfrog as lf
+
+    stages = []
+    real = lf.solve_root
+
+    def spy(system, x0, method, settings):
+        r = real(system, x0, method, settings)
+        if type(system).__name__ == "MultipleShootingSystem" and system.q > 2:
+            stages.append((system.flow.settings.rtol, settings.tol, r.success, r.iterations))
+        return r
+
+    monkeypatch.setattr(lf, "solve_root", spy)
+    planner = Planner(CASES[4].name, threads=1)
+    paths = planner.initial_paths()
+    sc = planner.scenario
+    t, X = paths[2].junctions(8, sc.horizon)
+    run = leapfrog(planner.problem, t, X, flow=planner.flow)
+    assert run.success and run.final_solver == "multiple-shooting", run.message
+    local, final = LeapfrogSettings().shooting, LeapfrogSettings().final_shooting
+    (coarse_rtol, coarse_tol, ok1, _), (fine_rtol, fine_tol, ok2, its) = stages
+    assert (coarse_rtol, coarse_tol, ok1) == (local.integrator.rtol, local.root.tol, True)
+    assert (fine_rtol, fine_tol, ok2) == (final.integrator.rtol, final.root.tol, True)
+    assert its <= 2
+    v = validate(planner.problem, 0.0, sc.start, sc.horizon, sc.goal, run.costate0)
+    assert v.end_state_error <= 1e-8
+    assert rel(v.cost, 5.784293) <= 1e-6  # that path's optimum (README)
+
+    stages.clear()
+    monkeypatch.setattr(lf, "solve_root", lambda *a: replace(spy(*a), status="stalled"))
+    failed = leapfrog(
+        planner.problem,
+        t,
+        X,
+        flow=planner.flow,
+        settings=LeapfrogSettings(final="multiple-shooting", final_retry_sweeps=0),
+    )
+    assert not failed.success and len(stages) == 1
 
 
 # --------------------------------------------------------------------------- q = 2
@@ -373,6 +420,45 @@ def test_failed_final_solves_are_retried_after_more_sweeps_at_the_last_level():
     costs = np.array([r.initial_cost] + [h.cost for h in r.history])
     assert np.all(np.diff(costs) <= 1e-12 * costs[:-1]) and r.cost_increases == 0
     assert r.end_state_error <= 1e-8
+
+
+# --------------------------------------------------------------------------- initial path
+
+
+def test_initial_segments_go_to_continuation_before_the_affine_guess(monkeypatch):
+    """On the initial path, a segment whose warm guess fails at the full weight is solved next
+    by continuation (its first solve at weight 0), not from the affine guess at the full weight.
+    Paper case 4's second initial path has five such segments."""
+    import leapfrog_planner.leapfrog as lf
+
+    calls = []
+    real = lf.LocalShooter.__call__
+
+    def spy(self, t0, x0, t1, x1, guess=None):
+        r = real(self, t0, x0, t1, x1, guess)
+        calls.append((self.problem.penalty.weight, guess is None, r.success))
+        return r
+
+    monkeypatch.setattr(lf.LocalShooter, "__call__", spy)
+    planner = Planner(CASES[4].name, threads=1)
+    sc, W = planner.scenario, planner.problem.penalty.weight
+    t, X = planner.initial_paths()[1].junctions(8, sc.horizon)
+    run = leapfrog(
+        planner.problem, t, X, flow=planner.flow, settings=LeapfrogSettings(max_sweeps=1)
+    )
+    assert run.initial_cost < np.inf
+    fit, solved = [], 0
+    for c in calls:  # the initial path's calls: until its 8 segments are solved at weight W
+        fit.append(c)
+        solved += c[0] == W and c[2]
+        if solved == 8:
+            break
+    assert fit[0] == (W, True, True)  # the first segment: the affine guess
+    warm_failures = [k for k, c in enumerate(fit) if c == (W, False, False)]
+    assert len(warm_failures) >= 3
+    for k in warm_failures:
+        assert fit[k + 1][0] == 0.0
+    assert (W, True, False) not in fit and (W, True, True) not in fit[1:]
 
 
 # --------------------------------------------------------------------------- two-arc attempt
