@@ -181,7 +181,7 @@ def test_multiple_shooting_final_solve_reaches_the_same_extremal(case1):
 
 
 def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatch):
-    """Paper case 4's third initial path, MNM: the final simple shooting stalls and multiple
+    """Paper case 4's third initial path, MNM: the final simple shooting stalls, and multiple
     shooting takes over, first with the local problems' integrator, then, from its answer, with
     the final one in at most two iterations. A failing coarse stage is the fallback's failure
     (no second solve from the start)."""
@@ -197,12 +197,20 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
         return r
 
     monkeypatch.setattr(lf, "solve_root", spy)
+    finals = []
+    real_shooting = lf.solve_shooting
+    monkeypatch.setattr(
+        lf, "solve_shooting", lambda *a, **k: finals.append(real_shooting(*a, **k)) or finals[-1]
+    )
     planner = Planner(CASES[4].name, threads=1)
     paths = planner.initial_paths()
     sc = planner.scenario
     t, X = paths[2].junctions(8, sc.horizon)
     run = leapfrog(planner.problem, t, X, flow=planner.flow)
     assert run.success and run.final_solver == "multiple-shooting", run.message
+    # The simple shooting creeps at |F| = 0.12 with MNM steps of 2^-7: stalled after 5 iterations.
+    (simple,) = finals
+    assert simple.status == "stalled" and simple.root.iterations <= 5
     local, final = LeapfrogSettings().shooting, LeapfrogSettings().final_shooting
     (coarse_rtol, coarse_tol, ok1, _), (fine_rtol, fine_tol, ok2, its) = stages
     assert (coarse_rtol, coarse_tol, ok1) == (local.integrator.rtol, local.root.tol, True)
