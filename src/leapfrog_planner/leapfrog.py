@@ -553,18 +553,10 @@ def leapfrog(
 
     # The multiple-shooting fallback's first stage (see final_solve): the local problems'
     # integrator and tolerance, with the final solve's step bound and iteration rules.
+    coarse_flow = flow.with_settings(
+        replace(flow.settings, max_steps=final_settings.integrator.max_steps)
+    )
     coarse_root = replace(final_settings.root, tol=shoot_settings.root.tol)
-    coarse: list[Flow] = []  # built when first needed
-
-    def coarse_flow() -> Flow:
-        if not coarse:
-            coarse.append(
-                Flow(
-                    problem,
-                    replace(flow.settings, max_steps=final_settings.integrator.max_steps),
-                )
-            )
-        return coarse[0]
 
     def final_solve(lam0, junctions: _Arcs):
         """Simple shooting over the whole horizon from ``lam0``; if it fails (``final="auto"``),
@@ -587,7 +579,7 @@ def leapfrog(
             # paper cases, solving again at rtol 1e-12 from the start never converged instead
             # (its diverging iterates cost 70-100 ms on case 4 with NM).
             Z = np.hstack([junctions.X[:-1], junctions.lam0])
-            ms = MultipleShootingSystem(coarse_flow(), junctions.t, start, goal)
+            ms = MultipleShootingSystem(coarse_flow, junctions.t, start, goal)
             root = solve_root(ms, ms.pack(junctions.lam0[0], Z), settings.method, coarse_root)
             if root.success:
                 count.add(root)
