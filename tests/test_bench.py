@@ -147,3 +147,23 @@ def test_cli_bad_solver_exits_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("error:") and "\n" not in err
     assert not (tmp_path / "o").exists()
+
+
+def test_work_count_is_deterministic_and_counts_every_evaluation():
+    """count_work (benchmarks/bench_work.py compares code versions by it): the same counts on
+    every run, paths in parallel threads included, every F evaluation counted as an
+    integration, and the patched functions restored afterwards."""
+    from leapfrog_planner.integrate.flow import Flow
+    from leapfrog_planner.profiling import count_work
+
+    run = Flow._run
+    counts = []
+    for threads in (1, 2, 1):
+        planner = Planner("paper-case-3", threads=threads)
+        w = count_work(planner.plan)
+        assert w.value.status == "converged"
+        assert w.integrations >= w.value.f_evals > 0
+        assert 0 < w.jacobian_calls <= w.integrations < w.steps
+        counts.append((w.steps, w.integrations, w.jacobian_calls))
+    assert counts[0] == counts[1] == counts[2]
+    assert Flow._run is run

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ProfileSplit", "profile_split"]
+__all__ = ["ProfileSplit", "WorkCount", "count_work", "profile_split"]
 
 PARTS = ("integration", "linear_algebra", "initial_path", "validation", "python")
 
@@ -51,6 +51,28 @@ class ProfileSplit:
 
     def fraction(self, part: str) -> float:
         return self.parts_s[part] / self.wall_s
+
+
+@dataclass(frozen=True)
+class WorkCount:
+    """What a call computed, in units that do not depend on the machine's speed."""
+
+    value: object  # the call's return value
+    steps: int  # accepted integrator steps of all integrations (validation included)
+    integrations: int  # flow integrations, inside the compiled Newton loops included
+    jacobian_calls: int  # integrations that also carried the variational equations
+
+
+def count_work(fn, *args, **kwargs) -> WorkCount:
+    """Call ``fn(*args, **kwargs)`` and count its integrator work (the same counters as
+    :func:`profile_split`). Deterministic, unlike wall time: the benchmarks compare versions of
+    the code by it on a noisy machine. The counters patch module attributes for the duration of
+    the call, so nothing else in the process may plan meanwhile (threads inside the call are
+    counted)."""
+    clock = _Clock()
+    with _patched(clock):
+        value = fn(*args, **kwargs)
+    return WorkCount(value, clock.steps, clock.integrations, clock.jacobian_calls)
 
 
 class _Clock:
