@@ -412,7 +412,7 @@ def leapfrog(
         and 17 ms), while continuation solved each segment in 2 ms. The affine guess still
         starts the first segment and continuation's solve at weight 0, and is tried at the full
         weight when continuation fails. Measured on 2 x 150 random scenarios: the same
-        successes and optima, 1-2.5% fewer integrator steps; paper cases 3 and 4: 3% and 7%
+        successes and optima, 0.9-2.5% fewer integrator steps; paper cases 3 and 4: 3% and 7%
         fewer, case 2: 6% more (cheap steps at weight 0; its time did not change)."""
         if mid is None and guess is not None and has_obstacles:
             r = solve(ta, xa, tb, xb, guess, settings=attempt)
