@@ -7,6 +7,10 @@ the median in-process time of the full default planner (all initial paths) and o
 path, and the ratio to the paper's MATLAB-era times. Then the wall time of
 `leapfrog solve paper-case-4` as a fresh process with a warm compile cache. No assertions: it
 prints figures and PASS/MISS against the targets of the issue.
+
+A shared machine's speed drifts (1.5-2x within minutes was seen), so the script times a fixed
+piece of work before and after the table, the flow of paper case 1 with costate sensitivities
+(RK4, 200 steps, as ``bench_core.py`` section 1): compare runs by it, not by wall time alone.
 """
 
 from __future__ import annotations
@@ -39,6 +43,23 @@ def timed(planner: Planner, repeat: int):
     return result, statistics.median(times)
 
 
+def machine_reference() -> float:
+    """Median time (s) of a fixed flow: paper case 1 with costate sensitivities, RK4 x 200."""
+    from leapfrog_planner.integrate.flow import Flow, IntegratorSettings
+
+    planner = Planner("paper-case-1")
+    flow = Flow(planner.problem, IntegratorSettings(method="rk4", steps=200))
+    z0 = [-1.0, 2.0, 1.5707963267948966, -4.676, 3.213, 3.213]
+    flow(0.0, z0, 1.0, sensitivity="costate")  # warm-up
+    rounds = []
+    for _ in range(15):
+        t = time.perf_counter()
+        for _ in range(200):
+            flow(0.0, z0, 1.0, sensitivity="costate")
+        rounds.append((time.perf_counter() - t) / 200)
+    return statistics.median(rounds)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
@@ -46,6 +67,11 @@ def main() -> int:
     args = ap.parse_args()
     repeat = 1 if args.quick else args.repeat
     print(f"cores: {os.cpu_count()}, load average: {os.getloadavg()}")
+    speed = machine_reference()
+    print(
+        f"machine reference before (case 1 flow with sensitivities, RK4 x 200): {speed * 1e6:.0f}"
+        " us"
+    )
     header = f"{'case':<6}{'method':<17}{'status':<11}{'cost':>11}{'rel.err':>10}{'sweeps':>7}"
     header += f"{'iters':>7}{'full ms':>9}{'1-path ms':>10}{'paper s':>9}{'speed-up':>10}  verdict"
     print(header)
@@ -64,6 +90,8 @@ def main() -> int:
                 f"{r.newton_iterations:>7}{t_full * 1e3:>9.0f}{t_one * 1e3:>10.0f}{paper:>9.2f}"
                 f"{paper / t_full:>10.0f}  {'PASS' if ok else 'MISS'}"
             )
+    speed = machine_reference()
+    print(f"machine reference after: {speed * 1e6:.0f} us")
     cmd = [sys.executable, "-m", "leapfrog_planner.cli", "solve", "paper-case-4", "--quiet"]
     subprocess.run(cmd, capture_output=True)  # warm the disk cache
     walls = []
