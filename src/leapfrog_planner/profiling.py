@@ -167,15 +167,15 @@ def _patched(clock: _Clock):
         (shooting, "expm", "linear_algebra"),
         (shooting, "solve", "linear_algebra"),
     ] + [(np.linalg, name, "linear_algebra") for name in ("solve", "svd", "lstsq", "norm")]
+    counters = {  # the wrapped functions that also count integrator work
+        "_run": clock.counted_run,
+        "_compiled_newton": clock.counted_newton,
+        "_loop": clock.counted_loop,
+    }
     with ExitStack() as stack:
         for owner, name, category in targets:
             original = getattr(owner, name)
             stack.callback(setattr, owner, name, original)
-            counters = {
-                "_run": clock.counted_run,
-                "_compiled_newton": clock.counted_newton,
-                "_loop": clock.counted_loop,
-            }
             fn = counters.get(name, lambda f: f)(original)
             setattr(owner, name, clock.wrap(category, fn))
         yield
