@@ -16,6 +16,8 @@ its piecewise-constant controls along exact unicycle arcs.
 - ``direct-N<n>-line`` / ``-path``: CasADi/IPOPT, RK4 multiple shooting, the NLP of
   :class:`~leapfrog_planner.direct.DirectTranscription` (built once per obstacle count and
   mesh, reused across scenarios), from the straight line or the first initial path.
+
+The ``*-path`` peers' timed solves include planning that initial path, as Leapfrog's do.
 """
 
 from __future__ import annotations
@@ -139,17 +141,27 @@ def _checked(solver, sc, problem, ok, costate0, times, message, cost=None) -> Pe
 # --------------------------------------------------------------------------- solve_bvp
 
 
-def _path_guess(sc: Scenario, t: np.ndarray) -> np.ndarray:
-    """States of the planner's first initial path at times ``t`` (constant speed), and the
-    minimum-norm costates that give its controls (``omega = -l3``, ``v = -(l1, l2).heading``)."""
+def _path_guess(sc: Scenario):
+    """A function of the times ``t``: the states of the planner's first initial path at ``t``
+    (constant speed), and the minimum-norm costates that give its controls (``omega = -l3``,
+    ``v = -(l1, l2).heading``).
+
+    The path is planned on each call, as ``Planner.plan`` plans it, so that the ``*-path`` peers
+    are timed for the same work as Leapfrog: their guess is not free (1.5-15 ms on the paper
+    cases)."""
     from .planner import Planner
 
-    path = Planner(sc, initial_paths=1).initial_paths()[0]
-    xy, th = path.curve(t / sc.horizon)
-    v = path.length / sc.horizon
-    omega = np.gradient(th, t)
-    lam = np.column_stack([-v * np.cos(th), -v * np.sin(th), -omega])
-    return np.column_stack([xy, th, lam])
+    planner = Planner(sc, initial_paths=1)
+
+    def guess(t: np.ndarray) -> np.ndarray:
+        path = planner.initial_paths()[0]
+        xy, th = path.curve(t / sc.horizon)
+        v = path.length / sc.horizon
+        omega = np.gradient(th, t)
+        lam = np.column_stack([-v * np.cos(th), -v * np.sin(th), -omega])
+        return np.column_stack([xy, th, lam])
+
+    return guess
 
 
 def _line_guess(sc: Scenario, t: np.ndarray) -> np.ndarray:
@@ -178,10 +190,11 @@ def run_bvp(sc: Scenario, start_from: str, repeat: int) -> PeerOutcome:
         return np.concatenate([ya[:nx] - sc.start, yb[:nx] - sc.goal, ya[2 * nx :]])
 
     t = np.linspace(0.0, sc.horizon, BVP_NODES)
-    guess = _line_guess(sc, t) if start_from == "line" else _path_guess(sc, t)
-    y0 = np.vstack([guess.T, np.zeros(t.size)])
+    path_guess = _path_guess(sc) if start_from == "path" else None
 
     def solve():
+        guess = _line_guess(sc, t) if path_guess is None else path_guess(t)
+        y0 = np.vstack([guess.T, np.zeros(t.size)])
         # Quiet: diverging iterates overflow inside scipy, and the library never prints.
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore", RuntimeWarning)
@@ -239,9 +252,8 @@ def _arc_end(x0: np.ndarray, controls: np.ndarray, horizon: float) -> np.ndarray
 def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> PeerOutcome:
     """IPOPT from the straight line (``"line"``) or the planner's first initial path."""
     tr = _transcription(sc.obstacles.shape[0], intervals)
-    guess = None
-    if start_from == "path":
-        guess = _path_guess(sc, np.linspace(0.0, sc.horizon, intervals + 1))[:, :3]
+    path_guess = _path_guess(sc) if start_from == "path" else None
+    nodes = np.linspace(0.0, sc.horizon, intervals + 1)
 
     def solve():
         return tr.solve(
@@ -251,7 +263,7 @@ def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> Pe
             sc.obstacles,
             weight=sc.weight,
             exponent=sc.exponent,
-            guess_states=None if guess is None else guess.copy(),
+            guess_states=None if path_guess is None else path_guess(nodes)[:, :3],
         )
 
     r, times = _timed(solve, repeat)
