@@ -96,29 +96,164 @@ _MARGIN_FALLBACK = (1.0, 0.5, 0.25, 0.125, 0.0625)
 
 _NO_LEGS = np.zeros(0, dtype=np.int64)
 
+# The curves are built and evaluated at thousands of parameters per path (arclength tables,
+# ranking), where NumPy's calls and temporaries on small arrays cost several times more than
+# these loops. The loops do the same operations in the same order as NumPy did, so the results
+# are the same: hypot is the C library's, as NumPy's; the other transcendental functions and the
+# products with the Gauss-Legendre weights (BLAS) stay NumPy's.
+
 
 @njit(cache=True)
-def _hermite_eval(knots, width, coef, u, legs, deriv, out):
-    """:meth:`_SmoothCurve._eval` point by point: the curves are evaluated at thousands of
-    parameters per path (arclength tables, ranking), where NumPy's temporaries cost 5x more.
-    ``legs`` empty: each parameter's leg is found by bisection. Same operations, same order."""
-    last = knots.size - 2
-    for r in range(u.size):
-        if legs.size:
-            i = legs[r]
+def _hermite_at(knots, width, coef, i, u, deriv, out, r):
+    """Point (``deriv = 0``) or ``dp/du`` (1) of leg ``i`` at parameter ``u``, into ``out[r]``."""
+    h = width[i]
+    t = (u - knots[i]) / h
+    for d in range(2):
+        c0, c1, c2, c3 = coef[i, 0, d], coef[i, 1, d], coef[i, 2, d], coef[i, 3, d]
+        if deriv == 0:
+            out[r, d] = ((c3 * t + c2) * t + c1) * t + c0
         else:
-            i = min(max(np.searchsorted(knots, u[r], side="right") - 1, 0), last)
-        h = width[i]
-        t = (u[r] - knots[i]) / h
+            out[r, d] = ((3.0 * c3 * t + 2.0 * c2) * t + c1) / h
+
+
+@njit(cache=True)
+def _leg_of(knots, u):
+    return min(max(np.searchsorted(knots, u, side="right") - 1, 0), knots.size - 2)
+
+
+@njit(cache=True)
+def _hermite_eval(knots, width, coef, u, legs, xy, d):
+    """Points and ``dp/du`` at parameters ``u`` in legs ``legs`` (empty: found by bisection)."""
+    for r in range(u.size):
+        i = legs[r] if legs.size else _leg_of(knots, u[r])
+        _hermite_at(knots, width, coef, i, u[r], 0, xy, r)
+        _hermite_at(knots, width, coef, i, u[r], 1, d, r)
+
+
+@njit(cache=True)
+def _spline(pts, m_first, m_last, intervals, gl_x):
+    """Hermite legs through ``pts`` and the arclength grid of :class:`_SmoothCurve`.
+
+    Returns the leg lengths, the knots (cumulative chord length), the coefficients, the grid
+    parameters (about ``intervals`` in all, at least two per leg), their legs, the half widths
+    of the grid intervals and the speeds ``|dp/du|`` at their Gauss-Legendre nodes ``gl_x``; all
+    but the first two are empty when the last knot is not positive. The slopes ``dp/du`` at the
+    vertices are ``m_first`` and ``m_last`` at the ends and central differences inside."""
+    n = pts.shape[0] - 1
+    legs = np.empty(n)
+    x = np.empty(n + 1)
+    x[0] = 0.0
+    for k in range(n):
+        legs[k] = math.hypot(pts[k + 1, 0] - pts[k, 0], pts[k + 1, 1] - pts[k, 1])
+        x[k + 1] = legs[k] if k == 0 else x[k] + legs[k]
+    coef = np.empty((n, 4, 2))
+    if not x[n] > 0.0:  # start and goal at the same place
+        return legs, x, coef[:0], x[:0], np.empty(0, np.int64), x[:0], np.empty((0, gl_x.size))
+    # Per leg, p(t) = c0 + c1 t + c2 t^2 + c3 t^3 with t in [0, 1] across the leg.
+    for k in range(n):
         for d in range(2):
-            if deriv == 0:
-                out[r, d] = ((coef[i, 3, d] * t + coef[i, 2, d]) * t + coef[i, 1, d]) * t + coef[
-                    i, 0, d
-                ]
+            if k == 0:
+                ma = m_first[d]
             else:
-                out[r, d] = (
-                    (3.0 * coef[i, 3, d] * t + 2.0 * coef[i, 2, d]) * t + coef[i, 1, d]
-                ) / h
+                ma = (pts[k + 1, d] - pts[k - 1, d]) / (x[k + 1] - x[k - 1])
+            if k == n - 1:
+                mb = m_last[d]
+            else:
+                mb = (pts[k + 2, d] - pts[k, d]) / (x[k + 2] - x[k])
+            p0, p1, m0, m1 = pts[k, d], pts[k + 1, d], ma * legs[k], mb * legs[k]
+            coef[k, 0, d] = p0
+            coef[k, 1, d] = m0
+            coef[k, 2, d] = 3.0 * (p1 - p0) - 2.0 * m0 - m1
+            coef[k, 3, d] = 2.0 * (p0 - p1) + m0 + m1
+
+    scale = intervals / x[n]
+    n_sub = np.empty(n, np.int64)
+    for k in range(n):
+        n_sub[k] = max(2, math.ceil(legs[k] * scale))
+    total = n_sub.sum()
+    u = np.empty(total + 1)
+    leg = np.empty(total + 1, np.int64)
+    r = 0
+    for k in range(n):
+        for j in range(n_sub[k]):
+            u[r] = x[k] + legs[k] * (j / n_sub[k])
+            leg[r] = k
+            r += 1
+    u[total] = x[n]
+    leg[total] = n - 1
+    half = np.empty(total)
+    speed = np.empty((total, gl_x.size))
+    d = np.empty((1, 2))
+    for r in range(total):
+        half[r] = 0.5 * (u[r + 1] - u[r])
+        mid = 0.5 * (u[r + 1] + u[r])
+        for q in range(gl_x.size):
+            _hermite_at(x, legs, coef, leg[r], mid + half[r] * gl_x[q], 1, d, 0)
+            speed[r, q] = math.hypot(d[0, 0], d[0, 1])
+    return legs, x, coef, u, leg, half, speed
+
+
+@njit(cache=True)
+def _unwrap(p):
+    """``np.unwrap(p)`` (period 2 pi), with the same operations."""
+    up = p.copy()
+    high = math.pi
+    low = -high
+    period = 2.0 * math.pi
+    acc = 0.0
+    for k in range(p.size - 1):
+        dd = p[k + 1] - p[k]
+        ddmod = (dd - low) % period + low
+        if ddmod == low and dd > 0:
+            ddmod = high
+        correct = ddmod - dd
+        if abs(dd) < high:
+            correct = 0.0
+        acc = correct if k == 0 else acc + correct
+        up[k + 1] = p[k + 1] + acc
+    return up
+
+
+@njit(cache=True)
+def _newton_nodes(knots, width, coef, u_grid, cum, target, u, gl_x):
+    """For :meth:`_SmoothCurve.parameter`: per parameter ``u`` (an estimate of the arclength
+    ``target``), its grid interval, the speed ``|dp/du|`` there, and the half width and the
+    speeds at the Gauss-Legendre nodes of the part of the interval below ``u``."""
+    n = u.size
+    last = cum.size - 2
+    i = np.empty(n, np.int64)
+    speed = np.empty(n)
+    half = np.empty(n)
+    node_speed = np.empty((n, gl_x.size))
+    d = np.empty((1, 2))
+    for r in range(n):
+        i[r] = min(max(np.searchsorted(cum, target[r], side="right") - 1, 0), last)
+        _hermite_at(knots, width, coef, _leg_of(knots, u[r]), u[r], 1, d, 0)
+        speed[r] = math.hypot(d[0, 0], d[0, 1])
+        a = u_grid[i[r]]
+        half[r] = 0.5 * (u[r] - a)
+        mid = 0.5 * (u[r] + a)
+        for q in range(gl_x.size):
+            v = mid + half[r] * gl_x[q]
+            _hermite_at(knots, width, coef, _leg_of(knots, v), v, 1, d, 0)
+            node_speed[r, q] = math.hypot(d[0, 0], d[0, 1])
+    return i, speed, half, node_speed
+
+
+@njit(cache=True)
+def _newton_step(u_grid, cum, target, u, i, speed, half, weighted):
+    """The Newton step of :meth:`_SmoothCurve.parameter` (none where the speed is 0), clipped
+    to the grid interval like ``np.clip``."""
+    out = np.empty(u.size)
+    for r in range(u.size):
+        step = 0.0
+        if speed[r] > 0.0:
+            step = (target[r] - (cum[i[r]] + weighted[r] * half[r])) / speed[r]
+        v = u[r] + step
+        lo, hi = u_grid[i[r]], u_grid[i[r] + 1]
+        v = v if np.isnan(v) or v > lo else lo
+        out[r] = v if np.isnan(v) or v < hi else hi
+    return out
 
 
 class _SmoothCurve:
@@ -148,85 +283,66 @@ class _SmoothCurve:
         self.theta1 = float(theta1)
         pts = np.array(polyline, dtype=np.float64)
         self.points = pts
-        legs = np.hypot(*np.diff(pts, axis=0).T)
-        if pts.shape[0] < 2 or not legs.sum() > 0.0:  # start and goal at the same place
+        degenerate = pts.shape[0] < 2
+        if not degenerate:
+            m_first = np.array([math.cos(theta0), math.sin(theta0)])
+            m_last = np.array([math.cos(theta1), math.sin(theta1)])
+            legs, x, coef, u, leg, half, speed = _spline(
+                pts, m_first, m_last, _GRID_INTERVALS, _GL_X
+            )
+            degenerate = not x[-1] > 0.0
+        if degenerate:  # start and goal at the same place
             self.knots = None
             self.length = 0.0
             self.delta = self.theta1 - self.theta0
             self.samples = pts[:1].copy()
             return
-        x = np.concatenate(([0.0], np.cumsum(legs)))
-        m = np.empty_like(pts)
-        m[0] = (math.cos(theta0), math.sin(theta0))
-        m[-1] = (math.cos(theta1), math.sin(theta1))
-        m[1:-1] = (pts[2:] - pts[:-2]) / (x[2:] - x[:-2])[:, None]
-        # Per leg, p(t) = c0 + c1 t + c2 t^2 + c3 t^3 with t in [0, 1] across the leg.
-        p0, p1 = pts[:-1], pts[1:]
-        m0, m1 = m[:-1] * legs[:, None], m[1:] * legs[:, None]
-        self.coef = np.stack(
-            [p0, m0, 3.0 * (p1 - p0) - 2.0 * m0 - m1, 2.0 * (p0 - p1) + m0 + m1], 1
-        )
-        self.knots, self.width = x, legs
+        self.knots, self.width, self.coef = x, legs, coef
 
         # Arclength table on a grid that is dense in every polyline leg (Gauss-Legendre).
-        n_sub = np.maximum(2, np.ceil(legs * (_GRID_INTERVALS / x[-1])).astype(np.int64))
-        leg = np.repeat(np.arange(legs.size), n_sub)
-        j = np.arange(leg.size) - np.repeat(np.cumsum(n_sub) - n_sub, n_sub)
-        u = np.append(x[leg] + legs[leg] * (j / n_sub[leg]), x[-1])
-        half = 0.5 * (u[1:] - u[:-1])
-        nodes = (0.5 * (u[1:] + u[:-1]))[:, None] + half[:, None] * _GL_X[None, :]
-        d = self._eval(nodes.ravel(), np.repeat(leg, _GL_X.size), 1)
-        speed = np.hypot(d[:, 0], d[:, 1]).reshape(nodes.shape)
         self.cum = np.concatenate(([0.0], np.cumsum((speed @ _GL_W) * half)))
         self.u_grid = u
         self.length = float(self.cum[-1])
-        grid_leg = np.append(leg, legs.size - 1)
-        self.samples = self._eval(u, grid_leg, 0)
+        self.samples, d = self._eval(u, leg)
 
         # Tangent angle, unwrapped along the grid and starting on the branch of theta0.
-        d = self._eval(u, grid_leg, 1)
-        phi = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+        phi = _unwrap(np.arctan2(d[:, 1], d[:, 0]))
         phi += _TWO_PI * np.round((self.theta0 - phi[0]) / _TWO_PI)
         self.phi = phi
         # theta1 - phi[-1] is a multiple of 2 pi (up to rounding): the number of extra turns the
         # goal heading asks for beyond the curve's own turning. It is spread linearly over s.
         self.delta = self.theta1 - float(phi[-1])
 
-    def _eval(self, u: np.ndarray, i: np.ndarray | None, deriv: int) -> np.ndarray:
-        """Points (``deriv = 0``) or ``dp/du`` (1) at parameters ``u`` in legs ``i``."""
-        out = np.empty((u.size, 2))
-        _hermite_eval(
-            self.knots, self.width, self.coef, u, _NO_LEGS if i is None else i, deriv, out
-        )
-        return out
-
-    def _arclength_to(self, u: np.ndarray, i: np.ndarray) -> np.ndarray:
-        a = self.u_grid[i]
-        half = 0.5 * (u - a)
-        nodes = (0.5 * (u + a))[:, None] + half[:, None] * _GL_X[None, :]
-        d = self._eval(nodes.ravel(), None, 1)
-        speed = np.hypot(d[:, 0], d[:, 1]).reshape(nodes.shape)
-        return self.cum[i] + (speed @ _GL_W) * half
+    def _eval(self, u: np.ndarray, i: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Points and ``dp/du`` at parameters ``u`` in legs ``i`` (default: found by bisection)."""
+        xy = np.empty((u.size, 2))
+        d = np.empty((u.size, 2))
+        _hermite_eval(self.knots, self.width, self.coef, u, _NO_LEGS if i is None else i, xy, d)
+        return xy, d
 
     def parameter(self, s: np.ndarray) -> np.ndarray:
         """Spline parameter at normalised arclength ``s`` (interpolation, then a Newton step)."""
         target = s * self.length
-        i = np.clip(np.searchsorted(self.cum, target, side="right") - 1, 0, self.cum.size - 2)
         u = np.interp(target, self.cum, self.u_grid)
-        d = self._eval(u, None, 1)
-        speed = np.hypot(d[:, 0], d[:, 1])
+        i, speed, half, node_speed = _newton_nodes(
+            self.knots, self.width, self.coef, self.u_grid, self.cum, target, u, _GL_X
+        )
+        # The weighted sums (a BLAS product, which may depend on the rows it gets) of exactly
+        # the rows that need them.
         ok = speed > 0.0
-        step = np.zeros_like(u)
-        step[ok] = (target[ok] - self._arclength_to(u[ok], i[ok])) / speed[ok]
-        return np.clip(u + step, self.u_grid[i], self.u_grid[i + 1])
+        if ok.all():
+            weighted = node_speed @ _GL_W
+        else:
+            weighted = np.zeros_like(u)
+            weighted[ok] = node_speed[ok] @ _GL_W
+        return _newton_step(self.u_grid, self.cum, target, u, i, speed, half, weighted)
 
     def evaluate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.knots is None:
             xy = np.repeat(self.points[:1], s.size, axis=0)
             return xy, self.theta0 + s * self.delta
         u = self.parameter(s)
-        xy = self._eval(u, None, 0)
-        d = self._eval(u, None, 1)
+        xy, d = self._eval(u)
         raw = np.arctan2(d[:, 1], d[:, 0])
         near = np.interp(u, self.u_grid, self.phi)
         phi = raw + _TWO_PI * np.round((near - raw) / _TWO_PI)
@@ -290,7 +406,7 @@ class InitialPath:
         heading and heading(1) the goal heading (both up to rounding).
         """
         s = np.atleast_1d(np.asarray(s, dtype=np.float64)).ravel()
-        if not np.all(np.isfinite(s)) or np.any(s < -1e-12) or np.any(s > 1.0 + 1e-12):
+        if s.size and not (s.min() >= -1e-12 and s.max() <= 1.0 + 1e-12):  # also nan
             raise ValueError("s: normalised arclength must lie in [0, 1]")
         return self._curve.evaluate(np.clip(s, 0.0, 1.0))
 
@@ -404,13 +520,27 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _segment_distance(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Distances ``(E, M)`` from points ``c`` ``(M, 2)`` to segments ``a -> b`` ``(E, 2)``."""
-    ab = b - a
-    den = np.einsum("ij,ij->i", ab, ab)
-    ac = c[None, :, :] - a[:, None, :]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.einsum("eij,ej->ei", ac, ab) / den[:, None]
-    t = np.clip(np.nan_to_num(t, nan=0.0), 0.0, 1.0)
-    return np.hypot(*(ac - t[:, :, None] * ab[:, None, :]).transpose(2, 0, 1))
+    out = np.empty((a.shape[0], c.shape[0]))
+    _segment_distance_loops(a, b, c, out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _segment_distance_loops(a, b, c, out):
+    # A loop for the tangent graph's thousands of (segment, disc) pairs, without NumPy's
+    # temporaries; the same operations as the vectorised formula (projection parameter clipped
+    # to [0, 1], and 0 for a segment of length 0, where it is nan).
+    for e in range(a.shape[0]):
+        abx, aby = b[e, 0] - a[e, 0], b[e, 1] - a[e, 1]
+        den = abx * abx + aby * aby
+        for j in range(c.shape[0]):
+            acx, acy = c[j, 0] - a[e, 0], c[j, 1] - a[e, 1]
+            t = (acx * abx + acy * aby) / den
+            if np.isnan(t):
+                t = 0.0
+            t = t if t > 0.0 else 0.0
+            t = t if t < 1.0 else 1.0
+            out[e, j] = math.hypot(acx - t * abx, acy - t * aby)
 
 
 def _clean(poly: np.ndarray, S2: np.ndarray, G2: np.ndarray, tol: float) -> np.ndarray:
@@ -438,34 +568,78 @@ def _signature(poly: np.ndarray, obs: np.ndarray, tol: float) -> tuple[int, ...]
     """Winding numbers of (polyline + reversed chord) round each obstacle centre."""
     if obs.shape[0] == 0:
         return ()
-    v = poly[None, :, :] - obs[:, None, :2]
-    a, b = v[:, :-1], v[:, 1:]
-    turn = np.arctan2(_cross(a, b), np.einsum("mij,mij->mi", a, b)).sum(axis=1)
-    return tuple(_close_and_round(turn, poly[0], poly[-1], obs[:, :2], tol).tolist())
+    cr, dt = _turn_terms(np.ascontiguousarray(poly), obs)  # one compiled variant
+    turn = np.arctan2(cr, dt).sum(axis=1)
+    return tuple(_close_and_round(turn, poly[0], poly[-1], obs, tol).tolist())
 
 
 def _close_and_round(turn: np.ndarray, S2, G2, C: np.ndarray, tol: float) -> np.ndarray:
-    """Winding numbers round the centres ``C`` of paths that turn by ``turn`` (shape ``(..., m)``)
-    seen from them, closed by the straight chord back from goal to start.
+    """Winding numbers round the centres ``C[:, :2]`` of paths that turn by ``turn`` (shape
+    ``(..., m)``) seen from them, closed by the straight chord back from goal to start.
 
     A centre on the chord sees the chord turn by +-pi; it counts 0 there, so the winding number
     is a half-integer, rounded away from zero (robustly: those are never near an integer).
     """
-    ga, sa = G2 - C, S2 - C
-    cr, dt = _cross(ga, sa), np.einsum("ij,ij->i", ga, sa)
-    on = (np.abs(cr) <= tol * max(math.hypot(*(G2 - S2)), tol)) & (dt < 0.0)
-    w = (turn + np.where(on, 0.0, np.arctan2(cr, dt))) / _TWO_PI
-    return (np.sign(w) * np.floor(np.abs(w) + np.where(on, 0.75, 0.5))).astype(np.int64)
+    cr, dt = _turn_terms(np.array([G2, S2]), C)
+    cr, dt = cr[:, 0], dt[:, 0]
+    bound = tol * max(math.hypot(*(G2 - S2)), tol)
+    w = _round_winding(turn.reshape(-1, cr.size), cr, dt, np.arctan2(cr, dt), bound)
+    return w.reshape(turn.shape)
+
+
+@njit(cache=True)
+def _turn_terms(poly, C):
+    """Cross and dot products ``(m, n - 1)`` of the vectors from each centre ``C[j, :2]`` to
+    consecutive vertices of ``poly``; their arctan2 is the turn of each step seen from there.
+    A loop: signatures are needed for every candidate and turning arc, on small arrays."""
+    m, n = C.shape[0], max(poly.shape[0] - 1, 0)
+    cr = np.empty((m, n))
+    dt = np.empty((m, n))
+    for j in range(m):
+        for i in range(n):
+            ax, ay = poly[i, 0] - C[j, 0], poly[i, 1] - C[j, 1]
+            bx, by = poly[i + 1, 0] - C[j, 0], poly[i + 1, 1] - C[j, 1]
+            cr[j, i] = ax * by - ay * bx
+            dt[j, i] = ax * bx + ay * by
+    return cr, dt
+
+
+@njit(cache=True)
+def _round_winding(turn, cr, dt, closing, bound):
+    # The end of _close_and_round: per centre, on the chord (cross product within ``bound``
+    # and behind) or not; then sign(w) floor(|w| + 1/2, or 3/4 on the chord).
+    out = np.empty(turn.shape, np.int64)
+    for j in range(turn.shape[1]):
+        on = abs(cr[j]) <= bound and dt[j] < 0.0
+        for p in range(turn.shape[0]):
+            w = (turn[p, j] + (0.0 if on else closing[j])) / _TWO_PI
+            out[p, j] = np.int64(np.sign(w) * np.floor(abs(w) + (0.75 if on else 0.5)))
+    return out
 
 
 def _clearance(xy: np.ndarray, obs: np.ndarray) -> float:
     if obs.shape[0] == 0:
         return math.inf
-    d = (
-        np.hypot(xy[:, None, 0] - obs[None, :, 0], xy[:, None, 1] - obs[None, :, 1])
-        - obs[None, :, 2]
-    )
-    return float(d.min())
+    return _clearance_loops(xy, obs)
+
+
+@njit(cache=True)
+def _clearance_loops(xy, obs):
+    # The smallest distance of the points to an obstacle edge (nan if any is nan), without an
+    # (n, m) temporary. hypot(dx, dy) >= max(|dx|, |dy|), also rounded: when that bound is no
+    # closer than the best so far, the (slow) hypot cannot give a new minimum.
+    best = np.inf
+    for r in range(xy.shape[0]):
+        for j in range(obs.shape[0]):
+            dx, dy = xy[r, 0] - obs[j, 0], xy[r, 1] - obs[j, 1]
+            if max(abs(dx), abs(dy)) - obs[j, 2] >= best:
+                continue
+            d = math.hypot(dx, dy) - obs[j, 2]
+            if d < best or np.isnan(d):
+                best = d
+                if np.isnan(d):
+                    return d
+    return best
 
 
 def _turn_options(poly: np.ndarray, theta: float, frac: float) -> list[np.ndarray]:
@@ -498,23 +672,26 @@ def _turn_options(poly: np.ndarray, theta: float, frac: float) -> list[np.ndarra
     return out
 
 
-def _with_turns(poly, S, G, obs, tol, signature) -> np.ndarray:
+def _with_turns(poly, S, G, obs, tol, signature) -> tuple[np.ndarray, tuple[int, ...] | None]:
     """``poly`` with the turning arcs its end headings need, in the homotopy class ``signature``
     (when given: smaller arcs are tried when the larger ones would change it, and none are added
-    when no choice of sides and sizes keeps it)."""
+    when no choice of sides and sizes keeps it), and its signature when that was checked (else
+    ``None``)."""
     if poly.shape[0] < 2 or not math.hypot(*(poly[-1] - poly[0])) > tol:
-        return poly
+        return poly, None
     for frac in _TURN_RADII:
         for first in _turn_options(poly, S[2], frac):
             for last in _turn_options(first[::-1], G[2] + math.pi, frac):
-                if signature is None or _signature(last[::-1], obs, tol) == signature:
-                    return np.ascontiguousarray(last[::-1])
-    return poly
+                if signature is None:
+                    return np.ascontiguousarray(last[::-1]), None
+                if _signature(last[::-1], obs, tol) == signature:
+                    return np.ascontiguousarray(last[::-1]), signature
+    return poly, None
 
 
 def _make_path(poly, S, G, obs, label, tol, signature=None) -> InitialPath:
     """Smooth ``poly`` (adding turning arcs where the end headings point away from it)."""
-    poly = _with_turns(poly, S, G, obs, tol, signature)
+    poly, sig = _with_turns(poly, S, G, obs, tol, signature)
     curve = _SmoothCurve(poly, S[2], G[2])
     poly = poly.copy()
     for arr in (poly, S, G):
@@ -522,7 +699,7 @@ def _make_path(poly, S, G, obs, label, tol, signature=None) -> InitialPath:
     return InitialPath(
         polyline=poly,
         length=curve.length,
-        signature=_signature(poly, obs, tol),
+        signature=_signature(poly, obs, tol) if sig is None else sig,
         min_clearance=_clearance(curve.samples, obs),
         label=label,
         start=S,
@@ -556,6 +733,7 @@ class _TangentGraph:
 
     def __init__(self, S2: np.ndarray, G2: np.ndarray, C: np.ndarray, R: np.ndarray, tol: float):
         self.S2, self.G2, self.C, self.R, self.tol = S2, G2, C, R, tol
+        self._polylines: dict[bytes, np.ndarray] = {}
         act = np.flatnonzero(_active_circles(C, R, tol)) if R.size else np.zeros(0, np.int64)
         self.active = act
         xy = [S2[None, :], G2[None, :]]
@@ -671,7 +849,9 @@ class _TangentGraph:
         if act.size >= 2:
             D = np.hypot(C[:, None, 0] - C[None, :, 0], C[:, None, 1] - C[None, :, 1])
             meet = (np.abs(R[:, None] - R[None, :]) < D) & (D < R[:, None] + R[None, :])
-            meet[:, np.setdiff1d(np.arange(R.size), act)] = False
+            inactive = np.ones(R.size, bool)
+            inactive[act] = False
+            meet[:, inactive] = False
             np.fill_diagonal(meet, False)
             alpha = np.arctan2(C[None, :, 1] - C[:, None, 1], C[None, :, 0] - C[:, None, 0])
             into = np.mod(alpha[ca] - self.angle[a_pts][:, None], _TWO_PI) < span[:, None]
@@ -730,74 +910,82 @@ class _TangentGraph:
         out = np.zeros((P, m), np.int64)
         if m == 0 or found.size == 0:
             return out
-        steps = plen[found] - 1
-        first = np.concatenate(([0], np.cumsum(steps)[:-1]))
-        row = np.repeat(found, steps)
-        col = np.arange(steps.sum()) - np.repeat(first, steps)
-        u, v = paths[row, col], paths[row, col + 1]
         C = obs[:, :2]
         # Direction angle of every node seen from every centre; a step turns by the difference,
         # taken in (-pi, pi] for a segment (or an arc seen from outside its circle, which stays
         # in a cone narrower than pi), and monotonically for an arc seen from inside its circle.
         rel = self.node_xy[:, None, :] - C[None, :, :]
         angle = np.arctan2(rel[:, :, 1], rel[:, :, 0])
-        x = angle[v] - angle[u]
-        turn = x - _TWO_PI * np.round(x / _TWO_PI)
-        cu = self.node_circ[u]
-        arc = (u >= 2) & (v >= 2) & (cu >= 0) & (cu == self.node_circ[v])
-        if np.any(arc):
-            ca = cu[arc]
-            inside = np.hypot(*(C[None, :, :] - self.C[ca][:, None, :]).transpose(2, 0, 1))
-            inside = inside < self.R[ca][:, None]
-            o = self.node_orient[u[arc]][:, None].astype(np.float64)
-            turn[arc] = np.where(inside, o * np.mod(o * x[arc], _TWO_PI), turn[arc])
+        # Which centres lie inside each circle.
+        inside = np.hypot(*(C[None, :, :] - self.C[:, None, :]).transpose(2, 0, 1))
+        inside = inside < self.R[:, None]
+        turn, first = _step_turns(
+            paths, plen, found, angle, self.node_circ, self.node_orient, inside
+        )
         total = np.add.reduceat(turn, first, axis=0)
-        out[found] = _close_and_round(total, self.S2, self.G2, C, self.tol)
+        out[found] = _close_and_round(total, self.S2, self.G2, obs, self.tol)
         return out
 
     def polyline(self, nodes) -> np.ndarray:
         """The path's vertices: the ends of its segments, with each run of arcs round one circle
         sampled uniformly, every :data:`ARC_STEP` at most (tangent points between them, which
-        can be very close together, are not kept)."""
-        nodes = [int(v) for v in nodes]
-        circ, angle = self.node_circ, self.node_angle
-        out = [self.node_xy[nodes[0]][None, :]]
+        can be very close together, are not kept). Memoised (callers copy before changing it):
+        planning needs the shortest path's polyline, and smoothing needs it again."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        key = nodes.tobytes()
+        if key not in self._polylines:
+            self._polylines[key] = self._polyline(nodes)
+        return self._polylines[key]
+
+    def _polyline(self, nodes: np.ndarray) -> np.ndarray:
+        # Python floats and lists: a path has a few dozen vertices, too few for NumPy's calls.
+        xy = self.node_xy[nodes].tolist()
+        circ = self.node_circ[nodes].tolist()
+        angle = self.node_angle[nodes].tolist()
+        nodes = nodes.tolist()
+        last = len(nodes) - 1
+        parts = [xy[0]]  # vertices, and arcs (circle, first angle, number of angles)
+        angles = []  # of all arc samples
         i = 0
-        while i < len(nodes) - 1:
-            v0 = nodes[i]
-            c = int(circ[v0])
+        while i < last:
+            v0, c = nodes[i], circ[i]
             j = i
-            while j + 1 < len(nodes) and v0 >= 2 and nodes[j + 1] >= 2 and circ[nodes[j + 1]] == c:
+            while j < last and v0 >= 2 and nodes[j + 1] >= 2 and circ[j + 1] == c:
                 j += 1  # nodes[i .. j] are joined by arcs round circle c
             if j > i:
                 o = 1 if (v0 - 2) % 2 == 0 else -1
-                span = sum(
-                    ((angle[nodes[t + 1]] - angle[nodes[t]]) * o) % _TWO_PI for t in range(i, j)
-                )
+                span = 0.0
+                for t in range(i, j):
+                    span += ((angle[t + 1] - angle[t]) * o) % _TWO_PI
                 n = math.ceil(span / ARC_STEP)
                 if n > 1:
-                    ang = angle[v0] + o * span * np.arange(1, n) / n
-                    arc = np.empty((n - 1, 2))
-                    arc[:, 0] = self.C[c, 0] + self.R[c] * np.cos(ang)
-                    arc[:, 1] = self.C[c, 1] + self.R[c] * np.sin(ang)
-                    out.append(arc)
-                out.append(self.node_xy[nodes[j]][None, :])
+                    parts.append((c, len(angles), n - 1))
+                    angles.extend(angle[i] + o * span * k / n for k in range(1, n))
+                parts.append(xy[j])
                 i = j
             else:
-                out.append(self.node_xy[nodes[i + 1]][None, :])
+                parts.append(xy[i + 1])
                 i += 1
-        poly = np.concatenate(out)
+        cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()  # one call for all arcs
+        out = []
+        for part in parts:
+            if isinstance(part, tuple):
+                c, a, n = part
+                cx, cy, r = float(self.C[c, 0]), float(self.C[c, 1]), float(self.R[c])
+                out.extend([cx + r * cos[k], cy + r * sin[k]] for k in range(a, a + n))
+            else:
+                out.append(part)
         # Vertices much closer together than arc samples (the two ends of a tiny arc) would
         # make the smoothing turn sharply there: keep only the first of them, and the goal.
         gap = 0.25 * ARC_STEP * float(self.R[self.active].min()) if self.active.size else 0.0
-        keep = [0]
-        for i in range(1, poly.shape[0] - 1):
-            if math.hypot(*(poly[i] - poly[keep[-1]])) > gap:
-                keep.append(i)
-        if len(keep) > 1 and math.hypot(*(poly[-1] - poly[keep[-1]])) <= gap:
+        keep = [out[0]]
+        for p in out[1:-1]:
+            if math.hypot(p[0] - keep[-1][0], p[1] - keep[-1][1]) > gap:
+                keep.append(p)
+        if len(keep) > 1 and math.hypot(out[-1][0] - keep[-1][0], out[-1][1] - keep[-1][1]) <= gap:
             keep.pop()
-        keep.append(poly.shape[0] - 1)
-        return _clean(poly[keep], self.S2, self.G2, self.tol)
+        keep.append(out[-1])
+        return _clean(np.array(keep), self.S2, self.G2, self.tol)
 
     def crossings(self, origins: np.ndarray, dirs: np.ndarray, reach: float) -> np.ndarray:
         """Per edge, bit ``b`` set when it crosses the ray ``origins[b] + t dirs[b]``, t in
@@ -839,6 +1027,37 @@ def _crossings(is_arc, geo, C, R, origins, dirs, reach):
             if hit:
                 bits[e] |= np.int64(1) << np.int64(b)
     return bits
+
+
+@njit(cache=True)
+def _step_turns(paths, plen, found, angle, node_circ, node_orient, inside):
+    """For :meth:`_TangentGraph.signatures`: the turn ``(steps, m)`` of every step of the paths
+    ``found`` seen from each centre (``angle``: directions of the nodes from the centres), and
+    the first step of each path. A loop over the steps of a few dozen paths, where NumPy's
+    gathers and masks cost more; the same operations as those (``np.round`` is ``rint``)."""
+    first = np.empty(found.size, np.int64)
+    n_steps = 0
+    for k in range(found.size):
+        first[k] = n_steps
+        n_steps += plen[found[k]] - 1
+    m = angle.shape[1]
+    turn = np.empty((n_steps, m))
+    row = 0
+    for k in range(found.size):
+        p = found[k]
+        for t in range(plen[p] - 1):
+            u, v = paths[p, t], paths[p, t + 1]
+            cu = node_circ[u]
+            arc = u >= 2 and v >= 2 and cu >= 0 and cu == node_circ[v]
+            o = np.float64(node_orient[u])
+            for j in range(m):
+                x = angle[v, j] - angle[u, j]
+                if arc and inside[cu, j]:
+                    turn[row, j] = o * ((o * x) % _TWO_PI)
+                else:
+                    turn[row, j] = x - _TWO_PI * np.rint(x / _TWO_PI)
+            row += 1
+    return turn, first
 
 
 @njit(cache=True)
