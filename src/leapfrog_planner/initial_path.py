@@ -929,12 +929,15 @@ class _TangentGraph:
     def polyline(self, nodes) -> np.ndarray:
         """The path's vertices: the ends of its segments, with each run of arcs round one circle
         sampled uniformly, every :data:`ARC_STEP` at most (tangent points between them, which
-        can be very close together, are not kept). Memoised (callers copy before changing it):
-        planning needs the shortest path's polyline, and smoothing needs it again."""
+        can be very close together, are not kept). Memoised, and read-only so that no caller
+        changes the shared array: planning needs the shortest path's polyline, and smoothing
+        needs it again."""
         nodes = np.asarray(nodes, dtype=np.int64)
         key = nodes.tobytes()
         if key not in self._polylines:
-            self._polylines[key] = self._polyline(nodes)
+            poly = self._polyline(nodes)
+            poly.setflags(write=False)
+            self._polylines[key] = poly
         return self._polylines[key]
 
     def _polyline(self, nodes: np.ndarray) -> np.ndarray:
