@@ -508,3 +508,72 @@ def test_the_compiled_local_newton_changes_nothing_but_time(case, method):
     assert fast.newton_iterations == ref.newton_iterations
     assert ref.f_evals <= fast.f_evals <= 1.02 * ref.f_evals
     assert rel(fast.cost, ref.cost) <= 1e-10
+
+
+def _sweeps_fused_and_python(monkeypatch, run):
+    """``run()`` with the compiled warm sweep and with every junction from Python, each with
+    its counted integrator work."""
+    import leapfrog_planner.leapfrog as lf_module
+    from leapfrog_planner.profiling import count_work
+    from leapfrog_planner.shooting import LocalShooter
+
+    calls = []
+    kernel = LocalShooter.warm_sweep
+    monkeypatch.setattr(
+        LocalShooter, "warm_sweep", lambda self, *a: calls.append(1) or kernel(self, *a)
+    )
+    out = []
+    for fused in (True, False):
+        monkeypatch.setattr(lf_module, "_FUSED_SWEEPS", fused)
+        calls.clear()
+        out.append(count_work(run))
+        assert bool(calls) == fused  # the compiled sweep ran, or not at all
+    return out
+
+
+def _same_sweeps(a, b):
+    assert len(a) == len(b) > 0
+    for ha, hb in zip(a, b, strict=True):
+        assert (ha.t == hb.t).all() and (ha.X == hb.X).all()
+        assert ha.cost == hb.cost and ha.max_costate_jump == hb.max_costate_jump
+        assert (ha.newton_iterations, ha.f_evals, ha.failures, ha.rejected) == (
+            hb.newton_iterations,
+            hb.f_evals,
+            hb.failures,
+            hb.rejected,
+        )
+
+
+@pytest.mark.parametrize("method", [NM, MNM, "nleq-err"])
+def test_the_compiled_warm_sweep_is_the_python_sweep_bit_for_bit(monkeypatch, method):
+    """Paper case 3 (one path): its sweeps have warm attempts that fail and go on to two arcs
+    and to continuation from Python, between compiled stretches. Every sweep record, the
+    answer and the integrator work are identical with and without the compiled sweep."""
+    fast, ref = _sweeps_fused_and_python(
+        monkeypatch,
+        lambda: Planner(CASES[3].name, method=method, initial_paths=1, threads=1).plan(),
+    )
+    _same_sweeps(fast.value.history, ref.value.history)
+    assert (fast.value.costate0 == ref.value.costate0).all()
+    assert fast.value.cost == ref.value.cost
+    assert (fast.steps, fast.integrations, fast.jacobian_calls) == (
+        ref.steps,
+        ref.integrations,
+        ref.jacobian_calls,
+    )
+
+
+def test_the_compiled_warm_sweep_keeps_failures_and_rejections(monkeypatch):
+    """From the straight chord through case 2's obstacles (q = 4) a local problem fails and
+    another extremal is rejected as dearer: the compiled sweep hands both back alike."""
+    planner = Planner(CASES[2].name)
+    t, X = straight_junctions(planner.scenario, 4)
+    fast, ref = _sweeps_fused_and_python(
+        monkeypatch,
+        lambda: leapfrog(planner.problem, t, X, settings=LeapfrogSettings(partitions=4)),
+    )
+    assert sum(h.failures for h in fast.value.history) > 0
+    assert sum(h.rejected for h in fast.value.history) > 0
+    _same_sweeps(fast.value.history, ref.value.history)
+    assert (fast.value.costate0 == ref.value.costate0).all()
+    assert fast.steps == ref.steps and fast.integrations == ref.integrations

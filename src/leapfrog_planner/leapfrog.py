@@ -57,6 +57,11 @@ from .shooting import (
 
 log = logging.getLogger(__name__)
 
+# Sweeps call the compiled warm sweep (the kernels' ``sweep_warm``) where the local shooter is
+# compiled; False runs every junction from Python (the tests compare the two, bit for bit).
+_FUSED_SWEEPS = True
+_SWEEP_DONE, _SWEEP_WARM_FAILED = 0, 1  # the kernel's codes (2: junction i from Python)
+
 FINAL_MODES = ("auto", "shooting", "multiple-shooting")
 
 
@@ -317,13 +322,16 @@ def leapfrog(
     # holds its flow, settings and method, so the ids stay theirs while it is in the table.
     shooters: dict[tuple, LocalShooter] = {}
 
-    def solve(ta, xa, tb, xb, guess=None, local=problem, local_flow=flow, settings=shoot_settings):
-        """A local two-point problem; None when it fails (the callers handle failures)."""
+    def shooter(local, local_flow, settings) -> LocalShooter:
         key = (id(local_flow), id(settings), id(local_method))
         shoot = shooters.get(key)
         if shoot is None:
             shoot = shooters[key] = LocalShooter(local, local_flow, settings, local_method)
-        r = shoot(ta, xa, tb, xb, guess)
+        return shoot
+
+    def solve(ta, xa, tb, xb, guess=None, local=problem, local_flow=flow, settings=shoot_settings):
+        """A local two-point problem; None when it fails (the callers handle failures)."""
+        r = shooter(local, local_flow, settings)(ta, xa, tb, xb, guess)
         count.add(r)
         return r if r.success else None
 
@@ -352,15 +360,20 @@ def leapfrog(
         return weighted[w]
 
     def direct(
-        ta, xa, tb, xb, guess, local=problem, local_flow=flow, mid=None
+        ta, xa, tb, xb, guess, local=problem, local_flow=flow, mid=None, warm_failed=False
     ) -> LocalSolution | None:
-        """The warm guess; in a sweep (``mid`` given), two arcs through the middle junction;
-        otherwise the affine guess. Each attempt gets ``attempt_iterations`` iterations.
+        """The warm guess (unless it was tried and ``warm_failed``); in a sweep (``mid``
+        given), two arcs through the middle junction; otherwise the affine guess. Each attempt
+        gets ``attempt_iterations`` iterations.
 
         The affine guess is not tried after the two arcs: where both attempts from the current
         arcs fail, it succeeded too rarely to pay (2 x 150 random scenarios without it: the same
         successes and optima, 5% fewer integrator steps); continuation takes over."""
-        r = guess is not None and solve(ta, xa, tb, xb, guess, local, local_flow, attempt)
+        r = (
+            not warm_failed
+            and guess is not None
+            and solve(ta, xa, tb, xb, guess, local, local_flow, attempt)
+        )
         if not r and mid is not None and settings.two_arc_attempt:
             return two_arcs(ta, xa, tb, xb, guess, mid)
         return r or solve(ta, xa, tb, xb, None, local, local_flow, attempt)
@@ -408,7 +421,7 @@ def leapfrog(
         count.add(root)
         return solve(ta, xa, tb, xb, root.x[: xa.size], settings=attempt) if root.success else None
 
-    def local_solve(ta, xa, tb, xb, guess, mid=None) -> LocalSolution | None:
+    def local_solve(ta, xa, tb, xb, guess, mid=None, warm_failed=False) -> LocalSolution | None:
         """The direct attempts, then continuation in the obstacle weight.
 
         On the initial path a failed warm guess goes to continuation before the affine guess at
@@ -423,7 +436,7 @@ def leapfrog(
             r = solve(ta, xa, tb, xb, guess, settings=attempt)
             r = r or continuation(ta, xa, tb, xb, guess)
             return r or solve(ta, xa, tb, xb, None, settings=attempt)
-        r = direct(ta, xa, tb, xb, guess, mid=mid)
+        r = direct(ta, xa, tb, xb, guess, mid=mid, warm_failed=warm_failed)
         if r is None and has_obstacles:
             r = continuation(ta, xa, tb, xb, guess)
         return r
@@ -482,11 +495,27 @@ def leapfrog(
         t_sweep = time.perf_counter()
         it0, fe0 = count.iterations, count.f_evals
         failures = rejected = 0
-        for i in range(1, arcs.q):
+        # The warm attempts run in one compiled call while they converge (the same arithmetic
+        # as below); the junction of a failed one comes back here for its fallbacks.
+        warm = shooter(problem, flow, attempt)
+        fused = _FUSED_SWEEPS and warm.fused
+        i = 0
+        while (i := i + 1) < arcs.q:
+            warm_failed = False
+            if fused:
+                code, i, its, evals, rej, *_ = warm.warm_sweep(
+                    arcs.t, arcs.X, arcs.lam0, arcs.lam1, arcs.cost, i
+                )
+                count.iterations += its
+                count.f_evals += evals
+                rejected += rej
+                if code == _SWEEP_DONE:
+                    break
+                warm_failed = code == _SWEEP_WARM_FAILED
             ta, tb = arcs.t[i - 1], arcs.t[i + 1]
             xa, xb = arcs.X[i - 1], arcs.X[i + 1]
             mid = (arcs.t[i], arcs.X[i], arcs.lam0[i])
-            r = local_solve(ta, xa, tb, xb, arcs.lam0[i - 1], mid)
+            r = local_solve(ta, xa, tb, xb, arcs.lam0[i - 1], mid, warm_failed)
             if r is None:
                 failures += 1
                 continue

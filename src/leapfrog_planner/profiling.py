@@ -6,7 +6,8 @@ and splits the wall time into exclusive parts:
 - ``integration``: inside ``Flow._run``, the call of the compiled flow kernel (all of them,
   the final re-integration at rtol 1e-12 included), and the compiled Newton loops of simple
   shooting (their flows and their 3x3 linear algebra, one compiled call; Leapfrog's local
-  solves call them through ``LocalShooter._loop``);
+  solves call them through ``LocalShooter._loop``, and its sweeps' warm-started ones through
+  ``LocalShooter.warm_sweep``, with the junctions' half flows);
 - ``linear_algebra``: the Python Newton loop's compiled ``newton_correction`` and
   ``linear_solve`` (multiple shooting goes through it), ``numpy.linalg``
   (solve, svd, lstsq, norm) and the affine guess's ``scipy.linalg`` calls (expm, solve);
@@ -130,6 +131,19 @@ class _Clock:
 
         return counted
 
+    def counted_sweep(self, run):
+        """``LocalShooter.warm_sweep`` (Leapfrog's compiled warm sweep) that also counts."""
+
+        def counted(*args, **kwargs):
+            out = run(*args, **kwargs)
+            with self._lock:
+                self.steps += int(out[5])
+                self.integrations += int(out[6])
+                self.jacobian_calls += int(out[7])
+            return out
+
+        return counted
+
     def wrap(self, category, fn):
         def timed(*args, **kwargs):
             self.stack.append([category, 0.0])
@@ -160,6 +174,7 @@ def _patched(clock: _Clock):
         (Flow, "_run", "integration"),
         (shooting, "_compiled_newton", "integration"),
         (shooting.LocalShooter, "_loop", "integration"),
+        (shooting.LocalShooter, "warm_sweep", "integration"),
         (loop, "newton_correction", "linear_algebra"),
         (loop, "linear_solve", "linear_algebra"),
         (planner_mod.Planner, "initial_paths", "initial_path"),
@@ -171,6 +186,7 @@ def _patched(clock: _Clock):
         "_run": clock.counted_run,
         "_compiled_newton": clock.counted_newton,
         "_loop": clock.counted_loop,
+        "warm_sweep": clock.counted_sweep,
     }
     with ExitStack() as stack:
         for owner, name, category in targets:

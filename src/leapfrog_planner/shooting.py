@@ -362,6 +362,19 @@ class LocalShooter:
             Y = np.concatenate([r.z, [r.cost]])
         return LocalSolution(True, x, Y[nx : 2 * nx].copy(), float(Y[2 * nx]), int(its), int(evals))
 
+    @property
+    def fused(self) -> bool:
+        """Whether the compiled loop runs this shooter's solves (and :meth:`warm_sweep` works)."""
+        return self._fused
+
+    def warm_sweep(self, T, X, L0, L1, C, i: int) -> tuple:
+        """Leapfrog's sweep from junction ``i`` over the arcs ``(T, X, L0, L1, C)`` (in place),
+        as long as each local problem converges from its warm guess: the model kernels'
+        ``sweep_warm``, whose raw outputs are returned."""
+        return self.flow.kernels.sweep_warm(
+            T, X, L0, L1, C, i, *self._args, self._norms, self._lams
+        )
+
     def _loop(self, ends, s0) -> tuple:
         """The compiled loop's raw outputs (a method of its own so that the profiler can time
         it: see :mod:`.profiling`)."""

@@ -390,7 +390,7 @@ def _shoot_eval(s, ends, accuracy, best_norm, kin, jac):
 
 
 @njit(cache=True, error_model="numpy")
-def _trial(s, ends, accuracy, best_norm, kin, jac=True):
+def _trial(s, ends, accuracy, best_norm, kin, jac):
     """:func:`_shoot_eval` at ``s`` as the loop records it: (ok, F, J, the latest evaluation
     ``(s, Y, ok)``, the smallest |F| so far, accepted steps)."""
     ok, F, J, Y, norm, steps = _shoot_eval(s, ends, accuracy, best_norm, kin, jac)
@@ -431,6 +431,9 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     """
     tol, max_iterations, max_cond, divergence, stall_window, stall_factor, predict = root
     max_halvings, initial_damping, min_damping, xtol, max_trials = step
+    # With the Jacobian, as a run-time bool: numba compiles _trial (and the flow below it) once
+    # per argument type, and a literal True is a type of its own (measured: 6 s of compilation).
+    full = np.bool_(True)
     # NLEQ-ERR's memory between steps (roots.steps._NleqMemo)
     lam_memo = initial_damping
     lam_prev = 1.0
@@ -439,7 +442,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     dxbar_prev = np.zeros(NX)
     x = s0.copy()
     bound = divergence * (1.0 + math.sqrt(dot(x, x)))
-    ok, F, J, last, best_norm, steps = _trial(x, ends, accuracy, np.inf, kin)
+    ok, F, J, last, best_norm, steps = _trial(x, ends, accuracy, np.inf, kin, full)
     evals = 1
     fonly = 0  # evaluations of F alone (predict)
     n = 0
@@ -493,7 +496,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                 if lam < min_damping:
                     break
                 xt = x + lam * dx
-                okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, best_norm, kin)
+                okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, best_norm, kin, full)
                 evals += 1
                 steps += st
                 if not okt:
@@ -547,7 +550,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                 h = dot(Ft, Ft) if okt else np.inf
                 if not jac and h <= h0 - lt * slope and not math.sqrt(h) <= tol:
                     # Accepted but not converged: the next iteration needs J here (same F).
-                    okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, before, kin)
+                    okt, Ft, Jt, last, best_norm, st = _trial(xt, ends, accuracy, before, kin, full)
                     evals += 1
                     steps += st
                 if m == 0 or h < best_h:
@@ -577,9 +580,88 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
             steps += st
             if not jac and not (ok and math.sqrt(dot(F, F)) <= tol):
                 # Not converged after all: the next iteration needs J here (same F).
-                ok, F, J, last, best_norm, st = _trial(x, ends, accuracy, before, kin)
+                ok, F, J, last, best_norm, st = _trial(x, ends, accuracy, before, kin, full)
                 evals += 1
                 steps += st
             if not ok:
                 return NON_FINITE_F, x, F, it_done, evals, n, cond, last, steps, evals - fonly
     return MAX_ITERATIONS, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+
+
+# --------------------------------------------------------------------------------------------
+# A Leapfrog sweep's warm-started local problems, fused into one call.
+#
+# The compiled twin of leapfrog.sweep's common case: the local problem of junction i converges
+# from the costate of arc i-1, and its extremal replaces the two arcs if it is not dearer. The
+# Python code around each local solve (the shooter's packing, the result object, the half flow's
+# wrapper) cost about as much as the solve itself on the paper cases. The first junction whose
+# warm attempt fails (or whose answer needs the Python path) is handed back; Python runs its
+# fallbacks and calls again from the next junction. Same arithmetic as the Python sweep, bit for
+# bit (tested).
+SWEEP_DONE = 0
+SWEEP_WARM_FAILED = 1  # the warm attempt at junction i failed; its counts are included
+SWEEP_PYTHON = 2  # junction i needs the Python path; nothing of it is counted
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def sweep_warm(T, X, L0, L1, C, i, method, root, step, accuracy, kin, norms, lams):
+    """Junctions ``i, i+1, ..., q-1`` of a Gauss-Seidel sweep over the arcs ``(T, X, L0, L1, C)``
+    (updated in place), each from its warm guess ``L0[i-1]`` by :func:`shoot_newton` (the
+    shooter's arguments). Returns (code, junction where it stopped, Newton iterations, F
+    evaluations, rejected extremals, accepted integrator steps, integrations, integrations with
+    the variational equations)."""
+    q = T.size - 1
+    A, b, e, e3, order, p, obs, weight, exponent, no_T, no_Z = kin
+    rtol, atol, max_steps = accuracy[0], accuracy[1], accuracy[2]
+    no_k = np.int64(0)
+    iterations = evals = rejected = steps = integrations = jacobians = 0
+    while i < q:
+        ta, tb = T[i - 1], T[i + 1]
+        xa = X[i - 1]
+        ends = (xa, X[i + 1], ta, tb)
+        code, x, _, its, ev, _, _, last, st, jac = shoot_newton(
+            ends, L0[i - 1].copy(), method, root, step, accuracy, kin, norms, lams
+        )
+        if code != CONVERGED:
+            return (
+                SWEEP_WARM_FAILED, i, iterations + its, evals + ev, rejected, steps + st,
+                integrations + ev, jacobians + jac,
+            )  # fmt: skip
+        last_s, Y, last_ok = last
+        if not (last_ok and (last_s == x).all()):
+            return SWEEP_PYTHON, i, iterations, evals, rejected, steps, integrations, jacobians
+        iterations += its
+        evals += ev
+        steps += st
+        integrations += ev
+        jacobians += jac
+        cost = Y[NZ]
+        old = C[i - 1] + C[i]
+        if cost > old + 1e-10 * max(1.0, abs(old)):
+            rejected += 1
+            i += 1
+            continue
+        # The junction moves to the middle of the local extremal (the flow of leapfrog.sweep).
+        tm = 0.5 * (ta + tb)
+        Y0 = np.zeros(NZ + 1)
+        for m in range(NX):
+            Y0[m] = xa[m]
+            Y0[NX + m] = x[m]
+        # k = 0 as a run-time int64: a literal 0 would compile erk_adaptive a second time.
+        H, _, acc, _ = erk_adaptive(
+            Y0, ta, tm, no_k, A, b, e, e3, order, rtol, atol, max_steps, p, obs, weight,
+            exponent, no_T, no_Z,
+        )  # fmt: skip
+        steps += acc
+        integrations += 1
+        T[i] = tm
+        for m in range(NX):
+            X[i, m] = H[m]
+            L0[i - 1, m] = x[m]
+            L1[i - 1, m] = H[NX + m]
+            L0[i, m] = H[NX + m]
+            L1[i, m] = Y[NX + m]
+        C[i - 1] = H[NZ]
+        C[i] = cost - H[NZ]
+        i += 1
+    return SWEEP_DONE, q, iterations, evals, rejected, steps, integrations, jacobians
