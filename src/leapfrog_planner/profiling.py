@@ -118,31 +118,22 @@ class _Clock:
 
         return counted
 
-    def counted_loop(self, run):
-        """``LocalShooter._loop`` (the compiled loop's raw outputs) that also counts."""
+    def counted_outputs(self, steps: int, integrations: int, jacobians: int):
+        """A wrapper for a compiled call that returns its raw outputs (``LocalShooter._loop``,
+        ``LocalShooter.warm_sweep``) and also counts, from the outputs at these positions."""
 
-        def counted(*args, **kwargs):
-            out = run(*args, **kwargs)
-            with self._lock:
-                self.steps += int(out[8])
-                self.integrations += int(out[4])
-                self.jacobian_calls += int(out[9])  # F alone where convergence is predicted
-            return out
+        def wrapper(run):
+            def counted(*args, **kwargs):
+                out = run(*args, **kwargs)
+                with self._lock:
+                    self.steps += int(out[steps])
+                    self.integrations += int(out[integrations])
+                    self.jacobian_calls += int(out[jacobians])
+                return out
 
-        return counted
+            return counted
 
-    def counted_sweep(self, run):
-        """``LocalShooter.warm_sweep`` (Leapfrog's compiled warm sweep) that also counts."""
-
-        def counted(*args, **kwargs):
-            out = run(*args, **kwargs)
-            with self._lock:
-                self.steps += int(out[5])
-                self.integrations += int(out[6])
-                self.jacobian_calls += int(out[7])
-            return out
-
-        return counted
+        return wrapper
 
     def wrap(self, category, fn):
         def timed(*args, **kwargs):
@@ -185,8 +176,10 @@ def _patched(clock: _Clock):
     counters = {  # the wrapped functions that also count integrator work
         "_run": clock.counted_run,
         "_compiled_newton": clock.counted_newton,
-        "_loop": clock.counted_loop,
-        "warm_sweep": clock.counted_sweep,
+        # the compiled loop: steps, evaluations, evaluations with J (F alone where convergence
+        # is predicted); the warm sweep: steps, integrations, integrations with J
+        "_loop": clock.counted_outputs(8, 4, 9),
+        "warm_sweep": clock.counted_outputs(5, 6, 7),
     }
     with ExitStack() as stack:
         for owner, name, category in targets:
