@@ -594,7 +594,8 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
 # The compiled twin of leapfrog.sweep's common case: the local problem of junction i converges
 # from the costate of arc i-1, and its extremal replaces the two arcs if it is not dearer. The
 # Python code around each local solve (the shooter's packing, the result object, the half flow's
-# wrapper) cost about as much as the solve itself on the paper cases. The first junction whose
+# wrapper) cost about 50 us per junction, as much as the solve itself on paper case 1 (its serial
+# CPU time fell by 36% with this kernel, cases 2-4 by 2-20%). The first junction whose
 # warm attempt fails (or whose answer needs the Python path) is handed back; Python runs its
 # fallbacks and calls again from the next junction. Same arithmetic as the Python sweep, bit for
 # bit (tested).
