@@ -117,15 +117,16 @@ def _hermite_at(knots, width, coef, i, u, deriv, out, r):
 
 
 @njit(cache=True)
-def _leg_of(knots, u):
-    return min(max(np.searchsorted(knots, u, side="right") - 1, 0), knots.size - 2)
+def _interval_of(grid, u):
+    """The interval ``[grid[i], grid[i + 1]]`` holding ``u``, clamped to the first and last."""
+    return min(max(np.searchsorted(grid, u, side="right") - 1, 0), grid.size - 2)
 
 
 @njit(cache=True)
 def _hermite_eval(knots, width, coef, u, legs, xy, d):
     """Points and ``dp/du`` at parameters ``u`` in legs ``legs`` (empty: found by bisection)."""
     for r in range(u.size):
-        i = legs[r] if legs.size else _leg_of(knots, u[r])
+        i = legs[r] if legs.size else _interval_of(knots, u[r])
         _hermite_at(knots, width, coef, i, u[r], 0, xy, r)
         _hermite_at(knots, width, coef, i, u[r], 1, d, r)
 
@@ -220,22 +221,21 @@ def _newton_nodes(knots, width, coef, u_grid, cum, target, u, gl_x):
     ``target``), its grid interval, the speed ``|dp/du|`` there, and the half width and the
     speeds at the Gauss-Legendre nodes of the part of the interval below ``u``."""
     n = u.size
-    last = cum.size - 2
     i = np.empty(n, np.int64)
     speed = np.empty(n)
     half = np.empty(n)
     node_speed = np.empty((n, gl_x.size))
     d = np.empty((1, 2))
     for r in range(n):
-        i[r] = min(max(np.searchsorted(cum, target[r], side="right") - 1, 0), last)
-        _hermite_at(knots, width, coef, _leg_of(knots, u[r]), u[r], 1, d, 0)
+        i[r] = _interval_of(cum, target[r])
+        _hermite_at(knots, width, coef, _interval_of(knots, u[r]), u[r], 1, d, 0)
         speed[r] = math.hypot(d[0, 0], d[0, 1])
         a = u_grid[i[r]]
         half[r] = 0.5 * (u[r] - a)
         mid = 0.5 * (u[r] + a)
         for q in range(gl_x.size):
             v = mid + half[r] * gl_x[q]
-            _hermite_at(knots, width, coef, _leg_of(knots, v), v, 1, d, 0)
+            _hermite_at(knots, width, coef, _interval_of(knots, v), v, 1, d, 0)
             node_speed[r, q] = math.hypot(d[0, 0], d[0, 1])
     return i, speed, half, node_speed
 
