@@ -60,7 +60,6 @@ log = logging.getLogger(__name__)
 # Sweeps call the compiled warm sweep (the kernels' ``sweep_warm``) where the local shooter is
 # compiled; False runs every junction from Python (the tests compare the two, bit for bit).
 _FUSED_SWEEPS = True
-_SWEEP_DONE, _SWEEP_WARM_FAILED = 0, 1  # the kernel's codes (2: junction i from Python)
 
 FINAL_MODES = ("auto", "shooting", "multiple-shooting")
 
@@ -509,9 +508,10 @@ def leapfrog(
                 count.iterations += its
                 count.f_evals += evals
                 rejected += rej
-                if code == _SWEEP_DONE:
+                if code == flow.kernels.SWEEP_DONE:
                     break
-                warm_failed = code == _SWEEP_WARM_FAILED
+                # otherwise SWEEP_WARM_FAILED, or SWEEP_PYTHON: junction i from the start
+                warm_failed = code == flow.kernels.SWEEP_WARM_FAILED
             ta, tb = arcs.t[i - 1], arcs.t[i + 1]
             xa, xb = arcs.X[i - 1], arcs.X[i + 1]
             mid = (arcs.t[i], arcs.X[i], arcs.lam0[i])
