@@ -188,15 +188,15 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
     import leapfrog_planner.leapfrog as lf
 
     stages = []
-    real = lf.solve_root
+    real = lf.solve_multiple_shooting
 
     def spy(system, x0, method, settings):
         r = real(system, x0, method, settings)
-        if type(system).__name__ == "MultipleShootingSystem" and system.q > 2:
+        if system.q > 2:
             stages.append((system.flow.settings.rtol, settings.tol, r.success, r.iterations))
         return r
 
-    monkeypatch.setattr(lf, "solve_root", spy)
+    monkeypatch.setattr(lf, "solve_multiple_shooting", spy)
     finals = []
     real_shooting = lf.solve_shooting
     monkeypatch.setattr(
@@ -221,7 +221,9 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
     assert rel(v.cost, 5.784293) <= 1e-6  # that path's optimum (README)
 
     stages.clear()
-    monkeypatch.setattr(lf, "solve_root", lambda *a: replace(spy(*a), status="stalled"))
+    monkeypatch.setattr(
+        lf, "solve_multiple_shooting", lambda *a: replace(spy(*a), status="stalled")
+    )
     failed = leapfrog(
         planner.problem,
         t,
@@ -484,6 +486,58 @@ def test_two_arc_attempts_reach_the_same_optimum_with_less_work():
         assert r.status == "converged" and r.end_state_error <= 1e-8
     assert rel(runs[True].cost, runs[False].cost) <= 1e-8
     assert runs[True].f_evals < 0.75 * runs[False].f_evals
+
+
+def _multiple_shooting_calls(monkeypatch, run) -> list:
+    """The arguments of every multiple-shooting solve made by ``run()``."""
+    import leapfrog_planner.leapfrog as lf
+
+    calls = []
+    real = lf.solve_multiple_shooting
+
+    def spy(system, w0, method, settings):
+        calls.append((system, np.array(w0, dtype=float), method, settings))
+        return real(system, w0, method, settings)
+
+    monkeypatch.setattr(lf, "solve_multiple_shooting", spy)
+    run()
+    monkeypatch.undo()
+    return calls
+
+
+def test_compiled_multiple_shooting_is_the_python_loop_bit_for_bit(monkeypatch):
+    """The two-arc attempts of paper case 3 (one path; NM, MNM, NLEQ-ERR; converging and failing)
+    and the final multiple-shooting fallback of paper case 4's third path (q = 4, coarse then
+    polished) run as one compiled call each; the shared Python loop on the same system is the
+    reference. Statuses, messages, counts, iterates and histories are identical, bit for bit."""
+    from leapfrog_planner.multiple_shooting import solve_multiple_shooting
+    from leapfrog_planner.roots import solve_root
+
+    calls = []
+    for method in (NM, MNM, "nleq-err"):
+        calls += _multiple_shooting_calls(
+            monkeypatch,
+            lambda m=method: Planner(CASES[3].name, method=m, initial_paths=1, threads=1).plan(),
+        )
+    planner = Planner(CASES[4].name, threads=1)
+    t, X = planner.initial_paths()[2].junctions(8, planner.scenario.horizon)
+    final = _multiple_shooting_calls(
+        monkeypatch, lambda: leapfrog(planner.problem, t, X, flow=planner.flow)
+    )
+    assert [c[0].q for c in final] == [4, 4]
+    outcomes = set()
+    for system, w0, method, settings in calls + final:
+        with np.errstate(over="ignore", invalid="ignore"):
+            a = solve_multiple_shooting(system, w0, method, settings)
+            b = solve_root(system, w0, method, settings)
+        assert (a.status, a.message, a.iterations, a.f_evals, a.jac_evals) == (
+            b.status, b.message, b.iterations, b.f_evals, b.jac_evals,
+        )  # fmt: skip
+        for name in ("x", "F", "residual_norms", "step_sizes"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+        outcomes.add((system.q, str(a.status)))
+    assert {(2, "converged"), (4, "converged")} <= outcomes
+    assert any(q == 2 and status != "converged" for q, status in outcomes), outcomes
 
 
 @pytest.mark.parametrize("method", [NM, MNM])

@@ -556,7 +556,7 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
         args = _loop_arguments(flow, get_strategy(method), root, True, predict)
         m = root.max_iterations
         out[predict] = flow.kernels.shoot_newton(
-            (start, goal, 0.0, 1.0), s0, *args, np.empty(m + 1), np.empty(m)
+            (start, goal, np.array([0.0, 1.0])), s0, *args, np.empty(m + 1), np.empty(m)
         )
     code0, x0, F0, it0, ev0, *_, last0, _, jac0 = out[False]
     code1, x1, F1, it1, ev1, *_, last1, _, jac1 = out[True]

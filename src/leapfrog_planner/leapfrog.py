@@ -44,9 +44,9 @@ import numpy as np
 from ._blas import blas_single_threaded
 from .errors import SettingsError, require_integer
 from .integrate.flow import Flow, IntegratorSettings
-from .multiple_shooting import MultipleShootingSystem
+from .multiple_shooting import MultipleShootingSystem, solve_multiple_shooting
 from .problem import OptimalControlProblem
-from .roots import STRATEGIES, ModifiedNewtonStep, RootResult, RootSettings, solve_root
+from .roots import STRATEGIES, ModifiedNewtonStep, RootResult, RootSettings
 from .shooting import (
     LocalShooter,
     LocalSolution,
@@ -416,7 +416,8 @@ def leapfrog(
         shooting from its ``lambda_a`` (already a root) returns it as a local solve does.
         """
         ms = MultipleShootingSystem(flow, np.array([ta, mid[0], tb]), xa, xb)
-        root = solve_root(ms, np.concatenate([guess, mid[1], mid[2]]), local_method, attempt.root)
+        w0 = np.concatenate([guess, mid[1], mid[2]])
+        root = solve_multiple_shooting(ms, w0, local_method, attempt.root)
         count.add(root)
         return solve(ta, xa, tb, xb, root.x[: xa.size], settings=attempt) if root.success else None
 
@@ -614,11 +615,12 @@ def leapfrog(
             # (its diverging iterates cost 70-100 ms on case 4 with NM).
             Z = np.hstack([junctions.X[:-1], junctions.lam0])
             ms = MultipleShootingSystem(coarse_flow, junctions.t, start, goal)
-            root = solve_root(ms, ms.pack(junctions.lam0[0], Z), settings.method, coarse_root)
+            w0 = ms.pack(junctions.lam0[0], Z)
+            root = solve_multiple_shooting(ms, w0, settings.method, coarse_root)
             if root.success:
                 count.add(root)
                 ms = MultipleShootingSystem(final_flow, junctions.t, start, goal)
-                root = solve_root(ms, root.x, settings.method, final_settings.root)
+                root = solve_multiple_shooting(ms, root.x, settings.method, final_settings.root)
             count.add(root)
             if root.success:
                 return root.x[: start.size].copy(), "multiple-shooting", root

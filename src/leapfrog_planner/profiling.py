@@ -5,11 +5,11 @@ and splits the wall time into exclusive parts:
 
 - ``integration``: inside ``Flow._run``, the call of the compiled flow kernel (all of them,
   the final re-integration at rtol 1e-12 included), and the compiled Newton loops of simple
-  shooting (their flows and their 3x3 linear algebra, one compiled call; Leapfrog's local
-  solves call them through ``LocalShooter._loop``, and its sweeps' warm-started ones through
-  ``LocalShooter.warm_sweep``, with the junctions' half flows);
+  and multiple shooting (their flows and their small linear algebra, one compiled call;
+  Leapfrog's local solves call them through ``LocalShooter._loop``, and its sweeps'
+  warm-started ones through ``LocalShooter.warm_sweep``, with the junctions' half flows);
 - ``linear_algebra``: the Python Newton loop's compiled ``newton_correction`` and
-  ``linear_solve`` (multiple shooting goes through it), ``numpy.linalg``
+  ``linear_solve`` (where the compiled loop does not run), ``numpy.linalg``
   (solve, svd, lstsq, norm) and the affine guess's ``scipy.linalg`` calls (expm, solve);
 - ``initial_path``: building the initial feasible paths (``Planner.initial_paths``);
 - ``validation``: the rest of ``results.validate``: dense output, penalty and Pontryagin checks;
@@ -106,14 +106,18 @@ class _Clock:
         return counted
 
     def counted_newton(self, run):
-        """``shooting._compiled_newton`` that also counts its steps and Jacobian evaluations."""
+        """``shooting.compiled_newton`` that also counts its steps, integrations and Jacobian
+        evaluations."""
 
-        def counted(*args, **kwargs):
-            root, last, steps = run(*args, **kwargs)
+        def counted(system, *args, **kwargs):
+            root, last, steps = run(system, *args, **kwargs)
+            # A multiple-shooting evaluation integrates each arc (counted so also when an arc fails
+            # and the rest are skipped: an overcount of a few on failing attempts).
+            arcs = system.ends[2].size - 1
             with self._lock:
                 self.steps += int(steps)
-                self.integrations += root.f_evals  # each with the variational equations
-                self.jacobian_calls += root.jac_evals
+                self.integrations += root.f_evals * arcs
+                self.jacobian_calls += root.jac_evals * arcs
             return root, last, steps
 
         return counted
@@ -163,7 +167,7 @@ def _patched(clock: _Clock):
 
     targets = [
         (Flow, "_run", "integration"),
-        (shooting, "_compiled_newton", "integration"),
+        (shooting, "compiled_newton", "integration"),
         (shooting.LocalShooter, "_loop", "integration"),
         (shooting.LocalShooter, "warm_sweep", "integration"),
         (loop, "newton_correction", "linear_algebra"),
@@ -175,7 +179,7 @@ def _patched(clock: _Clock):
     ] + [(np.linalg, name, "linear_algebra") for name in ("solve", "svd", "lstsq", "norm")]
     counters = {  # the wrapped functions that also count integrator work
         "_run": clock.counted_run,
-        "_compiled_newton": clock.counted_newton,
+        "compiled_newton": clock.counted_newton,
         # the compiled loop: steps, evaluations, evaluations with J (F alone where convergence
         # is predicted); the warm sweep: steps, integrations, integrations with J
         "_loop": clock.counted_outputs(8, 4, 9),

@@ -97,6 +97,8 @@ class ShootingSystem:
         self._z0 = np.empty(2 * self.nx)
         self._z0[: self.nx] = self.x0
         self.last = None  # (s, FlowResult) of the latest evaluation, reused for the result
+        # The compiled loop's view of the problem: end states and junction times.
+        self.ends = (self.x0, self.x1, np.array([self.t0, self.t1]))
 
     def evaluate(self, s, jacobian):
         self._z0[self.nx :] = s
@@ -251,8 +253,8 @@ def solve_shooting(
         s0 = np.asarray(guess, dtype=float)
     system = ShootingSystem(flow, t0, x0, t1, x1, settings.inexact)
     strategy = get_strategy(method)
-    if settings.compiled and flow.tableau.adaptive and type(strategy) in _FUSED:
-        root, last, _ = _compiled_newton(system, s0, strategy, settings.root)
+    if settings.compiled and runs_compiled(flow, strategy):
+        root, last, _ = compiled_newton(system, s0, strategy, settings.root)
     else:
         root = solve_root(system, s0, strategy, settings.root)
         last = system.last
@@ -318,7 +320,7 @@ class LocalShooter:
     ):
         self.problem, self.flow, self.settings, self.method = problem, flow, settings, method
         self.strategy = get_strategy(method or settings.method)
-        self._fused = settings.compiled and flow.tableau.adaptive and type(self.strategy) in _FUSED
+        self._fused = settings.compiled and runs_compiled(flow, self.strategy)
         self._plain = replace(settings, samples=0)  # for solve_shooting (methods not fused)
         if self._fused:
             m = settings.root.max_iterations
@@ -350,7 +352,7 @@ class LocalShooter:
                 True, r.costate0, r.costate1, r.cost, r.root.iterations, r.root.f_evals
             )
         code, x, _, its, evals, _, _, (last_s, Y, last_ok), _, _ = self._loop(
-            (x0, x1, float(t0), float(t1)), s0
+            (x0, x1, np.array([t0, t1], dtype=float)), s0
         )
         nx = self._nx
         if code != _CONVERGED:
@@ -389,22 +391,29 @@ class LocalShooter:
 _CONVERGED = _CODES.index(RootStatus.CONVERGED)
 
 
-def _compiled_newton(
-    system: ShootingSystem, s0, strategy, settings: RootSettings
-) -> tuple[RootResult, tuple | None, int]:
-    """NM, MNM or NLEQ-ERR on the shooting system in one compiled call (``shoot_newton`` of the
-    model's kernels): the same iterates, bit for bit, statuses and counts as :func:`solve_root`
-    with that strategy on ``system`` (tested), without the Python layers per iteration.
+def runs_compiled(flow: Flow, strategy) -> bool:
+    """Whether :func:`compiled_newton` can run ``strategy`` on systems of ``flow``."""
+    return flow.tableau.adaptive and type(strategy) in _FUSED
 
-    Returns the root result, the latest evaluation ``(s, FlowResult)`` and the accepted
-    integrator steps of all evaluations."""
+
+def compiled_newton(
+    system, s0, strategy, settings: RootSettings
+) -> tuple[RootResult, tuple | None, int]:
+    """NM, MNM or NLEQ-ERR in one compiled call (``shoot_newton`` of the model's kernels) on a
+    :class:`ShootingSystem` or a multiple-shooting system (``MultipleShootingSystem``): the
+    same iterates, bit for bit, statuses and counts as :func:`solve_root` with that strategy on
+    ``system`` (tested), without the Python layers per iteration. The system gives its flow,
+    its ``ends = (x0, x1, junction times)`` and whether it evaluates ``inexact``ly.
+
+    Returns the root result, the latest evaluation ``(s, FlowResult)`` (of the last arc) and the
+    accepted integrator steps of all evaluations."""
     flow = system.flow
     m = settings.max_iterations
     norms, lams = np.empty(m + 1), np.empty(m)
     s0 = np.array(s0, dtype=float).reshape(-1)
     code, x, F, its, evals, n, cond, (last_s, last_Y, last_ok), steps, jacobians = (
         flow.kernels.shoot_newton(
-            (system.x0, system.x1, system.t0, system.t1),
+            system.ends,
             s0,
             *_loop_arguments(flow, strategy, settings, system.inexact),
             norms,
@@ -435,8 +444,10 @@ def _compiled_newton(
     last = None
     if last_ok:
         nz = 2 * system.nx
+        times = system.ends[2]
         r = FlowResult(
-            status=FlowStatus.OK, t0=system.t0, t1=system.t1, z=last_Y[:nz], cost=float(last_Y[nz]),
+            status=FlowStatus.OK, t0=float(times[-2]), t1=float(times[-1]), z=last_Y[:nz],
+            cost=float(last_Y[nz]),
             sensitivity=None, steps=0, rejected=0,  # not counted by the compiled loop
         )  # fmt: skip
         last = (last_s, r)

@@ -335,15 +335,20 @@ STALLED = 6
 
 @njit(cache=True, error_model="numpy")
 def _shoot_eval(s, ends, accuracy, best_norm, kin, jac):
-    """F(s) = x(t1) - x1 and DF(s), as ShootingSystem.evaluate.
+    """F(s) = x(t1) - x1 and DF(s), as ShootingSystem.evaluate; over more than two junction
+    times, the multiple-shooting residual of :func:`_multiple_eval`.
 
-    ``ends = (x0, x1, t0, t1)``, ``accuracy = (rtol, atol, max_steps, inexact, k)``, ``kin``
-    the integrator's tableau and the problem data. Returns (ok, F, J, Y, |F|, accepted steps).
-    ``k`` (= NX, the costate columns) comes from the caller at run time, as in the Flow's
-    calls, so that both run the same code on the same values. ``jac`` False: F alone (J is
-    zero), from the same steps and to the same bits (the sensitivities do not steer the steps).
+    ``ends = (x0, x1, T)`` with the junction times ``T = (t0, t1)`` for simple shooting,
+    ``accuracy = (rtol, atol, max_steps, inexact, k)``, ``kin`` the integrator's tableau and
+    the problem data. Returns (ok, F, J, Y, |F|, accepted steps). ``k`` (= NX, the costate
+    columns) comes from the caller at run time, as in the Flow's calls, so that both run the
+    same code on the same values. ``jac`` False: F alone (J is zero), from the same steps and
+    to the same bits (the sensitivities do not steer the steps).
     """
-    x0, x1, t0, t1 = ends
+    x0, x1, T = ends
+    if T.size > 2:
+        return _multiple_eval(s, x0, x1, T, accuracy, kin, jac)
+    t0, t1 = T[0], T[1]
     base_rtol, base_atol, max_steps, inexact, k = accuracy
     if not jac:
         k = 0
@@ -386,6 +391,62 @@ def _shoot_eval(s, ends, accuracy, best_norm, kin, jac):
             J[i, j] = Y[NZ + 1 + i * k + j]
     # As the Python evaluator: a point whose |F|^2 or |J|^2 is not finite is unusable.
     ok = _finite(dot(F, F)) and _finite(np.sum(J * J))
+    return ok, F, J, Y, norm, steps
+
+
+@njit(cache=True, error_model="numpy")
+def _multiple_eval(w, x0, x1, T, accuracy, kin, jac):
+    """The residual and Jacobian of multiple shooting over the junction times ``T``, as
+    multiple_shooting.MultipleShootingSystem.evaluate: unknowns ``w = (lambda_0, z_1, ...,
+    z_{q-1})``, residuals the continuity defects ``z(t_{j+1}; t_j, z_j) - z_{j+1}`` and the
+    end-state error. Leapfrog's two-arc attempt is the case q = 2. Always at the flow's own
+    tolerances (no inexact evaluations, as the Python system). Returns what
+    :func:`_shoot_eval` returns; ``Y`` is the last arc's."""
+    rtol, atol, max_steps = accuracy[0], accuracy[1], accuracy[2]
+    A, b, e, e3, order, p, obs, weight, exponent, no_T, no_Z = kin
+    q = T.size - 1
+    n = w.size
+    F = np.empty(n)
+    J = np.zeros((n, n))
+    Y = np.empty(0)
+    steps = 0
+    for j in range(q):
+        # The first arc's state is fixed (x0): only its costate columns are unknowns.
+        k = (NX if j == 0 else NZ) if jac else 0
+        Y0 = np.zeros(NZ + 1 + NZ * k)
+        if j == 0:
+            for m in range(NX):
+                Y0[m] = x0[m]
+                Y0[NX + m] = w[m]
+                if k:
+                    Y0[NZ + 1 + (NX + m) * k + m] = 1.0
+        else:
+            c = NX + (j - 1) * NZ
+            for m in range(NZ):
+                Y0[m] = w[c + m]
+                if k:
+                    Y0[NZ + 1 + m * k + m] = 1.0
+        Y, status, acc, _ = erk_adaptive(
+            Y0, T[j], T[j + 1], k, A, b, e, e3, order, rtol, atol, max_steps, p, obs, weight,
+            exponent, no_T, no_Z,
+        )  # fmt: skip
+        steps += acc
+        if status != OK:
+            return False, F, J, Y, np.inf, steps
+        r0 = j * NZ
+        last = j == q - 1
+        rows = NX if last else NZ
+        for m in range(rows):
+            F[r0 + m] = Y[m] - (x1[m] if last else w[NX + j * NZ + m])
+        if k:
+            c0 = 0 if j == 0 else NX + (j - 1) * NZ
+            for m in range(rows):
+                for c in range(k):
+                    J[r0 + m, c0 + c] = Y[NZ + 1 + m * k + c]
+                if not last:
+                    J[r0 + m, NX + j * NZ + m] -= 1.0
+    norm = math.sqrt(dot(F, F))
+    ok = _finite(dot(F, F)) and (not jac or _finite(np.sum(J * J)))
     return ok, F, J, Y, norm, steps
 
 
@@ -438,8 +499,8 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     lam_memo = initial_damping
     lam_prev = 1.0
     has_memo = False
-    dx_prev = np.zeros(NX)
-    dxbar_prev = np.zeros(NX)
+    dx_prev = np.zeros(s0.size)
+    dxbar_prev = np.zeros(s0.size)
     x = s0.copy()
     bound = divergence * (1.0 + math.sqrt(dot(x, x)))
     ok, F, J, last, best_norm, steps = _trial(x, ends, accuracy, np.inf, kin, full)
@@ -568,7 +629,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
         xx = dot(x, x)
         if not (_finite(xx) and math.sqrt(xx) <= bound):
             if not have_F:
-                F = np.full(NX, np.nan)
+                F = np.full(x.size, np.nan)
             return DIVERGED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
         if not have_F:
             jac = not (predict and _converges(norms, n, tol))
@@ -619,7 +680,9 @@ def sweep_warm(T, X, L0, L1, C, i, method, root, step, accuracy, kin, norms, lam
     while i < q:
         ta, tb = T[i - 1], T[i + 1]
         xa = X[i - 1]
-        ends = (xa, X[i + 1], ta, tb)
+        times = np.empty(2)
+        times[0], times[1] = ta, tb
+        ends = (xa, X[i + 1], times)
         code, x, _, its, ev, _, _, last, st, jac = shoot_newton(
             ends, L0[i - 1].copy(), method, root, step, accuracy, kin, norms, lams
         )
