@@ -190,8 +190,8 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
     stages = []
     real = lf.solve_multiple_shooting
 
-    def spy(system, x0, method, settings):
-        r = real(system, x0, method, settings)
+    def spy(system, x0, method, settings, compiled):
+        r = real(system, x0, method, settings, compiled)
         if system.q > 2:
             stages.append((system.flow.settings.rtol, settings.tol, r.success, r.iterations))
         return r
@@ -495,9 +495,9 @@ def _multiple_shooting_calls(monkeypatch, run) -> list:
     calls = []
     real = lf.solve_multiple_shooting
 
-    def spy(system, w0, method, settings):
+    def spy(system, w0, method, settings, compiled):
         calls.append((system, np.array(w0, dtype=float), method, settings))
-        return real(system, w0, method, settings)
+        return real(system, w0, method, settings, compiled)
 
     monkeypatch.setattr(lf, "solve_multiple_shooting", spy)
     run()
@@ -543,10 +543,10 @@ def test_compiled_multiple_shooting_is_the_python_loop_bit_for_bit(monkeypatch):
 @pytest.mark.parametrize("method", [NM, MNM])
 @pytest.mark.parametrize("case", [1, 3])
 def test_the_compiled_local_newton_changes_nothing_but_time(case, method):
-    """Leapfrog with every simple shooting in the shared Python loop, against the default (NM
-    and MNM compiled): same sweeps and iterations, same optimum. The compiled local solves
-    evaluate F alone where convergence is predicted, and again with J where it then does not
-    come: at most a few more evaluations (measured: 0.3-1%)."""
+    """Leapfrog with every simple and multiple shooting in the shared Python loop, against the
+    default (NM and MNM compiled): same sweeps and iterations, same optimum. The compiled local
+    solves evaluate F alone where convergence is predicted, and again with J where it then does
+    not come: at most a few more evaluations (measured: 0.3-1%)."""
     s = LeapfrogSettings()
     python = {
         "shooting": replace(s.shooting, compiled=False),

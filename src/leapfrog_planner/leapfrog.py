@@ -417,7 +417,7 @@ def leapfrog(
         """
         ms = MultipleShootingSystem(flow, np.array([ta, mid[0], tb]), xa, xb)
         w0 = np.concatenate([guess, mid[1], mid[2]])
-        root = solve_multiple_shooting(ms, w0, local_method, attempt.root)
+        root = solve_multiple_shooting(ms, w0, local_method, attempt.root, attempt.compiled)
         count.add(root)
         return solve(ta, xa, tb, xb, root.x[: xa.size], settings=attempt) if root.success else None
 
@@ -616,11 +616,15 @@ def leapfrog(
             Z = np.hstack([junctions.X[:-1], junctions.lam0])
             ms = MultipleShootingSystem(coarse_flow, junctions.t, start, goal)
             w0 = ms.pack(junctions.lam0[0], Z)
-            root = solve_multiple_shooting(ms, w0, settings.method, coarse_root)
+            root = solve_multiple_shooting(
+                ms, w0, settings.method, coarse_root, final_settings.compiled
+            )
             if root.success:
                 count.add(root)
                 ms = MultipleShootingSystem(final_flow, junctions.t, start, goal)
-                root = solve_multiple_shooting(ms, root.x, settings.method, final_settings.root)
+                root = solve_multiple_shooting(
+                    ms, root.x, settings.method, final_settings.root, final_settings.compiled
+                )
             count.add(root)
             if root.success:
                 return root.x[: start.size].copy(), "multiple-shooting", root

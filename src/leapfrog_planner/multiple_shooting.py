@@ -73,13 +73,14 @@ class MultipleShootingSystem:
 
 
 def solve_multiple_shooting(
-    system: MultipleShootingSystem, w0, method, settings: RootSettings
+    system: MultipleShootingSystem, w0, method, settings: RootSettings, compiled: bool = True
 ) -> RootResult:
     """:func:`solve_root` on ``system``; in one compiled call where the method and the integrator
-    allow it (the same iterates, statuses and counts, bit for bit: tested). In the Python loop
+    allow it, unless ``compiled`` is False (``ShootingSettings.compiled`` of the caller's stage):
+    the same iterates, statuses and counts, bit for bit (tested). In the Python loop
     Leapfrog's two-arc attempts cost about three times their flows (measured on paper case 3,
     whose serial CPU time fell by 10% with the compiled loop)."""
     strategy = get_strategy(method)
-    if shooting.runs_compiled(system.flow, strategy):
+    if compiled and shooting.runs_compiled(system.flow, strategy):
         return shooting.compiled_newton(system, w0, strategy, settings)[0]
     return solve_root(system, w0, strategy, settings)
