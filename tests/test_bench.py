@@ -12,9 +12,11 @@ import pytest
 from leapfrog_planner import bench, peers
 from leapfrog_planner.bench import BenchSettings, run_bench, target_ratios
 from leapfrog_planner.cli import main
+from leapfrog_planner.direct import DirectResult
 from leapfrog_planner.errors import SettingsError
 from leapfrog_planner.planner import Planner, plan
 from leapfrog_planner.profiling import PARTS
+from leapfrog_planner.scenario import load_scenario
 
 
 def run(argv) -> int:
@@ -54,7 +56,7 @@ def test_bench_files_and_consistency(bench_out):
     expected |= {"shooting"}
     expected |= {"bvp-line", "bvp-path"}
     if peers.casadi_available():
-        expected |= {f"direct-N{n}-{g}" for n in (100, 200) for g in ("line", "path")}
+        expected |= {f"direct-N{n}-{g}" for n in (100, 200) for g in ("line", "path", "paths")}
     assert solvers == expected
     names = {o["scenario"] for o in data["outcomes"]}
     assert names == {"paper-case-1", peers.random_scenarios(1, 0)[0].name}
@@ -95,6 +97,89 @@ def test_bench_ratios_and_profile(bench_out):
     # The summary counts what the per-scenario tables show.
     n_ok = sum(o["success"] for o in data["outcomes"] if o["solver"] == "shooting")
     assert f"| shooting | {n_ok}/2 |" in md
+
+
+needs_casadi = pytest.mark.skipif(not peers.casadi_available(), reason="CasADi not installed")
+
+
+@needs_casadi
+def test_direct_from_every_initial_path_is_the_cheapest_of_the_serial_solves():
+    """``direct-N<n>-paths``: IPOPT from each of the planner's initial paths, in threads on one
+    transcription each, gives the cheapest of the same solves run one after the other, bit for
+    bit; ``-path`` is the first of them."""
+    sc = load_scenario("paper-case-2")
+    n = 40
+    nodes = np.linspace(0.0, sc.horizon, n + 1)
+    guesses = peers._path_guesses(sc)(nodes)
+    assert len(guesses) == len(Planner(sc).initial_paths()) == 3
+    tr = peers._transcription(sc.obstacles.shape[0], n)
+    serial = [
+        tr.solve(sc.start, sc.goal, sc.horizon, sc.obstacles, weight=sc.weight,
+                 exponent=sc.exponent, guess_states=g[:, :3])
+        for g in guesses
+    ]  # fmt: skip
+    costs = [r.cost for r in serial if r.success]
+    assert len(costs) == 3 and len(set(costs)) == 3  # three distinct local optima
+    both = [peers.run_direct(sc, n, "paths", repeat=1) for _ in range(2)]
+    for o in both:
+        assert o.solver == "direct-N40-paths" and o.success
+        assert o.cost == min(costs)
+        k = costs.index(min(costs))
+        assert f"path {k + 1} of 3 kept (3 succeeded; iterations per path: " in o.message
+    one = peers.run_direct(sc, n, "path", repeat=1)
+    assert one.cost == serial[0].cost
+
+
+def test_cheapest_direct_result_is_kept_and_named():
+    def result(success, cost, iterations):
+        return DirectResult(
+            success=success,
+            status="Solve_Succeeded" if success else "Maximum_Iterations_Exceeded",
+            message="IPOPT",
+            cost=cost,
+            t=np.zeros(2),
+            states=np.zeros((2, 3)),
+            controls=np.zeros((1, 2)),
+            min_clearance=0.0,
+            iterations=iterations,
+            solve_time=0.0,
+        )
+
+    r = peers._cheapest([result(True, 3.0, 5), result(False, 1.0, 9), result(True, 2.0, 7)])
+    assert r.cost == 2.0 and r.iterations == 7
+    assert r.message == (
+        "IPOPT: path 3 of 3 kept (2 succeeded; iterations per path: "
+        "5, 9 Maximum_Iterations_Exceeded, 7)"
+    )
+    none = peers._cheapest([result(False, 1.0, 9), result(False, 0.5, 3)])
+    assert not none.success and none.iterations == 9 and "(0 succeeded;" in none.message
+
+
+def test_like_for_like_pairs_are_marked_and_one_path_is_not_set_against_all():
+    def outcome(solver, t):
+        return peers.PeerOutcome(solver, "paper-case-2", True, 1.0, 0.0, t, (t,), "")
+
+    outs = [outcome("leapfrog-mnm", 0.02), outcome("leapfrog-mnm-1path", 0.01)]
+    outs += [outcome(f"direct-N100-{g}", 0.04) for g in ("line", "path", "paths")]
+    res = bench.BenchResult(
+        settings=BenchSettings(), scenarios=("paper-case-2",), outcomes=tuple(outs), floors=(),
+        profile=None, notes=(), machine={}, wall_time_s=0.0,
+    )  # fmt: skip
+    lines = {(r.leapfrog, r.against): r for r in target_ratios(res)}
+    assert set(lines) == {
+        ("leapfrog-mnm", "direct-N100-line"),
+        ("leapfrog-mnm", "direct-N100-path"),
+        ("leapfrog-mnm", "direct-N100-paths"),
+        ("leapfrog-mnm-1path", "direct-N100-line"),
+        ("leapfrog-mnm-1path", "direct-N100-path"),
+    }
+    marked = {k for k, r in lines.items() if "(same initial paths)" in r.text}
+    assert marked == {
+        ("leapfrog-mnm", "direct-N100-paths"),
+        ("leapfrog-mnm-1path", "direct-N100-path"),
+    }
+    assert lines["leapfrog-mnm", "direct-N100-paths"].ratio == pytest.approx(2.0)
+    assert lines["leapfrog-mnm-1path", "direct-N100-path"].ratio == pytest.approx(4.0)
 
 
 def test_cli_solver_choices_are_the_benchmark_solvers():

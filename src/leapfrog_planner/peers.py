@@ -13,11 +13,15 @@ its piecewise-constant controls along exact unicycle arcs.
 - ``bvp-line`` / ``bvp-path``: :func:`scipy.integrate.solve_bvp` on the same canonical system
   (the library's compiled right-hand side), from the straight line with zero costates, or from
   the first initial path of the planner with the costates that reproduce its controls.
-- ``direct-N<n>-line`` / ``-path``: CasADi/IPOPT, RK4 multiple shooting, the NLP of
-  :class:`~leapfrog_planner.direct.DirectTranscription` (built once per obstacle count and
-  mesh, reused across scenarios), from the straight line or the first initial path.
+- ``direct-N<n>-line`` / ``-path`` / ``-paths``: CasADi/IPOPT, RK4 multiple shooting, the NLP
+  of :class:`~leapfrog_planner.direct.DirectTranscription` (built once per obstacle count and
+  mesh, reused across scenarios), from the straight line, from the first initial path (the
+  start of ``leapfrog-mnm-1path``), or from each of the planner's initial paths (the search of
+  ``leapfrog-mnm``: one IPOPT solve per path, in one thread per path as the planner runs its
+  paths, the cheapest success kept).
 
-The ``*-path`` peers' timed solves include planning that initial path, as Leapfrog's do.
+The ``*-path`` and ``*-paths`` peers' timed solves include planning those initial paths, as
+Leapfrog's do.
 """
 
 from __future__ import annotations
@@ -26,7 +30,8 @@ import math
 import statistics
 import time
 import warnings
-from dataclasses import dataclass
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -141,27 +146,35 @@ def _checked(solver, sc, problem, ok, costate0, times, message, cost=None) -> Pe
 # --------------------------------------------------------------------------- solve_bvp
 
 
-def _path_guess(sc: Scenario):
-    """A function of the times ``t``: the states of the planner's first initial path at ``t``
-    (constant speed), and the minimum-norm costates that give its controls (``omega = -l3``,
-    ``v = -(l1, l2).heading``).
+def _path_guesses(sc: Scenario, count: int | None = None):
+    """A function of the times ``t``: for each initial path of the planner (its default number
+    of paths, or ``count``), the path's states at ``t`` (constant speed) and the minimum-norm
+    costates that give its controls (``omega = -l3``, ``v = -(l1, l2).heading``).
 
-    The path is planned on each call, as ``Planner.plan`` plans it, so that the ``*-path`` peers
-    are timed for the same work as Leapfrog: their guess is not free (1.5-15 ms on the paper
-    cases)."""
+    The paths are planned on each call, as ``Planner.plan`` plans them, so that the ``*-path``
+    peers are timed for the same work as Leapfrog: their guesses are not free (1.5-15 ms on the
+    paper cases)."""
     from .planner import Planner
 
-    planner = Planner(sc, initial_paths=1)
+    planner = Planner(sc) if count is None else Planner(sc, initial_paths=count)
 
-    def guess(t: np.ndarray) -> np.ndarray:
-        path = planner.initial_paths()[0]
-        xy, th = path.curve(t / sc.horizon)
-        v = path.length / sc.horizon
-        omega = np.gradient(th, t)
-        lam = np.column_stack([-v * np.cos(th), -v * np.sin(th), -omega])
-        return np.column_stack([xy, th, lam])
+    def guesses(t: np.ndarray) -> list[np.ndarray]:
+        out = []
+        for path in planner.initial_paths():
+            xy, th = path.curve(t / sc.horizon)
+            v = path.length / sc.horizon
+            omega = np.gradient(th, t)
+            lam = np.column_stack([-v * np.cos(th), -v * np.sin(th), -omega])
+            out.append(np.column_stack([xy, th, lam]))
+        return out
 
-    return guess
+    return guesses
+
+
+def _path_guess(sc: Scenario):
+    """The guess of :func:`_path_guesses` along the planner's first initial path only."""
+    guesses = _path_guesses(sc, 1)
+    return lambda t: guesses(t)[0]
 
 
 def _line_guess(sc: Scenario, t: np.ndarray) -> np.ndarray:
@@ -228,11 +241,13 @@ def casadi_available() -> bool:
 _TRANSCRIPTIONS: dict = {}
 
 
-def _transcription(n_obstacles: int, intervals: int):
-    """Built once per (obstacle count, mesh) and process: only warm solves are timed."""
+def _transcription(n_obstacles: int, intervals: int, slot: int = 0):
+    """Built once per (obstacle count, mesh, slot) and process: only warm solves are timed.
+    Concurrent solves need one transcription each (a CasADi solver's memory is its own; the
+    solve releases the GIL), hence the slots."""
     from .direct import DirectTranscription
 
-    key = (n_obstacles, intervals)
+    key = (n_obstacles, intervals, slot)
     if key not in _TRANSCRIPTIONS:
         _TRANSCRIPTIONS[key] = DirectTranscription(n_obstacles, intervals)
     return _TRANSCRIPTIONS[key]
@@ -250,26 +265,61 @@ def _arc_end(x0: np.ndarray, controls: np.ndarray, horizon: float) -> np.ndarray
 
 
 def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> PeerOutcome:
-    """IPOPT from the straight line (``"line"``) or the planner's first initial path."""
-    tr = _transcription(sc.obstacles.shape[0], intervals)
-    path_guess = _path_guess(sc) if start_from == "path" else None
+    """IPOPT from the straight line (``"line"``), from the planner's first initial path
+    (``"path"``), or from each of its initial paths (``"paths"``, one thread per path; the
+    cheapest successful solve is kept, the first path's on a tie)."""
+    n_obstacles = sc.obstacles.shape[0]
     nodes = np.linspace(0.0, sc.horizon, intervals + 1)
 
-    def solve():
-        return tr.solve(
+    def solve_from(states, slot=0):
+        return _transcription(n_obstacles, intervals, slot).solve(
             sc.start,
             sc.goal,
             sc.horizon,
             sc.obstacles,
             weight=sc.weight,
             exponent=sc.exponent,
-            guess_states=None if path_guess is None else path_guess(nodes)[:, :3],
+            guess_states=states,
         )
+
+    if start_from != "paths":
+        path_guess = _path_guess(sc) if start_from == "path" else None
+
+        def solve():
+            return solve_from(None if path_guess is None else path_guess(nodes)[:, :3])
+
+    else:
+        path_guesses = _path_guesses(sc)
+
+        def solve():
+            states = [g[:, :3] for g in path_guesses(nodes)]
+            slots = range(len(states))
+            for k in slots:  # built here, not in the threads: building is not thread-safe
+                _transcription(n_obstacles, intervals, k)
+            if len(states) == 1:
+                results = [solve_from(states[0])]
+            else:
+                with ThreadPoolExecutor(len(states), thread_name_prefix="ipopt-path") as pool:
+                    results = list(pool.map(solve_from, states, slots))
+            return _cheapest(results)
 
     r, times = _timed(solve, repeat)
     err = float(np.linalg.norm(_arc_end(sc.start, r.controls, sc.horizon) - sc.goal))
     return _outcome(
         f"direct-N{intervals}-{start_from}", sc, r.success, r.cost, err, times, r.message
+    )
+
+
+def _cheapest(results: list):
+    """The cheapest successful :class:`~leapfrog_planner.direct.DirectResult` (else the first),
+    its message saying which path it came from and what the others did."""
+    ok = [k for k, r in enumerate(results) if r.success]
+    k = min(ok, key=lambda j: results[j].cost) if ok else 0
+    each = ", ".join(f"{r.iterations}" + ("" if r.success else f" {r.status}") for r in results)
+    return replace(
+        results[k],
+        message=f"{results[k].message}: path {k + 1} of {len(results)} kept "
+        f"({len(ok)} succeeded; iterations per path: {each})",
     )
 
 
