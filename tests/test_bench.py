@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -180,6 +181,39 @@ def test_like_for_like_pairs_are_marked_and_one_path_is_not_set_against_all():
     }
     assert lines["leapfrog-mnm", "direct-N100-paths"].ratio == pytest.approx(2.0)
     assert lines["leapfrog-mnm-1path", "direct-N100-path"].ratio == pytest.approx(4.0)
+
+
+def test_measure_warms_up_then_times_the_peers_in_turn():
+    """Warm-ups first (a failed one is timed once and dropped), then rounds in which every peer
+    is timed once in turn (``per_round`` times for a fast one); ``more`` adds peers after the
+    warm-ups, from their values."""
+    calls = []
+
+    def peer(name, success=True, per_round=1):
+        def solve():
+            calls.append(name)
+            return SimpleNamespace(success=success, name=name, n=calls.count(name))
+
+        def judge(value, times):
+            return (value.name, value.n, len(times))
+
+        return peers.Peer(name, solve, judge, per_round)
+
+    def more(values):
+        assert [v.name for v in values] == ["a", "bad", "b"]
+        return [peer("floor", per_round=2)]
+
+    labels = []
+    out = peers.measure(
+        [peer("a"), peer("bad", success=False), peer("b")], 3, more=more, progress=labels.append
+    )
+    assert calls == ["a", "bad", "b", "floor"] + ["a", "b", "floor", "floor"] * 3
+    # judged on the last value: its call number, and the number of times
+    assert [o for o, _ in out] == [("a", 4, 3), ("bad", 1, 1), ("b", 4, 3), ("floor", 7, 6)]
+    assert labels == [
+        "a (warm-up)", "bad (warm-up)", "b (warm-up)", "floor (warm-up)",
+        "timing round 1 of 3", "timing round 2 of 3", "timing round 3 of 3",
+    ]  # fmt: skip
 
 
 def test_cli_solver_choices_are_the_benchmark_solvers():

@@ -51,6 +51,7 @@ CASADI_MISSING = (
 )
 # Performance targets of the issue, as ratios.
 TARGET_DIRECT_SPEEDUP, GOAL_DIRECT_SPEEDUP, TARGET_FLOOR_RATIO = 1.0, 10.0, 5.0
+FLOOR_SOLVES = 10  # timed floor solves per scenario, at least
 
 
 @dataclass(frozen=True)
@@ -119,16 +120,33 @@ def _units(settings: BenchSettings, have_casadi: bool) -> list[str]:
     return units
 
 
-def _run_unit(unit: str, sc: Scenario, repeat: int) -> tuple[PeerOutcome, object]:
+def _peer(unit: str, sc: Scenario) -> peers.Peer:
     if unit in LEAPFROG:
         method, options = LEAPFROG[unit]
-        return peers.run_leapfrog(sc, method, repeat, solver=unit, **options)
+        return peers.leapfrog_peer(sc, method, solver=unit, **options)
     if unit == "shooting":
-        return peers.run_shooting(sc, repeat), None
+        return peers.shooting_peer(sc)
     if unit.startswith("bvp-"):
-        return peers.run_bvp(sc, unit[4:], repeat), None
+        return peers.bvp_peer(sc, unit[4:])
     n, start_from = unit[len("direct-N") :].split("-")
-    return peers.run_direct(sc, int(n), start_from, repeat), None
+    return peers.direct_peer(sc, int(n), start_from)
+
+
+def _measured(sc: Scenario, units: list[str], repeat: int, step) -> tuple[list, list]:
+    """Every unit on ``sc``, timed in interleaved rounds (:func:`peers.measure`), and the floor
+    from Leapfrog-MNM's answer: (outcomes, [floor outcome] or [])."""
+
+    def floor(values):
+        # From the warm-up's answer: the timed solves give the same, the planner is deterministic.
+        res = values[units.index("leapfrog-mnm")] if "leapfrog-mnm" in units else None
+        if res is None or not res.success:
+            return []
+        # Timed about ten times per scenario: it takes well under a millisecond.
+        per_round = math.ceil(FLOOR_SOLVES / repeat)
+        return [peers.shooting_peer(sc, res.costate0, "floor", per_round=per_round)]
+
+    measured = peers.measure([_peer(u, sc) for u in units], repeat, more=floor, progress=step)
+    return [o for o, _ in measured[: len(units)]], [o for o, _ in measured[len(units) :]]
 
 
 def run_bench(
@@ -145,7 +163,9 @@ def run_bench(
     scenarios = [load_scenario(f"paper-case-{k}") for k in settings.cases]
     scenarios += peers.random_scenarios(settings.random, settings.seed)
     units = _units(settings, have_casadi)
-    total = len(scenarios) * len(units) + settings.profile
+    # Per scenario: each unit's warm-up, the floor's warm-up (when Leapfrog-MNM runs), rounds.
+    steps = len(units) + ("leapfrog-mnm" in units) + settings.repeat
+    total = len(scenarios) * steps + settings.profile
     done = 0
 
     def emit(label):
@@ -155,18 +175,20 @@ def run_bench(
     emit("warm-up (loading compiled kernels)")
     warm_up()
     outcomes, floors = [], []
-    for sc in scenarios:
-        for unit in units:
-            emit(f"{sc.name}: {unit}")
-            out, res = _run_unit(unit, sc, settings.repeat)
-            outcomes.append(out)
-            if unit == "leapfrog-mnm" and res.success:
-                floors.append(
-                    peers.run_shooting(
-                        sc, max(10, settings.repeat), guess=res.costate0, solver="floor"
-                    )
-                )
+
+    def step_of(name: str):
+        def step(label: str):
+            nonlocal done
+            emit(f"{name}: {label}")
             done += 1
+
+        return step
+
+    for k, sc in enumerate(scenarios):
+        outs, floor = _measured(sc, units, settings.repeat, step_of(sc.name))
+        outcomes += outs
+        floors += floor
+        done = (k + 1) * steps  # a skipped floor still counts its step
     split = None
     if settings.profile:
         case = f"paper-case-{settings.cases[-1]}" if settings.cases else scenarios[-1]
@@ -291,8 +313,8 @@ def _machine_text(result: BenchResult) -> str:
     return (
         f"Machine: {m['cores']} cores, load average {m['load_average']} at the end, "
         f"Python {m['python']}, {m['platform']}. Times: median of {result.settings.repeat} "
-        f"solves after a warm-up (a failed warm-up is timed once). Whole run "
-        f"{result.wall_time_s:.0f} s."
+        f"solves after a warm-up (a failed warm-up is timed once), the solvers of a scenario "
+        f"timed in turn, round after round. Whole run {result.wall_time_s:.0f} s."
     )
 
 

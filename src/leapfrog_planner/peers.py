@@ -1,8 +1,10 @@
 """Peer solvers for the benchmark, all on the same scenario and the same optimal control problem.
 
-Each ``run_*`` function returns a :class:`PeerOutcome`: success, cost, the end-state error and
-the median wall time of ``repeat`` solves after one untimed warm-up solve (compilation, caches,
-IPOPT's first call). End-state errors of indirect solutions are measured by re-integrating the
+Each ``*_peer`` function sets a solver up on a scenario as a :class:`Peer`; :func:`measure` times
+several peers on one scenario in interleaved rounds and gives each a :class:`PeerOutcome`:
+success, cost, the end-state error and the median wall time of ``repeat`` solves after one
+untimed warm-up solve (compilation, caches, IPOPT's first call). Each ``run_*`` function measures
+one peer alone. End-state errors of indirect solutions are measured by re-integrating the
 returned initial costate with the library's adaptive integrator (DOP853, rtol 1e-12, the same
 check as :func:`~leapfrog_planner.results.validate`); those of the direct method by propagating
 its piecewise-constant controls along exact unicycle arcs.
@@ -30,8 +32,10 @@ import math
 import statistics
 import time
 import warnings
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -39,13 +43,19 @@ from .results import validate
 from .scenario import Scenario
 
 __all__ = [
+    "Peer",
     "PeerOutcome",
+    "bvp_peer",
     "casadi_available",
+    "direct_peer",
+    "leapfrog_peer",
+    "measure",
     "random_scenarios",
     "run_bvp",
     "run_direct",
     "run_leapfrog",
     "run_shooting",
+    "shooting_peer",
 ]
 
 BVP_NODES = 41  # initial collocation mesh
@@ -65,23 +75,60 @@ class PeerOutcome:
     message: str
 
 
-def _timed(fn, repeat: int, ok=lambda value: value.success):
-    """A warm-up call, then ``repeat`` timed calls; returns the last value and the times.
+@dataclass(frozen=True)
+class Peer:
+    """One solver set up on one scenario, ready to be timed: ``solve()`` runs it once, and
+    ``judge(value, times)`` makes the :class:`PeerOutcome` of its last value."""
+
+    solver: str
+    solve: Callable[[], Any]
+    judge: Callable[[Any, tuple[float, ...]], PeerOutcome]
+    per_round: int = 1  # timed calls per round: more for a peer much faster than the others
+
+
+def measure(
+    peers: Sequence[Peer],
+    repeat: int,
+    *,
+    more: Callable[[list], Sequence[Peer]] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[tuple[PeerOutcome, Any]]:
+    """Time ``peers`` (on one scenario): each one's warm-up call, then ``repeat`` rounds that
+    time every peer once in turn. Interleaved, a drift of the machine's speed falls on all the
+    peers alike (on a shared 2-core machine it drifted by 1.5-2x within minutes, which one peer
+    timed after the other turns into a false ratio). Returns ``(outcome, last value)`` per peer.
 
     A failed warm-up is timed and not repeated: failures of the peers take seconds (mesh or
-    iteration limits) and their time is not the point.
+    iteration limits) and their time is not the point. ``more(values)`` may add peers once the
+    warm-ups are done, from their values (the floor starts from Leapfrog's answer).
+    ``progress(label)`` is called before each warm-up and each round.
     """
-    t = time.perf_counter()
-    value = fn()
-    first = time.perf_counter() - t
-    if not ok(value):
-        return value, (first,)
-    times = []
-    for _ in range(repeat):
+    peers, values, times, timed = list(peers), [], [], []
+
+    def warm_up(peer: Peer):
+        if progress is not None:
+            progress(f"{peer.solver} (warm-up)")
         t = time.perf_counter()
-        value = fn()
-        times.append(time.perf_counter() - t)
-    return value, tuple(times)
+        value = peer.solve()
+        first = time.perf_counter() - t
+        values.append(value)
+        timed.append(bool(value.success))
+        times.append([] if value.success else [first])
+
+    for peer in peers:
+        warm_up(peer)
+    for peer in more(values) if more is not None else ():
+        peers.append(peer)
+        warm_up(peer)
+    for k in range(repeat):
+        if progress is not None:
+            progress(f"timing round {k + 1} of {repeat}")
+        for i, peer in enumerate(peers):
+            for _ in range(peer.per_round if timed[i] else 0):
+                t = time.perf_counter()
+                values[i] = peer.solve()
+                times[i].append(time.perf_counter() - t)
+    return [(p.judge(v, tuple(ts)), v) for p, v, ts in zip(peers, values, times, strict=True)]
 
 
 def _outcome(solver, sc, ok, cost, err, times, message) -> PeerOutcome:
@@ -97,26 +144,21 @@ def _outcome(solver, sc, ok, cost, err, times, message) -> PeerOutcome:
     )
 
 
-def run_leapfrog(sc: Scenario, method: str, repeat: int, solver: str | None = None, **options):
-    """Leapfrog with ``method`` (and planner ``options``); returns the outcome and the last
-    :class:`LeapfrogResult`."""
+def leapfrog_peer(sc: Scenario, method: str, solver: str | None = None, **options) -> Peer:
+    """Leapfrog with ``method`` (and planner ``options``); its value is the
+    :class:`~leapfrog_planner.results.LeapfrogResult`."""
     from .planner import Planner
 
-    planner = Planner(sc, method=method, **options)
-    res, times = _timed(planner.plan, repeat)
-    out = _outcome(
-        solver or f"leapfrog-{method}",
-        sc,
-        res.success,
-        res.cost,
-        res.end_state_error,
-        times,
-        f"{res.status}: {res.message}",
-    )
-    return out, res
+    name = solver or f"leapfrog-{method}"
+
+    def judge(res, times):
+        msg = f"{res.status}: {res.message}"
+        return _outcome(name, sc, res.success, res.cost, res.end_state_error, times, msg)
+
+    return Peer(name, Planner(sc, method=method, **options).plan, judge)
 
 
-def run_shooting(sc: Scenario, repeat: int, guess=None, solver: str = "shooting") -> PeerOutcome:
+def shooting_peer(sc: Scenario, guess=None, solver: str = "shooting", per_round: int = 1) -> Peer:
     """Simple shooting with MNM over the whole horizon, from ``guess`` (default: affine)."""
     from .integrate.flow import Flow
     from .shooting import ShootingSettings, solve_shooting
@@ -130,8 +172,22 @@ def run_shooting(sc: Scenario, repeat: int, guess=None, solver: str = "shooting"
             problem, 0.0, sc.start, sc.horizon, sc.goal, guess=guess, settings=settings, flow=flow
         )
 
-    r, times = _timed(solve, repeat)
-    return _checked(solver, sc, problem, r.success, r.costate0, times, f"{r.status}: {r.message}")
+    def judge(r, times):
+        msg = f"{r.status}: {r.message}"
+        return _checked(solver, sc, problem, r.success, r.costate0, times, msg)
+
+    return Peer(solver, solve, judge, per_round)
+
+
+def run_leapfrog(sc: Scenario, method: str, repeat: int, solver: str | None = None, **options):
+    """:func:`leapfrog_peer` measured alone: the outcome and the last ``LeapfrogResult``."""
+    ((out, res),) = measure([leapfrog_peer(sc, method, solver, **options)], repeat)
+    return out, res
+
+
+def run_shooting(sc: Scenario, repeat: int, guess=None, solver: str = "shooting") -> PeerOutcome:
+    """:func:`shooting_peer` measured alone."""
+    return measure([shooting_peer(sc, guess, solver)], repeat)[0][0]
 
 
 def _checked(solver, sc, problem, ok, costate0, times, message, cost=None) -> PeerOutcome:
@@ -182,7 +238,7 @@ def _line_guess(sc: Scenario, t: np.ndarray) -> np.ndarray:
     return np.column_stack([sc.start + s * (sc.goal - sc.start), np.zeros((t.size, 3))])
 
 
-def run_bvp(sc: Scenario, start_from: str, repeat: int) -> PeerOutcome:
+def bvp_peer(sc: Scenario, start_from: str) -> Peer:
     """``scipy.integrate.solve_bvp`` from ``"line"`` or ``"path"``; the cost is a 7th ODE."""
     from scipy.integrate import solve_bvp
 
@@ -213,18 +269,18 @@ def run_bvp(sc: Scenario, start_from: str, repeat: int) -> PeerOutcome:
             warnings.simplefilter("ignore", RuntimeWarning)
             return solve_bvp(fun, bc, t, y0, tol=BVP_TOL, max_nodes=BVP_MAX_NODES)
 
-    sol, times = _timed(solve, repeat)
-    msg = f"status {sol.status}: {sol.message} ({sol.x.size} nodes)"
-    return _checked(
-        f"bvp-{start_from}",
-        sc,
-        problem,
-        sol.success,
-        sol.y[nx : 2 * nx, 0],
-        times,
-        msg,
-        cost=float(sol.y[2 * nx, -1]),
-    )
+    def judge(sol, times):
+        msg = f"status {sol.status}: {sol.message} ({sol.x.size} nodes)"
+        costate0, cost = sol.y[nx : 2 * nx, 0], float(sol.y[2 * nx, -1])
+        return _checked(name, sc, problem, sol.success, costate0, times, msg, cost=cost)
+
+    name = f"bvp-{start_from}"
+    return Peer(name, solve, judge)
+
+
+def run_bvp(sc: Scenario, start_from: str, repeat: int) -> PeerOutcome:
+    """:func:`bvp_peer` measured alone."""
+    return measure([bvp_peer(sc, start_from)], repeat)[0][0]
 
 
 # --------------------------------------------------------------------------- direct method
@@ -264,7 +320,7 @@ def _arc_end(x0: np.ndarray, controls: np.ndarray, horizon: float) -> np.ndarray
     return x
 
 
-def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> PeerOutcome:
+def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
     """IPOPT from the straight line (``"line"``), from the planner's first initial path
     (``"path"``), or from each of its initial paths (``"paths"``, one thread per path; the
     cheapest successful solve is kept, the first path's on a tie)."""
@@ -303,11 +359,17 @@ def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> Pe
                     results = list(pool.map(solve_from, states, slots))
             return _cheapest(results)
 
-    r, times = _timed(solve, repeat)
-    err = float(np.linalg.norm(_arc_end(sc.start, r.controls, sc.horizon) - sc.goal))
-    return _outcome(
-        f"direct-N{intervals}-{start_from}", sc, r.success, r.cost, err, times, r.message
-    )
+    def judge(r, times):
+        err = float(np.linalg.norm(_arc_end(sc.start, r.controls, sc.horizon) - sc.goal))
+        return _outcome(name, sc, r.success, r.cost, err, times, r.message)
+
+    name = f"direct-N{intervals}-{start_from}"
+    return Peer(name, solve, judge)
+
+
+def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> PeerOutcome:
+    """:func:`direct_peer` measured alone."""
+    return measure([direct_peer(sc, intervals, start_from)], repeat)[0][0]
 
 
 def _cheapest(results: list):
