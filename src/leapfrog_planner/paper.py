@@ -1,9 +1,9 @@
 """The paper's Section 3 experiment: its four cases with NM and MNM, beside its Table 1.
 
 :func:`run_paper` plans each case with classical Newton (NM) and the modified Newton method (MNM)
-in Leapfrog's inner loop, ``repeat`` times each, and keeps the median wall time of
-``Planner.plan()`` (initial paths, Leapfrog from each, final solve, validation). Failures are
-results: they are kept with their status, never dropped. :func:`write_paper` writes
+in Leapfrog's inner loop, ``repeat`` times each (NM and MNM in turn), and keeps the median wall
+time of ``Planner.plan()`` (initial paths, Leapfrog from each, final solve, validation).
+Failures are results: they are kept with their status, never dropped. :func:`write_paper` writes
 ``table1.md``, ``table1.csv``, ``comparison.md``, ``fig1.png`` .. ``fig4.png`` (MNM paths) and
 the JSON of every (case, method) result (``case<k>-<nm|mnm>.json``) from which the table is made.
 """
@@ -126,15 +126,6 @@ def machine_info() -> dict:
     }
 
 
-def _timed_plans(planner: Planner, repeat: int) -> MethodRun:
-    times, result = [], None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        result = planner.plan()
-        times.append(time.perf_counter() - t)
-    return MethodRun(planner.settings.leapfrog.method, result, tuple(times))
-
-
 def warm_up() -> None:
     """Load the compiled kernels and caches once, so no timed run pays for them."""
     Planner("paper-case-2", initial_paths=1).plan()
@@ -145,10 +136,13 @@ def run_paper(
     *,
     progress: Callable[[ExperimentEvent], None] | None = None,
 ) -> PaperResult:
-    """Run the experiment; ``progress`` is called before each (case, method) and at the end."""
+    """Run the experiment; ``progress`` is called before each timed plan and at the end.
+
+    NM and MNM take turns, run after run, so that a drift of the machine's speed falls on both
+    alike (on a shared machine it drifted by 1.5-2x within minutes)."""
     settings = settings or PaperSettings()
     t0 = time.perf_counter()
-    total = len(settings.cases) * len(METHODS)
+    total = len(settings.cases) * len(METHODS) * settings.repeat
     done = 0
 
     def emit(label):
@@ -160,17 +154,22 @@ def run_paper(
     runs = []
     for case in settings.cases:
         name = f"paper-case-{case}"
-        by_method = {}
-        for method, short in METHODS.items():
-            emit(f"{name} {short}")
-            planner = Planner(name, method=method)
-            by_method[method] = _timed_plans(planner, settings.repeat)
-            done += 1
+        planners = {method: Planner(name, method=method) for method in METHODS}
+        times = {method: [] for method in METHODS}
+        results = {}
+        for k in range(settings.repeat):
+            for method, short in METHODS.items():
+                emit(f"{name} {short}, run {k + 1} of {settings.repeat}")
+                t = time.perf_counter()
+                results[method] = planners[method].plan()
+                times[method].append(time.perf_counter() - t)
+                done += 1
+        by_method = {m: MethodRun(m, results[m], tuple(times[m])) for m in METHODS}
         runs.append(
             CaseRun(
                 case=case,
                 scenario=name,
-                obstacles=int(planner.scenario.obstacles.shape[0]),
+                obstacles=int(planners["newton"].scenario.obstacles.shape[0]),
                 nm=by_method["newton"],
                 mnm=by_method["modified-newton"],
             )
@@ -237,7 +236,7 @@ def _machine_line(result: PaperResult) -> str:
     return (
         f"Machine: {m['cores']} cores, load average {m['load_average']} at the end, "
         f"Python {m['python']}, {m['platform']}. Repetitions per solve: "
-        f"{result.settings.repeat} (median reported)."
+        f"{result.settings.repeat} (median reported; NM and MNM in turn)."
     )
 
 
