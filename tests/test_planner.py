@@ -576,3 +576,19 @@ def test_parallel_paths_give_the_same_result_as_sequential(planned):
         starts = sorted(e.path_index for e in got if e.stage == "path")
         assert starts == [0, 1, 2]
         assert got[-1].stage == "final"
+
+
+def test_a_single_candidate_path_is_not_ranked(monkeypatch):
+    """Ranking estimates each candidate's cost (0.6 ms on paper case 1); with one candidate there
+    is nothing to rank. With several, the ranking still orders them."""
+    import leapfrog_planner.planner as planner_module
+
+    calls = []
+    rank = planner_module.rank_paths
+    monkeypatch.setattr(
+        planner_module, "rank_paths", lambda *a: calls.append(len(a[1])) or rank(*a)
+    )
+    (path,) = Planner("paper-case-1").initial_paths()
+    assert path.label == "straight" and calls == []
+    paths = Planner("paper-case-3").initial_paths()
+    assert len(paths) == 3 and len(calls) == 1 and calls[0] >= 3
