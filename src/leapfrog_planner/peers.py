@@ -103,7 +103,7 @@ def measure(
     warm-ups are done, from their values (the floor starts from Leapfrog's answer).
     ``progress(label)`` is called before each warm-up and each round.
     """
-    peers, values, times, timed = list(peers), [], [], []
+    peers, values, times = list(peers), [], []
 
     def warm_up(peer: Peer):
         if progress is not None:
@@ -112,7 +112,6 @@ def measure(
         value = peer.solve()
         first = time.perf_counter() - t
         values.append(value)
-        timed.append(bool(value.success))
         times.append([] if value.success else [first])
 
     for peer in peers:
@@ -120,6 +119,7 @@ def measure(
     for peer in more(values) if more is not None else ():
         peers.append(peer)
         warm_up(peer)
+    timed = [bool(v.success) for v in values]  # the warm-ups that succeeded
     for k in range(repeat):
         if progress is not None:
             progress(f"timing round {k + 1} of {repeat}")
