@@ -13,7 +13,7 @@ import pytest
 from leapfrog_planner import bench, peers
 from leapfrog_planner.bench import BenchSettings, run_bench, target_ratios
 from leapfrog_planner.cli import main
-from leapfrog_planner.direct import DirectResult
+from leapfrog_planner.direct import DirectResult, arc_end_state
 from leapfrog_planner.errors import SettingsError
 from leapfrog_planner.planner import Planner, plan
 from leapfrog_planner.profiling import PARTS
@@ -248,7 +248,7 @@ def test_random_scenarios_seeded_and_valid():
 
 def test_direct_end_state_is_exact_for_arcs():
     # Constant (v, omega) over the horizon: a circular arc, end state in closed form.
-    x = peers._arc_end(np.zeros(3), np.tile([1.0, np.pi], (7, 1)), 1.0)
+    x = arc_end_state(np.zeros(3), np.tile([1.0, np.pi], (7, 1)), 1.0)
     assert np.allclose(x, [0.0, 2 / np.pi, np.pi], atol=1e-12)
 
 

@@ -134,3 +134,48 @@ def test_cli_generate(tmp_path):
     assert bad.returncode == 2
     assert bad.stderr.strip().count("\n") == 0 and "9" in bad.stderr
     assert not (tmp_path / "bad").exists()
+
+
+def test_horizon_range_draws_last_and_leaves_the_rest_as_it_was():
+    fixed = list(generate(GeneratorSpec(n=30, seed=4)))
+    assert fixed == list(generate(GeneratorSpec(n=30, seed=4, horizon=(1.0, 1.0))))
+    ranged = list(generate(GeneratorSpec(n=30, seed=4, horizon=(0.5, 3.0))))
+    horizons = [s.horizon for s in ranged]
+    assert all(0.5 <= h <= 3.0 for h in horizons) and max(horizons) - min(horizons) > 1.5
+    for a, b in zip(fixed, ranged, strict=True):  # positions, headings, obstacles unchanged
+        assert np.array_equal(a.start, b.start) and np.array_equal(a.goal, b.goal)
+        assert np.array_equal(a.obstacles, b.obstacles)
+    with pytest.raises(SettingsError, match="horizon: min"):
+        GeneratorSpec(horizon=(2.0, 1.0))
+
+
+def test_general_preset_has_headings_in_every_direction():
+    spec = GeneratorSpec.preset("general", n=300, seed=2)
+    assert spec.prefix == "general" and spec.workspace == (0.0, 0.0, 3.0, 3.0)
+    off = []
+    for sc in generate(spec):
+        s, g = sc.start, sc.goal
+        direction = math.atan2(g[1] - s[1], g[0] - s[0])
+        off += [s[2] - direction, g[2] - direction]
+        assert 0.5 <= sc.horizon <= 3.0 and math.hypot(*(g[:2] - s[:2])) >= 1.0
+        assert 1 <= len(sc.obstacles) <= 9 and np.all(sc.obstacles[:, 2] <= 0.4)
+    off = np.abs(off)
+    assert off.max() <= math.pi and np.mean(off > math.pi / 2) > 0.4  # half point away
+    # An option overrides the preset's value; an unknown preset is refused.
+    assert GeneratorSpec.preset("general", horizon=2.0).horizon == (2.0, 2.0)
+    assert GeneratorSpec.preset("default") == GeneratorSpec()
+    with pytest.raises(SettingsError, match="unknown preset"):
+        GeneratorSpec.preset("hard")
+
+
+def test_cli_preset_and_horizon_range(tmp_path):
+    out = tmp_path / "g"
+    r = subprocess.run(
+        [sys.executable, "-m", "leapfrog_planner.cli", "generate", "--n", "3", "--preset",
+         "general", "--horizon", "2..2.5", "--seed", "9", "--out", str(out)],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    got = [load_scenario(f) for f in sorted(out.glob("*.toml"))]
+    assert got == list(generate(GeneratorSpec.preset("general", n=3, seed=9, horizon=(2, 2.5))))
+    assert [s.name for s in got] == [f"general-s9-{i:05d}" for i in range(3)]

@@ -268,3 +268,30 @@ def test_dask_crash_and_hang_are_recorded_and_the_sweep_goes_on(tmp_path):
     }
     assert "restarted" in recs["00002"]["message"]
     assert summary.complete and summary.engine == "dask"
+
+
+def test_direct_method_is_an_independent_multistart(tmp_path):
+    """IPOPT from lines and the planner's paths: its cost, collision-free, near Leapfrog's."""
+    pytest.importorskip("casadi")
+    sc = [s for s in generate(GeneratorSpec(n=2, obstacles=(2, 2), seed=3))]
+    out = tmp_path / "d.jsonl"
+    summary = run_sweep(sc, out, SweepSettings(methods=("modified-newton", "direct"), workers=1))
+    assert summary.converged == 4
+    recs = {(r["scenario"], r["method"]): r for r in read_records(out)}
+    for s in sc:
+        lf, d = recs[(s.name, "modified-newton")], recs[(s.name, "direct")]
+        assert d["final_solver"] == "ipopt-N100" and d["min_clearance"] > 0
+        assert d["end_state_error"] < 1e-6  # the controls, driven exactly, reach the goal
+        # The mesh's error lies above the true optimum, within about 1e-3.
+        assert lf["cost"] <= d["cost"] <= lf["cost"] * (1 + 2e-3)
+
+
+def test_direct_method_without_casadi_is_refused(monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "casadi" else real(name, *a)
+    )
+    with pytest.raises(SettingsError, match="needs CasADi"):
+        SweepSettings(methods=("direct",))

@@ -6,7 +6,6 @@ Bad input fails before any work with one line on stderr and exit 2 (see :func:`.
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import click
@@ -31,98 +30,92 @@ def _range(kind, name):
 
 
 def _generator_options(fn):
-    """The generator's options, shared by ``generate`` and ``sweep``."""
+    """The generator's options, shared by ``generate`` and ``sweep``.
+
+    ``--preset`` picks a distribution; each other option, when given, overrides its value.
+    """
     opts = [
         click.option(
             "--n", "n", type=click.IntRange(min=0), default=None, help="number of scenarios"
         ),
         click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True),
         click.option(
-            "--obstacles",
-            default="3..10",
+            "--preset",
+            type=click.Choice(["default", "general"]),
+            default="default",
             show_default=True,
+            help="the distribution: 'general' has headings in every direction, T in 0.5..3,"
+            " radii 0.08..0.4 in a 3 x 3 room; the options below override it",
+        ),
+        click.option(
+            "--obstacles",
+            default=None,
             callback=_range(int, "obstacles"),
-            help="obstacles per scenario: N or LO..HI",
+            help="obstacles per scenario: N or LO..HI  [default preset: 3..10]",
         ),
         click.option(
             "--radius",
-            default="0.05..0.2",
-            show_default=True,
+            default=None,
             callback=_range(float, "radius"),
-            help="obstacle radius range LO..HI",
+            help="obstacle radius: R or LO..HI  [default preset: 0.05..0.2]",
         ),
         click.option(
             "--workspace",
             nargs=4,
             type=float,
-            default=(0.0, 0.0, 2.0, 2.0),
-            show_default=True,
+            default=None,
             metavar="XMIN YMIN XMAX YMAX",
+            help="[default preset: 0 0 2 2]",
         ),
         click.option(
             "--min-distance",
             type=float,
-            default=1.0,
-            show_default=True,
-            help="minimum start-goal distance",
+            default=None,
+            help="minimum start-goal distance  [default preset: 1]",
         ),
         click.option(
             "--clearance",
             type=float,
-            default=0.05,
-            show_default=True,
-            help="start and goal clearance from obstacle edges",
+            default=None,
+            help="start and goal clearance from obstacle edges  [default preset: 0.05]",
         ),
         click.option(
             "--obstacle-gap",
             type=float,
-            default=0.0,
-            show_default=True,
-            help="minimum gap between obstacles",
+            default=None,
+            help="minimum gap between obstacles  [default preset: 0]",
         ),
         click.option(
             "--heading-spread",
             type=float,
-            default=math.pi / 4,
-            show_default=True,
-            help="headings: goal direction +- this (radians)",
+            default=None,
+            help="headings: goal direction +- this (radians)  [default preset: pi/4]",
         ),
-        click.option("--horizon", type=float, default=1.0, show_default=True, help="T"),
-        click.option("--prefix", default="random", show_default=True, help="scenario name prefix"),
+        click.option(
+            "--horizon",
+            default=None,
+            callback=_range(float, "horizon"),
+            help="T: a value or LO..HI (uniform)  [default preset: 1]",
+        ),
+        click.option(
+            "--prefix", default=None, help="scenario name prefix  [default: the preset's]"
+        ),
     ]
     for o in reversed(opts):
         fn = o(fn)
     return fn
 
 
-def _spec(
-    n,
-    seed,
-    obstacles,
-    radius,
-    workspace,
-    min_distance,
-    clearance,
-    obstacle_gap,
-    heading_spread,
-    horizon,
-    prefix,
-):
+def _spec(n, seed, preset, prefix=None, **given):
+    """The generator spec of ``preset`` with the options that were given on top."""
     from .generate import GeneratorSpec
 
-    return GeneratorSpec(
-        n=n,
-        seed=seed,
-        obstacles=obstacles,
-        radius=radius,
-        workspace=tuple(workspace),
-        min_distance=min_distance,
-        clearance=clearance,
-        obstacle_gap=obstacle_gap,
-        heading_spread=heading_spread,
-        horizon=horizon,
-        prefix=prefix,
-    )
+    overrides = {k: v for k, v in given.items() if v is not None}
+    if "workspace" in overrides:
+        overrides["workspace"] = tuple(overrides["workspace"])
+    if prefix is not None:
+        overrides["prefix"] = prefix
+    return GeneratorSpec.preset(preset, n=n, seed=seed, **overrides)
 
 
 @click.command()
@@ -178,7 +171,7 @@ def _planner_options(items) -> dict:
     "--methods",
     default="newton,modified-newton",
     show_default=True,
-    help="comma-separated: newton, modified-newton, nleq-err, shooting",
+    help="comma-separated: newton, modified-newton, nleq-err, shooting, direct",
 )
 @click.option("--out", required=True, help="results file (JSON Lines); an existing one is resumed")
 @click.option(

@@ -34,6 +34,7 @@ from .errors import ModelError, ScenarioError, SettingsError
 __all__ = [
     "DirectResult",
     "DirectTranscription",
+    "cached_transcription",
     "multistart_guesses",
     "richardson",
     "solve_direct",
@@ -76,6 +77,9 @@ class DirectResult:
     min_clearance: float
     iterations: int
     solve_time: float
+    # |x(T) - goal| of the start state driven by the returned controls exactly (each interval an
+    # arc), not by the transcription's RK4 step: the check of the mesh's own error.
+    end_state_error: float = math.nan
 
 
 # --------------------------------------------------------------------------- validation
@@ -185,6 +189,17 @@ def _controls_from_states(states: np.ndarray, horizon: float) -> np.ndarray:
     mid = states[:-1, 2] + d[:, 2] / 2.0
     v = (d[:, 0] * np.cos(mid) + d[:, 1] * np.sin(mid)) / h
     return np.column_stack((v, d[:, 2] / h))
+
+
+def arc_end_state(x0, unicycle_controls: np.ndarray, horizon: float) -> np.ndarray:
+    """End state of the unicycle under piecewise-constant ``(v, omega)``, exactly (no steps)."""
+    h = horizon / len(unicycle_controls)
+    x = np.array(x0, dtype=float)
+    for v, om in unicycle_controls:
+        chord = v * h * np.sinc(om * h / (2.0 * np.pi))
+        mid = x[2] + om * h / 2.0
+        x += (chord * math.cos(mid), chord * math.sin(mid), om * h)
+    return x
 
 
 def _min_clearance(
@@ -402,7 +417,24 @@ class DirectTranscription:
             min_clearance=_min_clearance(states, unicycle, horizon, obstacles),
             iterations=iterations,
             solve_time=solve_time,
+            end_state_error=float(np.linalg.norm(arc_end_state(start, unicycle, horizon) - goal)),
         )
+
+
+_TRANSCRIPTIONS: dict[tuple, DirectTranscription] = {}
+
+
+def cached_transcription(
+    n_obstacles: int, intervals: int, *, slot: int = 0, model: str = "unicycle", **kw
+) -> DirectTranscription:
+    """A :class:`DirectTranscription` built once per arguments and process (building takes 0.3
+    to 2 s; a solve reuses it). Concurrent solves need one transcription each (a CasADi solver's
+    memory is its own, and its solve releases the GIL): give each thread its own ``slot``.
+    Building is not thread-safe: build every slot in one thread first."""
+    key = (n_obstacles, intervals, slot, model, tuple(sorted(kw.items())))
+    if key not in _TRANSCRIPTIONS:
+        _TRANSCRIPTIONS[key] = DirectTranscription(n_obstacles, intervals, model=model, **kw)
+    return _TRANSCRIPTIONS[key]
 
 
 # --------------------------------------------------------------------------- initial guesses
@@ -525,7 +557,8 @@ def solve_direct(
     extremal, while a raw guess's basin of attraction changes with the mesh.
 
     Extra keywords (``substeps``, ``wheel_radius``, ``axle_length``, ``tol``, ``max_iter``) go to
-    :class:`DirectTranscription`, built once per mesh and reused for all guesses.
+    :class:`DirectTranscription`, built once per mesh and process (:func:`cached_transcription`)
+    and reused for all guesses.
     """
     start = _state(start, "start")
     goal = _state(goal, "goal")
@@ -556,7 +589,9 @@ def solve_direct(
     if multistart:
         if coarse_intervals is not None and coarse_intervals < n:
             coarse_kw = {**kw, "tol": max(kw.get("tol", 1e-10), 1e-6)}
-            coarse = DirectTranscription(len(obstacles), coarse_intervals, model=model, **coarse_kw)
+            coarse = cached_transcription(
+                len(obstacles), coarse_intervals, model=model, **coarse_kw
+            )
             guesses_c = multistart_guesses(start, goal, coarse_intervals)
             optima = _distinct(solve_all(coarse, [(g, None) for g in guesses_c]))
             if optima:
@@ -568,7 +603,7 @@ def solve_direct(
     if not starts:
         starts = [(straight_line_guess(start, goal, horizon, n)[0], None)]
 
-    transcription = DirectTranscription(len(obstacles), n, model=model, **kw)
+    transcription = cached_transcription(len(obstacles), n, model=model, **kw)
     best = None
     for result in solve_all(transcription, starts):
         if best is None or _better(result, best):

@@ -9,8 +9,19 @@ Each scenario: obstacles are discs with centres uniform in the workspace box and
 in ``radius``, at least ``obstacle_gap`` apart (edge to edge); start and goal positions are
 uniform in the box, at least ``min_distance`` apart and at least ``clearance`` from every
 obstacle edge; headings are the start-to-goal direction plus a uniform angle in
-``[-heading_spread, heading_spread]``. A draw that violates a constraint is redrawn (rejection
-sampling, at most ``max_attempts`` times per item; then :class:`GeneratorError`).
+``[-heading_spread, heading_spread]``; the horizon is uniform in ``horizon`` (drawn last, and only
+when the range is not a single value, so that a fixed horizon leaves the other draws as they
+were). A draw that violates a constraint is redrawn (rejection sampling, at most
+``max_attempts`` times per item; then :class:`GeneratorError`).
+
+Presets (:data:`PRESETS`, ``GeneratorSpec.preset(name, **overrides)``):
+
+- ``default``: the distribution of the built-in statistics: 3 to 10 obstacles of radius 0.05 to
+  0.2 in a 2 x 2 room, start and goal at least 1 apart, headings within 45 degrees of the
+  start-to-goal direction, horizon 1.
+- ``general``: what a user meets: headings uniform in every direction (a goal behind the robot, a
+  goal heading that points back), 1 to 9 obstacles of radius 0.08 to 0.4 in a 3 x 3 room, start
+  and goal at least 1 apart, horizon uniform in 0.5 to 3.
 """
 
 from __future__ import annotations
@@ -28,6 +39,7 @@ from .errors import SettingsError
 from .scenario import Scenario
 
 __all__ = [
+    "PRESETS",
     "GeneratorError",
     "GeneratorSpec",
     "generate",
@@ -67,7 +79,7 @@ class GeneratorSpec:
     clearance: float = 0.05  # of start and goal from every obstacle edge
     obstacle_gap: float = 0.0  # edge to edge between obstacles; 0: may touch, never overlap
     heading_spread: float = math.pi / 4  # headings: goal direction +- this (radians)
-    horizon: float = 1.0
+    horizon: tuple[float, float] = (1.0, 1.0)  # inclusive range; a number means exactly that
     prefix: str = "random"  # scenario names: f"{prefix}-s{seed}-{i:05d}"
     max_attempts: int = 1000
 
@@ -114,7 +126,13 @@ class GeneratorSpec:
         set_("clearance", real("clearance", self.clearance, 0.0))
         set_("obstacle_gap", real("obstacle_gap", self.obstacle_gap, 0.0))
         set_("heading_spread", real("heading_spread", self.heading_spread, 0.0))
-        set_("horizon", real("horizon", self.horizon, 0.0, strict=True))
+        horizon = self.horizon if isinstance(self.horizon, tuple | list) else (self.horizon,) * 2
+        if len(horizon) != 2:
+            raise SettingsError(f"horizon must be T or (min, max), got {self.horizon!r}")
+        h = tuple(real("horizon", v, 0.0, strict=True) for v in horizon)
+        if h[0] > h[1]:
+            raise SettingsError(f"horizon: min {h[0]} > max {h[1]}")
+        set_("horizon", h)
         if not isinstance(self.prefix, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", self.prefix):
             raise SettingsError(
                 f"prefix must be letters, digits, '_', '-' or '.', got {self.prefix!r}"
@@ -123,6 +141,28 @@ class GeneratorSpec:
 
     def name(self, i: int) -> str:
         return f"{self.prefix}-s{self.seed}-{i:05d}"
+
+    @classmethod
+    def preset(cls, name: str, **overrides) -> GeneratorSpec:
+        """The spec of preset ``name`` (see :data:`PRESETS`), with ``overrides`` on top."""
+        if name not in PRESETS:
+            raise SettingsError(f"unknown preset {name!r} (known: {', '.join(PRESETS)})")
+        return cls(**{**PRESETS[name], **overrides})
+
+
+#: Named distributions (see the module notes); fields not given keep the class defaults.
+PRESETS: dict[str, dict] = {
+    "default": {},
+    "general": {
+        "obstacles": (1, 9),
+        "workspace": (0.0, 0.0, 3.0, 3.0),
+        "radius": (0.08, 0.4),
+        "min_distance": 1.0,
+        "heading_spread": math.pi,
+        "horizon": (0.5, 3.0),
+        "prefix": "general",
+    },
+}
 
 
 def generate_one(spec: GeneratorSpec, i: int) -> Scenario:
@@ -165,9 +205,11 @@ def generate_one(spec: GeneratorSpec, i: int) -> Scenario:
         )
     direction = math.atan2(g[1] - s[1], g[0] - s[0])
     th0, th1 = direction + rng.uniform(-1.0, 1.0, size=2) * spec.heading_spread
+    lo, hi = spec.horizon
+    horizon = lo if lo == hi else float(rng.uniform(lo, hi))
     return Scenario(
         name=spec.name(i),
-        horizon=spec.horizon,
+        horizon=horizon,
         start=[float(s[0]), float(s[1]), float(th0)],
         goal=[float(g[0]), float(g[1]), float(th1)],
         obstacles=np.array(obstacles, dtype=float).reshape(-1, 3),

@@ -294,30 +294,11 @@ def casadi_available() -> bool:
     return True
 
 
-_TRANSCRIPTIONS: dict = {}
-
-
 def _transcription(n_obstacles: int, intervals: int, slot: int = 0):
-    """Built once per (obstacle count, mesh, slot) and process: only warm solves are timed.
-    Concurrent solves need one transcription each (a CasADi solver's memory is its own; the
-    solve releases the GIL), hence the slots."""
-    from .direct import DirectTranscription
+    """Built once per (obstacle count, mesh, slot) and process: only warm solves are timed."""
+    from .direct import cached_transcription
 
-    key = (n_obstacles, intervals, slot)
-    if key not in _TRANSCRIPTIONS:
-        _TRANSCRIPTIONS[key] = DirectTranscription(n_obstacles, intervals)
-    return _TRANSCRIPTIONS[key]
-
-
-def _arc_end(x0: np.ndarray, controls: np.ndarray, horizon: float) -> np.ndarray:
-    """End state of the unicycle under piecewise-constant ``(v, omega)``, exactly (no steps)."""
-    h = horizon / len(controls)
-    x = np.array(x0, dtype=float)
-    for v, om in controls:
-        chord = v * h * np.sinc(om * h / (2.0 * np.pi))
-        mid = x[2] + om * h / 2.0
-        x += (chord * math.cos(mid), chord * math.sin(mid), om * h)
-    return x
+    return cached_transcription(n_obstacles, intervals, slot=slot)
 
 
 def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
@@ -360,8 +341,7 @@ def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
             return _cheapest(results)
 
     def judge(r, times):
-        err = float(np.linalg.norm(_arc_end(sc.start, r.controls, sc.horizon) - sc.goal))
-        return _outcome(name, sc, r.success, r.cost, err, times, r.message)
+        return _outcome(name, sc, r.success, r.cost, r.end_state_error, times, r.message)
 
     name = f"direct-N{intervals}-{start_from}"
     return Peer(name, solve, judge)

@@ -7,6 +7,13 @@ plans every (scenario, method) pair not yet in the results file and appends one 
 - ``newton``, ``modified-newton``, ``nleq-err``: the Leapfrog planner with that local solver;
 - ``shooting``: plain simple shooting over ``[0, T]`` from the affine costate guess (MNM), the
   baseline that Leapfrog improves on;
+- ``direct``: the independent direct method (CasADi + IPOPT, RK4 multiple shooting on
+  :data:`DIRECT_INTERVALS` intervals) as a multi-start: the straight line, bent lines (both
+  heading choices) and the planner's initial paths (at least three), the cheapest success
+  kept. Its cost is reported as is, mesh error included (at 100 intervals about 1e-4 to 1e-3
+  relative, and above the true optimum of the same extremal), and its path is re-checked for
+  clearance between the mesh nodes. It needs CasADi (the ``bench`` extra); without it the
+  method is refused before any work;
 - any :class:`SweepMethod` (a name and a picklable function), for one's own solvers.
 
 Every answer is re-integrated and checked the same way (:func:`.results.validate`), so the costs
@@ -32,6 +39,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib.util
 import json
 import math
 import os
@@ -68,7 +76,9 @@ __all__ = [
 ]
 
 PLANNER_METHODS = ("newton", "modified-newton", "nleq-err")
-BUILTIN_METHODS = (*PLANNER_METHODS, "shooting")
+BUILTIN_METHODS = (*PLANNER_METHODS, "shooting", "direct")
+#: Mesh of the ``direct`` method.
+DIRECT_INTERVALS = 100
 #: The sweep's planner defaults (see the module docstring); overridden by ``SweepSettings.planner``.
 # threads=1: the sweep already runs one pair per core; path threads would only oversubscribe.
 DEFAULT_PLANNER_OPTIONS = {"initial_paths": 1, "threads": 1}
@@ -123,6 +133,10 @@ class SweepSettings:
                 raise SettingsError(f"unknown method {m!r} (known: {', '.join(BUILTIN_METHODS)})")
         if len(set(names)) != len(names):
             raise SettingsError(f"methods: a method is listed twice ({', '.join(names)})")
+        if "direct" in names and importlib.util.find_spec("casadi") is None:
+            raise SettingsError(
+                "method 'direct' needs CasADi: pip install 'leapfrog-planner[bench]'"
+            )
         object.__setattr__(self, "methods", methods)
         planner = dict(self.planner.items() if isinstance(self.planner, dict) else self.planner)
         if "method" in planner:
@@ -222,6 +236,8 @@ def settings_hash(method, settings: SweepSettings) -> str:
         from .shooting import ShootingSettings
 
         what = f"shooting:{ShootingSettings()!r}:{VALIDATION!r}"
+    elif method == "direct":
+        what = f"direct:N{DIRECT_INTERVALS}:{settings.planner_settings('modified-newton')!r}"
     else:
         what = f"leapfrog:{settings.planner_settings(method)!r}"
     return hashlib.sha256(what.encode()).hexdigest()[:16]
@@ -336,6 +352,44 @@ def _run_shooting(sc: Scenario, options: dict) -> dict:
     }
 
 
+def _run_direct(sc: Scenario, options: dict) -> dict:
+    from .direct import solve_direct
+    from .planner import Planner
+
+    t = time.perf_counter()
+    paths = max(3, int(options.get("initial_paths", 1)))
+    planner = Planner(sc, **{**options, "initial_paths": paths})
+    s = np.linspace(0.0, 1.0, DIRECT_INTERVALS + 1)
+    guesses = [np.column_stack(path.curve(s)) for path in planner.initial_paths()]
+    r = solve_direct(
+        sc.start,
+        sc.goal,
+        sc.horizon,
+        sc.obstacles,
+        weight=sc.weight,
+        exponent=sc.exponent,
+        intervals=DIRECT_INTERVALS,
+        model=sc.model,
+        guesses=guesses,
+        **sc.model_parameters,
+    )
+    clear = r.min_clearance >= 0.0
+    ok = r.success and math.isfinite(r.cost) and clear
+    message = r.message if clear else f"{r.message}; the path collides ({r.min_clearance:.3g})"
+    return {
+        "status": "converged" if ok else "failed",
+        "message": message,
+        "cost": _num(r.cost) if r.success else None,
+        "min_clearance": _num(r.min_clearance) if sc.obstacles.size else None,
+        "end_state_error": _num(r.end_state_error),
+        "newton_iterations": int(r.iterations),
+        "f_evals": None,
+        "sweeps": None,
+        "final_solver": f"ipopt-N{DIRECT_INTERVALS}",
+        "wall_time_s": time.perf_counter() - t,
+    }
+
+
 def _plain(v):
     """A JSON value: numpy scalars as Python numbers, non-finite as null, others as text."""
     if v is None or isinstance(v, bool | str):
@@ -405,6 +459,8 @@ def run_task(task: PairTask) -> dict:
                 out = dict(task.method.run(task.scenario, options))
             elif task.method == "shooting":
                 out = _run_shooting(task.scenario, options)
+            elif task.method == "direct":
+                out = _run_direct(task.scenario, options)
             else:
                 out = _run_planner(task.scenario, task.method, options, deadline)
         return _record(task, out, None, time.perf_counter() - t0, warm)
