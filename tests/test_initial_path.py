@@ -9,7 +9,14 @@ import pytest
 
 from conftest import CASES
 from leapfrog_planner.errors import ScenarioError, SettingsError
-from leapfrog_planner.initial_path import InitialPath, initial_paths, plot_initial_paths
+from leapfrog_planner.initial_path import (
+    FORWARD,
+    EndModes,
+    InitialPath,
+    end_modes,
+    initial_paths,
+    plot_initial_paths,
+)
 
 PI = math.pi
 
@@ -244,6 +251,74 @@ def test_start_equal_to_goal_turns_on_the_spot():
     t, X = path.junctions(4, 1.0)
     np.testing.assert_allclose(X[:, :2], 1.0)
     np.testing.assert_allclose(X[:, 2], np.linspace(0.0, PI / 2, 5), atol=1e-15)
+
+
+# --------------------------------------------------------------------------- end modes
+
+
+def test_end_modes_only_where_a_heading_points_away():
+    line = np.array([[0.0, 0.0], [2.0, 0.0]])
+    assert end_modes(line, [0, 0, 0.3], [2, 0, -1.2]) == [FORWARD]
+    assert end_modes(line, [0, 0, PI / 2], [2, 0, 0]) == [FORWARD]  # 90 degrees: still forward
+    # The start points back: forward with a turning arc or a turn in place; reverse, whose
+    # start fits and whose goal then points back.
+    assert end_modes(line, [0, 0, 3.0], [2, 0, 0.0]) == [
+        FORWARD,
+        EndModes(turn_start=True),
+        EndModes(reverse=True),
+        EndModes(reverse=True, turn_goal=True),
+    ]
+    # Both point back: reversing fits both ends.
+    assert EndModes(reverse=True) in end_modes(line, [0, 0, PI], [2, 0, -PI])
+    assert EndModes(reverse=True, turn_start=True).describe() == "reverse, turn in place at start"
+
+
+def test_goal_behind_the_start_is_reached_in_reverse():
+    """Parked facing away from the goal: the reverse path keeps the heading and backs along the
+    chord; the forward one loops round."""
+    paths = initial_paths([0.0, 0.0, 0.0], [-1.5, 0.0, 0.0], [], k=1)
+    by_modes = {p.modes: p for p in paths}
+    back = by_modes[EndModes(reverse=True)]
+    assert back.label == "straight, reverse"
+    s = np.linspace(0.0, 1.0, 201)
+    xy, th = back.curve(s)
+    np.testing.assert_allclose(th, 0.0, atol=1e-12)
+    np.testing.assert_allclose(xy[:, 1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(xy[:, 0], -1.5 * s, atol=1e-9)  # constant speed
+    assert by_modes[FORWARD].length > 2.0 * back.length  # the forward loop
+
+
+def test_turn_in_place_then_drive_and_turn_again():
+    start, goal = [0.0, 0.0, PI], [2.0, 0.0, 0.75 * PI]
+    path = {p.modes: p for p in initial_paths(start, goal, [], k=1)}[
+        EndModes(turn_start=True, turn_goal=True)
+    ]
+    assert path.length == pytest.approx(2.0)
+    # Time is shared by the unicycle's metric: turns of pi and 3 pi / 4, 2 units of path.
+    total = 2.0 + PI + 0.75 * PI
+    a, b = PI / total, 1.0 - 0.75 * PI / total
+    xy, th = path.curve(np.array([0.0, a / 2, a, (a + b) / 2, b, (b + 1) / 2, 1.0]))
+    np.testing.assert_allclose(xy[:3], 0.0, atol=1e-12)  # turning on the spot
+    np.testing.assert_allclose(th[:3], [PI, PI / 2, 0.0], atol=1e-12)
+    np.testing.assert_allclose(xy[3], [1.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(th[3:5], 0.0, atol=1e-12)
+    np.testing.assert_allclose(xy[4:], [[2.0, 0.0]] * 3, atol=1e-12)
+    np.testing.assert_allclose(th[4:], [0.0, 0.375 * PI, 0.75 * PI], atol=1e-12)
+    t, X = path.junctions(8, 1.0)
+    assert np.array_equal(X[0], start) and np.array_equal(X[-1], goal)
+
+
+def test_modes_keep_the_homotopy_class_and_the_paper_cases_stay_forward():
+    start, goal, obstacles = [0.0, 0.0, PI], [2.0, 0.0, PI], [[1.0, 0.0, 0.2]]
+    paths = initial_paths(start, goal, obstacles, k=2)
+    classes = {}
+    for p in paths:
+        classes.setdefault(p.label.split(",")[0], set()).add(p.signature)
+        assert p.min_clearance >= 0.0
+    assert len(classes) == 2 and all(len(sig) == 1 for sig in classes.values())
+    assert any(p.modes == EndModes(reverse=True) for p in paths)
+    for name, (s, g, obs) in PAPER_CASES.items():
+        assert all(p.modes == FORWARD for p in initial_paths(s, g, obs, k=8)), name
 
 
 # --------------------------------------------------------------------------- waypoints

@@ -17,6 +17,7 @@ from conftest import CASES, EXTREMAL_COSTATE
 from leapfrog_planner.errors import SettingsError
 from leapfrog_planner.generate import GeneratorSpec, generate_one
 from leapfrog_planner.leapfrog import LeapfrogSettings, SweepRecord, _Arcs, leapfrog
+from leapfrog_planner.path_ranking import PathGuide
 from leapfrog_planner.planner import Planner, plan
 from leapfrog_planner.results import validate
 from leapfrog_planner.shooting import solve_shooting
@@ -296,7 +297,7 @@ def test_default_settings_are_documented_values():
         ("attempt_stall_window", -1, "attempt_stall_window"),
         ("two_arc_attempt", "yes", "two_arc_attempt"),
         ("local_halvings", -1, "local_halvings"),
-        ("fit_halvings", 2.5, "fit_halvings"),
+        ("local_halvings", 2.5, "local_halvings"),
         ("final_retry_sweeps", -1, "final_retry_sweeps"),
         ("final_retry_jump", 0.0, "final_retry_jump"),
     ],
@@ -380,14 +381,11 @@ def test_a_level_ending_with_a_failing_local_problem_is_refined():
     planner = Planner(sc, method="newton", initial_paths=1, threads=1)
     path = planner.initial_paths()[0]
     t, X = path.junctions(8, sc.horizon)
-
-    def curve(tq):
-        xy, th = path.curve(np.array([tq / sc.horizon]))
-        return np.array([xy[0, 0], xy[0, 1], th[0]])
+    guide = PathGuide(planner.problem, path, sc.horizon)
 
     def run(**options):
         settings = replace(planner.settings.leapfrog, **options)
-        return leapfrog(planner.problem, t, X, curve=curve, settings=settings, flow=planner.flow)
+        return leapfrog(planner.problem, t, X, guide=guide, settings=settings, flow=planner.flow)
 
     without = run(max_refinements=0, final_retry_sweeps=0)  # (the retry rescues it as well)
     assert not without.success
@@ -398,18 +396,6 @@ def test_a_level_ending_with_a_failing_local_problem_is_refined():
     assert refined.cost_increases == 0
     v = validate(planner.problem, 0.0, sc.start, sc.horizon, sc.goal, refined.costate0)
     assert v.end_state_error <= 1e-8
-
-
-def test_initial_segments_keep_a_longer_line_search_than_the_sweeps():
-    """Random scenario 382 of seed 1, MNM, one initial path: with the sweeps' short line search
-    (2^-3) on the initial path too, a segment fails even after splitting (measured); with the
-    initial path's own 2^-10 (``fit_halvings``) the run converges."""
-    sc = generate_one(GeneratorSpec(n=500, seed=1, obstacles=(3, 10)), 382)
-    short = plan(sc, method=MNM, initial_paths=1, threads=1, fit_halvings=3)
-    assert not short.success and "initial segment" in short.message
-    r = plan(sc, method=MNM, initial_paths=1, threads=1)
-    assert r.success, r.message
-    assert (LeapfrogSettings().local_halvings, LeapfrogSettings().fit_halvings) == (3, 10)
 
 
 def test_failed_final_solves_are_retried_after_more_sweeps_at_the_last_level():
@@ -436,9 +422,9 @@ def test_failed_final_solves_are_retried_after_more_sweeps_at_the_last_level():
 
 
 def test_initial_segments_go_to_continuation_before_the_affine_guess(monkeypatch):
-    """On the initial path, a segment whose warm guess fails at the full weight is solved next
-    by continuation (its first solve at weight 0), not from the affine guess at the full weight.
-    Paper case 4's second initial path has five such segments."""
+    """On the initial path, a segment whose warm guess and path costate fail at the full weight
+    is solved next by continuation (its first solve at weight 0), not from the affine guess at
+    the full weight. Paper case 4's second initial path has such segments."""
     import leapfrog_planner.leapfrog as lf
 
     calls = []
@@ -452,10 +438,11 @@ def test_initial_segments_go_to_continuation_before_the_affine_guess(monkeypatch
     monkeypatch.setattr(lf.LocalShooter, "__call__", spy)
     planner = Planner(CASES[4].name, threads=1)
     sc, W = planner.scenario, planner.problem.penalty.weight
-    t, X = planner.initial_paths()[1].junctions(8, sc.horizon)
-    run = leapfrog(
-        planner.problem, t, X, flow=planner.flow, settings=LeapfrogSettings(max_sweeps=1)
-    )
+    path = planner.initial_paths()[1]
+    t, X = path.junctions(8, sc.horizon)
+    guide = PathGuide(planner.problem, path, sc.horizon)
+    settings = LeapfrogSettings(max_sweeps=1)
+    run = leapfrog(planner.problem, t, X, guide=guide, flow=planner.flow, settings=settings)
     assert run.initial_cost < np.inf
     fit, solved = [], 0
     for c in calls:  # the initial path's calls: until its 8 segments are solved at weight W
@@ -463,12 +450,17 @@ def test_initial_segments_go_to_continuation_before_the_affine_guess(monkeypatch
         solved += c[0] == W and c[2]
         if solved == 8:
             break
-    assert fit[0] == (W, True, True)  # the first segment: the affine guess
-    warm_failures = [k for k, c in enumerate(fit) if c == (W, False, False)]
-    assert len(warm_failures) >= 3
-    for k in warm_failures:
-        assert fit[k + 1][0] == 0.0
-    assert (W, True, False) not in fit and (W, True, True) not in fit[1:]
+    assert fit[0] == (W, False, True)  # the first segment: the path's costate
+    # Failed attempts at the full weight (warm, then the path's costate) go to continuation.
+    failed = [k for k, c in enumerate(fit) if c == (W, False, False)]
+    assert len(failed) >= 2
+    assert any(fit[k + 1][0] == 0.0 for k in failed)
+    assert all(fit[k + 1][0] in (0.0, W) for k in failed)
+    assert not any(c[1] for c in fit if c[0] == W)  # never the affine guess at the full weight
+    # Without a guide the first segment starts from the affine guess, as the paper's does.
+    calls.clear()
+    leapfrog(planner.problem, t, X, flow=planner.flow, settings=settings)
+    assert calls[0] == (W, True, True)
 
 
 # --------------------------------------------------------------------------- two-arc attempt

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from conftest import CASES
-from leapfrog_planner.initial_path import InitialPath, initial_paths
-from leapfrog_planner.path_ranking import estimated_cost, rank_paths
+from leapfrog_planner.initial_path import EndModes, InitialPath, initial_paths
+from leapfrog_planner.path_ranking import PathGuide, estimated_cost, rank_paths
 from leapfrog_planner.planner import Planner
 from leapfrog_planner.problem import OptimalControlProblem
 
@@ -59,3 +61,25 @@ def test_case_4_picks_a_path_beyond_the_three_shortest():
     assert len(chosen) == 3
     assert any(label not in {"visibility #1", "visibility #2", "visibility #3"} for label in chosen)
     assert Planner(CASES[4].name, candidate_paths=3).initial_paths()[0].label.startswith("vis")
+
+
+def test_guide_costate_gives_the_path_its_own_controls():
+    """Forward, reverse and on the spot: the control of the guide's costate follows the path."""
+    problem = OptimalControlProblem.create("unicycle")
+    start, goal = [0.0, 0.0, math.pi], [2.0, 0.0, math.pi]
+    paths = {p.modes: p for p in initial_paths(start, goal, [], k=1)}
+    T = 2.0
+    spin = PathGuide(problem, paths[EndModes(turn_start=True, turn_goal=True)], T)
+    back = PathGuide(problem, paths[EndModes(reverse=True)], T)
+    total = 2.0 + 2.0 * math.pi  # the turning path's metric length
+    for guide, t, v, omega in (
+        (spin, 0.1, 0.0, -total / T),  # turning on the spot towards the chord
+        (spin, 1.0, total / T, 0.0),  # driving along it
+        (back, 0.5, -2.0 / T, 0.0),  # backing along it, heading pi
+    ):
+        lam = guide.costate(t)
+        x = guide.state(t)
+        # The unicycle's control law: v = -(l1 cos th + l2 sin th), omega = -l3.
+        assert -(lam[0] * math.cos(x[2]) + lam[1] * math.sin(x[2])) == pytest.approx(v, abs=1e-6)
+        assert -lam[2] == pytest.approx(omega, abs=1e-6)
+    assert np.array_equal(spin.state(0.0), start) and np.allclose(spin.state(T), goal)

@@ -349,6 +349,79 @@ class _SmoothCurve:
         return xy, phi + s * self.delta
 
 
+@dataclass(frozen=True)
+class EndModes:
+    """How a path meets its end poses.
+
+    ``reverse``: the path is driven backwards (heading = tangent direction + pi). ``turn_start``
+    (``turn_goal``): the robot turns in place at the start (goal) between its heading and the
+    direction of the first (last) leg, instead of leaving (arriving) along its heading with a
+    turning arc. The default is forward with turning arcs where needed.
+    """
+
+    reverse: bool = False
+    turn_start: bool = False
+    turn_goal: bool = False
+
+    def describe(self) -> str:
+        """``""`` for the default, else e.g. ``"reverse, turn in place at start"``."""
+        parts = ["reverse"] if self.reverse else []
+        ends = [e for e, on in (("start", self.turn_start), ("goal", self.turn_goal)) if on]
+        if ends:
+            parts.append("turn in place at " + " and ".join(ends))
+        return ", ".join(parts)
+
+
+FORWARD = EndModes()
+
+
+class _PoseCurve:
+    """Poses ``(x, y, heading)`` at normalised time ``s``: a turn in place at the start by
+    ``spin0``, the smooth curve at constant speed (heading = its tangent direction, minus
+    ``offset`` = pi when reversing), a turn in place at the goal by ``spin1``.
+
+    Time is shared in proportion to the unicycle's own metric (its cost is ``1/2 (v^2 +
+    omega^2)``): a turn of ``rho`` radians takes the time of ``rho`` units of path. Without turns
+    and offset the poses are the curve's own, unchanged.
+    """
+
+    __slots__ = ("curve", "theta0", "theta1", "spin0", "spin1", "offset", "a", "b", "plain")
+
+    def __init__(self, curve: _SmoothCurve, theta0, theta1, spin0=0.0, spin1=0.0, offset=0.0):
+        self.curve = curve
+        self.theta0, self.theta1 = float(theta0), float(theta1)
+        self.spin0, self.spin1, self.offset = float(spin0), float(spin1), float(offset)
+        self.plain = self.spin0 == 0.0 and self.spin1 == 0.0 and self.offset == 0.0
+        total = curve.length + abs(self.spin0) + abs(self.spin1)
+        self.a = abs(self.spin0) / total if total > 0.0 else 0.0
+        self.b = 1.0 - abs(self.spin1) / total if total > 0.0 else 1.0
+
+    @property
+    def length(self) -> float:
+        return self.curve.length
+
+    @property
+    def samples(self) -> np.ndarray:
+        return self.curve.samples
+
+    def evaluate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.plain:
+            return self.curve.evaluate(s)
+        a, b = self.a, self.b
+        xy = np.empty((s.size, 2))
+        th = np.empty(s.size)
+        drive = (s >= a) & (s <= b)
+        sigma = np.clip((s[drive] - a) / (b - a), 0.0, 1.0) if b > a else np.zeros(drive.sum())
+        xy[drive], th[drive] = self.curve.evaluate(sigma)
+        th[drive] -= self.offset
+        before, after = s < a, s > b
+        xy[before] = self.curve.samples[0]
+        th[before] = self.theta0 + self.spin0 * (s[before] / a)
+        xy[after] = self.curve.samples[-1]
+        th[after] = self.theta1 - self.spin1 * ((1.0 - s[after]) / (1.0 - b))
+        return xy, th
+
+
 @dataclass(frozen=True, eq=False)
 class InitialPath:
     """A collision-free initial path from start to goal and its smoothed C1 curve.
@@ -369,7 +442,8 @@ class InitialPath:
     label: str
     start: np.ndarray = field(repr=False)
     goal: np.ndarray = field(repr=False)
-    _curve: _SmoothCurve = field(repr=False)
+    _curve: _PoseCurve = field(repr=False)
+    modes: EndModes = FORWARD
 
     @classmethod
     def from_polyline(
@@ -397,12 +471,15 @@ class InitialPath:
         return _make_path(_clean(poly, S[:2], G[:2], tol), S, G, obs, label, tol)
 
     def curve(self, s) -> tuple[np.ndarray, np.ndarray]:
-        """Points ``(n, 2)`` and headings ``(n,)`` of the smoothed curve at normalised arclength.
+        """Points ``(n, 2)`` and headings ``(n,)`` of the path at normalised time ``s``.
 
         ``s`` is a number or an array of numbers in ``[0, 1]``; the result always has a leading
-        axis of length ``n = size(s)``. Headings are the tangent direction, unwrapped along the
-        curve from the start heading; if the goal heading asks for whole extra turns beyond the
-        curve's own turning, those are added linearly in ``s``, so heading(0) is the start
+        axis of length ``n = size(s)``. The path is followed at constant speed along the smoothed
+        curve (``s`` is then its normalised arclength), after and before the turns in place of
+        its :class:`EndModes`, which take the time of as many units of path as they turn
+        radians. Headings are the tangent direction (plus pi when reversing), unwrapped along
+        the curve from the start heading; if the goal heading asks for whole extra turns beyond
+        the curve's own turning, those are added linearly in ``s``, so heading(0) is the start
         heading and heading(1) the goal heading (both up to rounding).
         """
         s = np.atleast_1d(np.asarray(s, dtype=np.float64)).ravel()
@@ -672,16 +749,16 @@ def _turn_options(poly: np.ndarray, theta: float, frac: float) -> list[np.ndarra
     return out
 
 
-def _with_turns(poly, S, G, obs, tol, signature) -> tuple[np.ndarray, tuple[int, ...] | None]:
-    """``poly`` with the turning arcs its end headings need, in the homotopy class ``signature``
-    (when given: smaller arcs are tried when the larger ones would change it, and none are added
-    when no choice of sides and sizes keeps it), and its signature when that was checked (else
-    ``None``)."""
+def _with_turns(poly, h0, h1, obs, tol, signature) -> tuple[np.ndarray, tuple[int, ...] | None]:
+    """``poly`` with the turning arcs that the end tangent directions ``h0``, ``h1`` need, in the
+    homotopy class ``signature`` (when given: smaller arcs are tried when the larger ones would
+    change it, and none are added when no choice of sides and sizes keeps it), and its signature
+    when that was checked (else ``None``)."""
     if poly.shape[0] < 2 or not math.hypot(*(poly[-1] - poly[0])) > tol:
         return poly, None
     for frac in _TURN_RADII:
-        for first in _turn_options(poly, S[2], frac):
-            for last in _turn_options(first[::-1], G[2] + math.pi, frac):
+        for first in _turn_options(poly, h0, frac):
+            for last in _turn_options(first[::-1], h1 + math.pi, frac):
                 if signature is None:
                     return np.ascontiguousarray(last[::-1]), None
                 if _signature(last[::-1], obs, tol) == signature:
@@ -689,10 +766,51 @@ def _with_turns(poly, S, G, obs, tol, signature) -> tuple[np.ndarray, tuple[int,
     return poly, None
 
 
-def _make_path(poly, S, G, obs, label, tol, signature=None) -> InitialPath:
-    """Smooth ``poly`` (adding turning arcs where the end headings point away from it)."""
-    poly, sig = _with_turns(poly, S, G, obs, tol, signature)
-    curve = _SmoothCurve(poly, S[2], G[2])
+def _points_away(leg: np.ndarray, theta: float) -> bool:
+    """Whether direction ``theta`` is more than 90 degrees off ``leg`` (a turning arc is due)."""
+    ell = math.hypot(*leg)
+    return ell > 0.0 and math.cos(theta) * leg[0] + math.sin(theta) * leg[1] < _TURN_COS * ell
+
+
+def _near_branch(angle: float, target: float) -> float:
+    """``angle`` plus the whole turns that bring it within pi of ``target``."""
+    return angle + _TWO_PI * round((target - angle) / _TWO_PI)
+
+
+def end_modes(poly: np.ndarray, start, goal) -> list[EndModes]:
+    """The ways of meeting the end poses worth trying along ``poly``, forward first.
+
+    Only forward when neither end heading points away from its leg (more than 90 degrees off).
+    Otherwise also reverse, and at each end that points away in that direction a turn in place
+    instead of the turning arc.
+    """
+    if poly.shape[0] < 2:
+        return [FORWARD]
+    first, last = poly[1] - poly[0], poly[-1] - poly[-2]
+    th0, th1 = float(start[2]), float(goal[2])
+    if not (_points_away(first, th0) or _points_away(last, th1)):
+        return [FORWARD]
+    out = []
+    for reverse in (False, True):
+        o = math.pi if reverse else 0.0
+        turn0 = (False, True) if _points_away(first, th0 + o) else (False,)
+        turn1 = (False, True) if _points_away(last, th1 + o) else (False,)
+        out += [EndModes(reverse, a, b) for a in turn0 for b in turn1]
+    return out
+
+
+def _make_path(poly, S, G, obs, label, tol, signature=None, modes=FORWARD) -> InitialPath:
+    """Smooth ``poly`` for ``modes`` (adding turning arcs where the curve's end directions point
+    away from it)."""
+    offset = math.pi if modes.reverse else 0.0
+    h0, h1 = S[2] + offset, G[2] + offset  # the curve's tangent direction at its ends
+    if modes.turn_start and poly.shape[0] >= 2:
+        h0 = _near_branch(math.atan2(*(poly[1] - poly[0])[::-1]), h0)
+    if modes.turn_goal and poly.shape[0] >= 2:
+        h1 = _near_branch(math.atan2(*(poly[-1] - poly[-2])[::-1]), h1)
+    poly, sig = _with_turns(poly, h0, h1, obs, tol, signature)
+    smooth = _SmoothCurve(poly, h0, h1)
+    curve = _PoseCurve(smooth, S[2], G[2], h0 - offset - S[2], G[2] - (h1 - offset), offset)
     poly = poly.copy()
     for arr in (poly, S, G):
         arr.setflags(write=False)
@@ -705,6 +823,7 @@ def _make_path(poly, S, G, obs, label, tol, signature=None) -> InitialPath:
         start=S,
         goal=G,
         _curve=curve,
+        modes=modes,
     )
 
 
@@ -1232,11 +1351,11 @@ def _plan(
     return sorted(out, key=lambda c: (c.graph_length, c.order))
 
 
-def _smooth_best(poly: np.ndarray, S, G, obs, tol, signature=None) -> InitialPath:
+def _smooth_best(poly: np.ndarray, S, G, obs, tol, signature=None, modes=FORWARD) -> InitialPath:
     """The first smoothing with non-negative clearance, else the one with the best clearance."""
     best = None
     for _ in range(_MIDPOINT_ROUNDS + 1):
-        path = _make_path(poly, S, G, obs, "", tol, signature)
+        path = _make_path(poly, S, G, obs, "", tol, signature, modes)
         if path.min_clearance >= 0.0:
             return path
         if best is None or path.min_clearance > best.min_clearance:
@@ -1248,7 +1367,11 @@ def _smooth_best(poly: np.ndarray, S, G, obs, tol, signature=None) -> InitialPat
 def initial_paths(
     start, goal, obstacles, *, k: int = 3, margin: float = 0.05, waypoints=None
 ) -> list[InitialPath]:
-    """Up to ``k`` collision-free initial paths in different homotopy classes, shortest first.
+    """Collision-free initial paths in up to ``k`` homotopy classes, shortest class first.
+
+    Each class comes with its ways of meeting the end poses (:func:`end_modes`: forward first,
+    then, where an end heading points away from the path, reverse and turns in place), all with
+    the class's label plus the modes' description.
 
     ``start`` and ``goal`` are states ``[x, y, heading]``, ``obstacles`` rows ``[cx, cy, r]``
     (or empty). Paths keep ``margin`` from every obstacle (less only where the start or goal is
@@ -1295,29 +1418,42 @@ def initial_paths(
     cands = cands[: int(k)]
 
     retry: dict[float, list[_Candidate] | None] = {}
-    paths = []
+    classes = []
     for cand in cands:
-        path = _smooth_best(cand.polyline, S, G, obs, tol, cand.signature)
-        if path.min_clearance < 0.0 and used > 0.0:
-            for f in _RETRY_MARGIN_FACTORS:
-                if f not in retry:
-                    retry[f] = _plan(S, G, obs, used * f, int(k), tol)
-                same = [c for c in retry[f] or () if c.signature == cand.signature]
-                if same:
-                    other = _smooth_best(same[0].polyline, S, G, obs, tol, cand.signature)
-                    if other.min_clearance > path.min_clearance:
-                        path = other
-                    if path.min_clearance >= 0.0:
-                        break
-        paths.append((path, cand))
+        variants = [
+            _smoothed_in_class(cand, S, G, obs, tol, used, int(k), retry, modes)
+            for modes in end_modes(cand.polyline, S, G)
+        ]
+        classes.append((variants, cand))
 
-    paths.sort(key=lambda pc: (pc[0].length, pc[1].graph_length, pc[1].order))
+    classes.sort(key=lambda vc: (vc[0][0].length, vc[1].graph_length, vc[1].order))
     note = "" if used == margin else f" (margin {used:g})"
     out = []
-    for rank, (path, cand) in enumerate(paths, start=1):
+    for rank, (variants, cand) in enumerate(classes, start=1):
         straight = cand.nodes.size == 2  # the direct start -> goal edge of the graph
-        out.append(_relabel(path, ("straight" if straight else f"visibility #{rank}") + note))
+        name = ("straight" if straight else f"visibility #{rank}") + note
+        for path in variants:
+            how = path.modes.describe()
+            out.append(_relabel(path, f"{name}, {how}" if how else name))
     return out
+
+
+def _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes) -> InitialPath:
+    """The smoothed path of ``cand``'s class for ``modes``; when it cuts into an obstacle, the
+    class is re-planned with larger margins (memoised in ``retry``) and the clearest kept."""
+    path = _smooth_best(cand.polyline, S, G, obs, tol, cand.signature, modes)
+    if path.min_clearance < 0.0 and used > 0.0:
+        for f in _RETRY_MARGIN_FACTORS:
+            if f not in retry:
+                retry[f] = _plan(S, G, obs, used * f, k, tol)
+            same = [c for c in retry[f] or () if c.signature == cand.signature]
+            if same:
+                other = _smooth_best(same[0].polyline, S, G, obs, tol, cand.signature, modes)
+                if other.min_clearance > path.min_clearance:
+                    path = other
+                if path.min_clearance >= 0.0:
+                    break
+    return path
 
 
 def _relabel(path: InitialPath, label: str) -> InitialPath:

@@ -45,6 +45,7 @@ from ._blas import blas_single_threaded
 from .errors import SettingsError, require_integer
 from .integrate.flow import Flow, IntegratorSettings
 from .multiple_shooting import MultipleShootingSystem, solve_multiple_shooting
+from .path_ranking import PathGuide
 from .problem import OptimalControlProblem
 from .roots import STRATEGIES, ModifiedNewtonStep, RootResult, RootSettings
 from .shooting import (
@@ -106,15 +107,14 @@ class LeapfrogSettings:
     # keeps a hopeless local problem from costing seconds (measured: a random scenario of the
     # benchmark, 24 s unbounded, 10 s with 24).
     continuation_steps: int = 24
-    # MNM's line search in the sweeps' local problems stops at 2^-3: a step eight times shorter
-    # than Newton's that still fails the test means the warm-started local problem is failing,
+    # MNM's line search in the local problems stops at 2^-3: a step eight times shorter than
+    # Newton's that still fails the test means the local problem is failing from this guess,
     # and Leapfrog handles that. Measured against 2^-10 on 2 x 150 random scenarios: the same
-    # successes and optima, about 30% fewer integrator steps for MNM; paper cases: the same optima.
+    # successes and optima, about 30% fewer integrator steps for MNM; paper cases: the same
+    # optima. The initial path's segments, which start from the path's own costates, need no
+    # longer search: 2^-10 there gave the same successes and optima on 500 random scenarios
+    # and 200 of the general preset (the affine guess had needed it).
     local_halvings: int = 3
-    # The initial path's segments start from the affine guess, far from their answer: there the
-    # line search goes down to 2^-10 (2^-3 lost one of 500 random scenarios; 2^-10 was itself 3x
-    # faster than 2^-20 on paper case 4, with the same results).
-    fit_halvings: int = 10
     # Local problems are short and warm-started: a solve that needs more than 25 iterations, whose
     # costates grow a thousandfold, or whose flow needs more than 200 steps, is failing and is cut
     # short (failures are handled). Converging local flows take 10 steps on average and at most
@@ -170,7 +170,6 @@ class LeapfrogSettings:
                 f"final must be one of {', '.join(FINAL_MODES)}, got {self.final!r}"
             )
         require_integer("local_halvings", self.local_halvings)
-        require_integer("fit_halvings", self.fit_halvings)
         require_integer("attempt_iterations", self.attempt_iterations)
         require_integer("attempt_stall_window", self.attempt_stall_window, 0)
         if not isinstance(self.two_arc_attempt, bool):
@@ -292,15 +291,16 @@ def leapfrog(
     t: np.ndarray,
     X: np.ndarray,
     *,
-    curve: Callable[[float], np.ndarray] | None = None,
+    guide: PathGuide | None = None,
     settings: LeapfrogSettings | None = None,
     flow: Flow | None = None,
     progress: Callable[[SweepRecord], None] | None = None,
 ) -> LeapfrogRun:
     """Run Leapfrog from the junctions ``(t, X)`` of a feasible path from ``X[0]`` to ``X[-1]``.
 
-    ``curve(t)`` gives the feasible path's state at time ``t``; it is used to split a segment
-    whose two-point problem fails. ``progress`` is called after each sweep.
+    ``guide`` is that path followed in time (:class:`.path_ranking.PathGuide`): its costates
+    start the initial segments' shooting, and its states split a segment whose two-point
+    problem fails. ``progress`` is called after each sweep.
     """
     settings = settings or LeapfrogSettings()
     final_settings = replace(settings.final_shooting, samples=0, method=settings.method)
@@ -311,10 +311,8 @@ def leapfrog(
     if flow is None or flow.settings != shoot_settings.integrator:
         flow = Flow(problem, shoot_settings.integrator)
     local_method = settings.method
-    sweep_method = settings.method
     if settings.method == "modified-newton":
-        local_method = ModifiedNewtonStep(max_halvings=settings.fit_halvings)
-        sweep_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
+        local_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
     count = _Counter()
 
     # By identity: hashing the settings cost more than a local solve's bookkeeping. The shooter
@@ -421,35 +419,43 @@ def leapfrog(
         count.add(root)
         return solve(ta, xa, tb, xb, root.x[: xa.size], settings=attempt) if root.success else None
 
-    def local_solve(ta, xa, tb, xb, guess, mid=None, warm_failed=False) -> LocalSolution | None:
-        """The direct attempts, then continuation in the obstacle weight.
-
-        On the initial path a failed warm guess goes to continuation before the affine guess at
-        the full weight: there the affine guess mostly failed too, and its failing iterates
-        run long flows near the obstacles (paper case 4, second path: 5 segments, 96 evaluations
-        and 17 ms), while continuation solved each segment in 2 ms. The affine guess still
-        starts the first segment and continuation's solve at weight 0, and is tried at the full
-        weight when continuation fails. Measured on 2 x 150 random scenarios: the same
-        successes and optima, 0.9-2.5% fewer integrator steps; paper cases 3 and 4: 3% and 7%
-        fewer, case 2: 6% more (cheap steps at weight 0; its time did not change)."""
-        if mid is None and guess is not None and has_obstacles:
-            r = solve(ta, xa, tb, xb, guess, settings=attempt)
-            r = r or continuation(ta, xa, tb, xb, guess)
-            return r or solve(ta, xa, tb, xb, None, settings=attempt)
+    def local_solve(ta, xa, tb, xb, guess, mid, warm_failed=False) -> LocalSolution | None:
+        """In a sweep: the direct attempts, then continuation in the obstacle weight."""
         r = direct(ta, xa, tb, xb, guess, mid=mid, warm_failed=warm_failed)
         if r is None and has_obstacles:
             r = continuation(ta, xa, tb, xb, guess)
         return r
 
-    def fit(ta, xa, tb, xb, depth, guess) -> list | None:
-        r = local_solve(ta, xa, tb, xb, guess)
+    def segment_solve(ta, xa, tb, xb, warm) -> LocalSolution | None:
+        """A segment of the initial path: from the costate ``warm`` at the end of the segment
+        before (if any) and from the path's own costate (or, with neither, from the affine
+        guess), then by continuation in the obstacle weight from the first of these, and last
+        from the affine guess.
+
+        Continuation comes before the affine guess at the full weight: there the affine guess
+        mostly failed too, and its failing iterates run long flows near the obstacles (paper
+        case 4, second path: 5 segments, 96 evaluations and 17 ms), while continuation solved
+        each segment in 2 ms."""
+        guesses = [g for g in (warm, guide and guide.costate(ta)) if g is not None] or [None]
+        for g in guesses:
+            r = solve(ta, xa, tb, xb, g, settings=attempt)
+            if r is not None:
+                return r
+        if has_obstacles:
+            r = continuation(ta, xa, tb, xb, guesses[0])
+            if r is not None:
+                return r
+        return None if guesses[0] is None else solve(ta, xa, tb, xb, None, settings=attempt)
+
+    def fit(ta, xa, tb, xb, depth, warm) -> list | None:
+        r = segment_solve(ta, xa, tb, xb, warm)
         if r is not None:
             return [(ta, xa, r.costate0, r.costate1, r.cost)]
-        if depth >= settings.max_split_depth or curve is None:
+        if depth >= settings.max_split_depth or guide is None:
             return None
         tm = 0.5 * (ta + tb)
-        xm = np.asarray(curve(tm), dtype=float)
-        left = fit(ta, xa, tm, xm, depth + 1, guess)
+        xm = guide.state(tm)
+        left = fit(ta, xa, tm, xm, depth + 1, warm)
         right = fit(tm, xm, tb, xb, depth + 1, left[-1][3]) if left is not None else None
         return None if right is None else left + right
 
@@ -462,7 +468,7 @@ def leapfrog(
                 f"the two-point problem of initial segment {i} failed"
                 + (
                     " even after splitting"
-                    if curve is not None and settings.max_split_depth
+                    if guide is not None and settings.max_split_depth
                     else ""
                 ),
                 count,
@@ -480,9 +486,6 @@ def leapfrog(
         cost=np.array([p[4] for p in pieces]),
     )
     initial_cost = float(arcs.cost.sum())
-    # From here on local problems are warm-started from the current arcs: the sweeps' shorter
-    # line search (``solve`` and ``two_arcs`` read ``local_method`` when called).
-    local_method = sweep_method
     history: list[SweepRecord] = []
     increases = 0
 

@@ -68,3 +68,47 @@ def rank_paths(
     costs = estimated_costs(problem, paths, horizon).tolist()
     order = sorted(range(len(paths)), key=lambda i: costs[i])
     return [(costs[i], paths[i]) for i in order]
+
+
+class PathGuide:
+    """An initial path followed over ``[t0, t0 + horizon]`` as :meth:`InitialPath.curve` times
+    it: the state at any time, and the costate whose minimising control follows the path there.
+
+    Leapfrog takes both from it: the states split a segment whose two-point problem fails, the
+    costates start the segments' shooting. The control is the least-squares solution of
+    ``f(x, u) = xdot`` (``xdot`` by a central difference in time), and the costate the
+    minimum-norm solution of ``dH/du = 0`` for it, ``B^T lambda = -R u`` (exact for the built-in
+    models, affine in ``u`` with a quadratic control cost). It knows the direction of travel, so
+    it starts a reversing segment or a turn in place where the affine guess, which linearises
+    about forward motion along the chord, does not.
+    """
+
+    def __init__(self, problem: OptimalControlProblem, path: InitialPath, horizon, t0=0.0):
+        self.problem, self.path = problem, path
+        self.t0, self.horizon = float(t0), float(horizon)
+
+    def _poses(self, s: np.ndarray) -> np.ndarray:
+        xy, th = self.path.curve(s)
+        return np.column_stack([xy, th])
+
+    def state(self, t: float) -> np.ndarray:
+        return self._poses(np.array([(t - self.t0) / self.horizon]))[0]
+
+    def costate(self, t: float) -> np.ndarray:
+        s = (t - self.t0) / self.horizon
+        ds = _DIFFERENCE_STEP
+        grid = np.array([max(0.0, s - ds), min(max(s, 0.0), 1.0), min(1.0, s + ds)])
+        X = self._poses(grid)
+        xdot = (X[2] - X[0]) / ((grid[2] - grid[0]) * self.horizon)
+        model = self.problem.model
+        nx, nu = model.nx, model.nu
+        f, A = np.empty((1, nx)), np.empty((1, nx, nx))
+        B, R = np.empty((1, nx, nu)), np.empty((1, nu, nu))
+        p = np.asarray(self.problem.parameters, dtype=float)
+        model.kernels.linearize_rows(X[1:2], np.zeros(nu), p, f, A, B, R)
+        u = np.linalg.lstsq(B[0], xdot - f[0], rcond=None)[0]
+        return np.linalg.lstsq(B[0].T, -R[0] @ u, rcond=None)[0]
+
+
+#: Step in normalised time of the central difference of :meth:`PathGuide.costate`.
+_DIFFERENCE_STEP = 1e-4

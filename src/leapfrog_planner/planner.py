@@ -20,7 +20,7 @@ from .errors import ScenarioError, SettingsError, require_integer
 from .initial_path import InitialPath, initial_paths
 from .integrate.flow import Flow
 from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
-from .path_ranking import rank_paths
+from .path_ranking import PathGuide, rank_paths
 from .results import LeapfrogResult, PathOutcome, PlanStatus, validate
 from .scenario import Scenario, load_scenario
 
@@ -161,10 +161,6 @@ class Planner:
             self._emit(PlanEvent("path", k, len(paths), path.label))
             t, X = path.junctions(st.leapfrog.partitions, s.horizon, T0)
 
-            def curve(tq):
-                xy, th = path.curve(np.array([(tq - T0) / (T1 - T0)]))
-                return np.array([xy[0, 0], xy[0, 1], th[0]])
-
             def on_sweep(rec):
                 self._emit(PlanEvent("sweep", k, len(paths), path.label, rec))
 
@@ -173,7 +169,7 @@ class Planner:
                     self.problem,
                     t,
                     X,
-                    curve=curve,
+                    guide=PathGuide(self.problem, path, s.horizon, T0),
                     settings=st.leapfrog,
                     flow=self.flow,
                     progress=on_sweep,
