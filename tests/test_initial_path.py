@@ -339,9 +339,16 @@ def test_waypoints_give_the_only_path_through_the_points():
     assert p.min_clearance > 0.0
 
 
-def test_waypoints_through_an_obstacle_are_kept_with_negative_clearance():
-    p = initial_paths([0, 0, 0], [2, 0, 0], [[1, 0, 0.2]], waypoints=[[1, 0.5], [1, -0.5]])[0]
-    assert p.min_clearance < -0.1
+def test_waypoint_legs_go_round_the_obstacles():
+    """Legs between waypoints that would cross a disc are routed round it (shortest way); the
+    path still passes through every waypoint, in order."""
+    waypoints = [[1, 0.5], [1, -0.5]]
+    p = initial_paths([0, 0, 0], [2, 0, 0], [[1, 0, 0.2]], waypoints=waypoints)[0]
+    assert p.min_clearance > 0.0
+    assert len(p.polyline) > 4  # the leg from [1, 0.5] to [1, -0.5] bends round the disc
+    xy, _ = p.curve(np.linspace(0.0, 1.0, 20001))
+    hits = [int(np.argmin(np.hypot(*(xy - w).T))) for w in waypoints]
+    assert hits[0] < hits[1] and all(np.min(np.hypot(*(xy - w).T)) < 1e-3 for w in waypoints)
     assert initial_paths([0, 0, 0], [2, 0, 0], [], waypoints=[])[0].label == "straight"
 
 

@@ -12,7 +12,7 @@ import json
 import math
 import os
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
@@ -23,7 +23,7 @@ from leapfrog_planner._atomic import write_atomic
 from leapfrog_planner.errors import LeapfrogError, ScenarioError, SettingsError
 from leapfrog_planner.planner import PlanEvent, Planner, PlannerSettings, plan
 from leapfrog_planner.results import LeapfrogResult, PlanStatus
-from leapfrog_planner.scenario import load_scenario_text
+from leapfrog_planner.scenario import Scenario, load_scenario, load_scenario_text
 from leapfrog_planner.shooting import solve_shooting
 
 MNM, NM = "modified-newton", "newton"
@@ -455,19 +455,61 @@ def failed():
 
 
 def test_failed_result_is_saved_with_status_failed(failed, tmp_path):
-    assert not failed.success
-    assert math.isnan(failed.cost) and failed.end_state_error == math.inf
+    assert not failed.success and not failed.optimal
     assert "final solve failed" in failed.message
+    # The best feasible motion computed so far comes back: the initial segments' arcs, joined.
+    assert failed.trajectory_source == "Leapfrog iterate (q = 2), not optimal"
+    tr = failed.trajectory
+    assert np.array_equal(tr.x[0], CASES[4].start) and failed.end_state_error < 1e-4
+    assert failed.min_clearance > 0.0 and failed.cost == pytest.approx(tr.cost[-1])
+    assert failed.cost > CASES[4].reference_cost and failed.costate0 is None
     failed.save_json(tmp_path / "f.json")
     failed.save_npz(tmp_path / "f.npz")
     d = json.loads((tmp_path / "f.json").read_text())
-    assert d["status"] == "failed"
-    assert d["cost"] is None and d["end_state_error"] is None
-    assert d["trajectory"] == {} and d["sweeps"] == 0
+    assert d["status"] == "failed" and d["optimal"] is False
+    assert d["cost"] == failed.cost and d["sweeps"] == 0
+    assert len(d["trajectory"]["t"]) == tr.t.size
     assert d["message"] == failed.message
-    # The initial path was feasible: its clearance is reported instead.
-    assert isinstance(d["min_clearance"], float) and d["min_clearance"] >= 0.0
     assert sorted(os.listdir(tmp_path)) == ["f.json", "f.npz"]
+
+
+def test_no_extremal_and_no_arcs_hands_back_the_initial_path():
+    """Every segment fails (a bound of one Newton iteration and no splitting): the first
+    initial path, followed at constant speed, is returned, from start to goal, clear."""
+    r = plan(CASES[3].name, attempt_iterations=1, max_split_depth=0, continuation_steps=1)
+    assert r.status is PlanStatus.FAILED and not r.optimal
+    assert r.trajectory_source == "initial path, not optimal"
+    assert "no initial path led to an extremal" in r.message and "initial segment" in r.message
+    np.testing.assert_allclose(r.trajectory.x[[0, -1]], [CASES[3].start, CASES[3].goal])
+    assert r.min_clearance > 0.0 and np.isfinite(r.cost)
+
+
+def test_an_extremal_through_an_obstacle_is_never_converged():
+    """Paper case 4 with a soft penalty (W = 5): every extremal at W = 5 passes through a disc.
+    The planner raises the weight until one clears, and says so."""
+    sc = replace(load_scenario(CASES[4].name), weight=5.0)
+    r = plan(sc)
+    assert r.status is PlanStatus.CONVERGED and r.min_clearance > 0.0
+    assert r.weight == 20.0 and "raised from 5 to 20" in r.message
+    assert r.end_state_error < 1e-8 and r.max_dH_du < 1e-6
+    # Without a penalty at all nothing can be raised: the result says it collides, exit 1, and
+    # hands back the best collision-free motion it computed.
+    off = plan(replace(sc, weight=0.0), initial_paths=1)
+    assert off.status is PlanStatus.COLLIDES and not off.success
+    assert "passes through an obstacle" in off.message
+    assert off.min_clearance >= 0.0 and not off.optimal
+
+
+def test_waypoint_legs_are_routed_round_the_obstacles():
+    """A waypoint on the straight line before a disc: the leg after it goes round the disc,
+    and the result is the path round it (cost 4.03), not one through it."""
+    sc = Scenario(
+        name="wp", horizon=1.0, start=[0, 0, 0], goal=[2, 0, 0], obstacles=[[1.0, 0.0, 0.2]],
+        waypoints=[[0.5, 0.0]],
+    )  # fmt: skip
+    r = plan(sc)
+    assert r.status is PlanStatus.CONVERGED and r.min_clearance > 0.05
+    assert r.initial_path == "waypoints" and r.cost == pytest.approx(4.0320816, rel=1e-6)
 
 
 # --------------------------------------------------------------------------- determinism

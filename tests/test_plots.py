@@ -162,8 +162,8 @@ def test_plot_path_options(planned):
 def test_plot_path_lists_alternatives_by_cost(planned):
     result, sc = planned["paper-case-2"]
     alts = (
-        PathOutcome("visibility #2", PlanStatus.CONVERGED, 23.215020, 35.7, 14, "converged"),
-        PathOutcome("visibility #3", PlanStatus.FAILED, float("nan"), 40.1, 3, "diverged"),
+        PathOutcome("visibility #2", PlanStatus.CONVERGED, 23.215020, 35.7, 14, "converged", 100.0),
+        PathOutcome("visibility #3", PlanStatus.FAILED, float("nan"), 40.1, 3, "diverged", 100.0),
     )
     ax = plot_path(dataclasses.replace(result, alternatives=alts), sc)
     texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]

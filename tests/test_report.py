@@ -130,3 +130,15 @@ def test_cli_report(results, tmp_path):
     garbage.write_text('{"scenario": "a", "method": "m", "status": "converged"}\nnot json\n{}\n')
     bad = subprocess.run([*cmd, str(garbage)], capture_output=True, text=True)
     assert bad.returncode == 2 and "line 2" in bad.stderr and bad.stderr.count("\n") == 1
+
+
+def test_a_converged_record_through_an_obstacle_is_not_a_success():
+    recs = [
+        {"scenario": "a", "method": "m", "status": "converged", "cost": 1.0, "min_clearance": -0.1},
+        {"scenario": "b", "method": "m", "status": "converged", "cost": 2.0, "min_clearance": 0.1},
+        {"scenario": "c", "method": "m", "status": "converged", "cost": 3.0, "min_clearance": None},
+        {"scenario": "d", "method": "m", "status": "failed", "failure": "collides", "cost": None},
+    ]
+    m = build_report(recs).methods[0]
+    assert (m.runs, m.converged) == (4, 2)
+    assert m.failures == {"collides": 2}

@@ -1379,9 +1379,10 @@ def initial_paths(
     (label ``"straight"``) is a path when it keeps the margin; it is the shortest polyline, so it
     comes first unless the turns that the end headings ask for make its smoothed curve longer
     than another. The result is sorted by smoothed ``length`` and deterministic. With
-    ``waypoints`` (rows ``[x, y]``), the only path is the polyline start -> waypoints -> goal
-    (label ``"waypoints"``). Raises :class:`ScenarioError` for invalid input, an end (or
-    waypoint) inside an obstacle, or when no collision-free path exists (even with margin 0).
+    ``waypoints`` (rows ``[x, y]``), the only path (with its end modes) passes through them in
+    order, each leg the shortest path round the obstacles (label ``"waypoints"``). Raises
+    :class:`ScenarioError` for invalid input, an end (or waypoint) inside an obstacle, or when
+    no collision-free path exists (even with margin 0).
     """
     S = _state(start, "start")
     G = _state(goal, "goal")
@@ -1400,9 +1401,12 @@ def initial_paths(
     tol = _tolerance(S, G, obs)
 
     if wps is not None and wps.shape[0]:
-        poly = np.vstack([S[:2], wps, G[:2]])
-        path = _smooth_best(poly, S, G, obs, tol)
-        return [_relabel(path, "waypoints")]
+        poly = _through(np.vstack([S[:2], wps, G[:2]]), obs, margin, tol)
+        variants = [_smooth_best(poly, S, G, obs, tol, None, m) for m in end_modes(poly, S, G)]
+        return [
+            _relabel(p, ", ".join(filter(None, ("waypoints", p.modes.describe()))))
+            for p in variants
+        ]
 
     used = None
     for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
@@ -1436,6 +1440,22 @@ def initial_paths(
             how = path.modes.describe()
             out.append(_relabel(path, f"{name}, {how}" if how else name))
     return out
+
+
+def _through(points: np.ndarray, obs: np.ndarray, margin: float, tol: float) -> np.ndarray:
+    """The polyline through ``points`` in order, each leg the shortest path round the inflated
+    obstacles (the margin falls back as for a whole path; a leg with no path at all stays
+    straight, and its clearance shows it)."""
+    poly = [points[:1]]
+    for a, b in zip(points[:-1], points[1:], strict=True):
+        leg = np.vstack([a, b])
+        for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
+            cands = _plan(np.append(a, 0.0), np.append(b, 0.0), obs, m, 1, tol)
+            if cands is not None:
+                leg = cands[0].polyline
+                break
+        poly.append(leg[1:])
+    return np.vstack(poly)
 
 
 def _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes) -> InitialPath:

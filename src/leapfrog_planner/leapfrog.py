@@ -208,6 +208,10 @@ class LeapfrogRun:
     success: bool
     message: str
     costate0: np.ndarray | None  # lambda(0) of the final extremal
+    # The final extremal as its solver found it: one arc (simple shooting) or the junctions of
+    # multiple shooting, whose re-integration arc by arc checks it where one long shot from
+    # lambda(0) is too ill-conditioned to reach the goal to 1e-8 (long horizons, tight turns).
+    extremal: Arcs | None
     final_solver: str | None  # "shooting" or "multiple-shooting"
     initial_cost: float
     max_costate_jump: float  # at the junctions when the sweeps ended (before the final solve)
@@ -218,6 +222,21 @@ class LeapfrogRun:
     sweep_time_s: float
     final_time_s: float
     final_root: RootResult | None
+    # The last piecewise extremal whose arcs meet at their junctions (the last level with
+    # q > 2, or the initial path's arcs): a feasible motion from start to goal even when the
+    # final solve fails. None when the initial path's segments failed.
+    arcs: Arcs | None = None
+
+
+@dataclass(frozen=True)
+class Arcs:
+    """A piecewise extremal: arc ``i`` runs from ``(t[i], X[i])`` with costate ``lam0[i]`` to
+    ``(t[i + 1], X[i + 1])``, at the cost ``cost[i]`` (``None`` when not computed)."""
+
+    t: np.ndarray
+    X: np.ndarray
+    lam0: np.ndarray
+    cost: np.ndarray | None = None
 
 
 @dataclass
@@ -598,7 +617,8 @@ def leapfrog(
 
     def final_solve(lam0, junctions: _Arcs):
         """Simple shooting over the whole horizon from ``lam0``; if it fails (``final="auto"``),
-        multiple shooting over ``junctions``. Returns (costate0, solver name, last root result)."""
+        multiple shooting over ``junctions``. Returns (the extremal's arcs, solver name, last
+        root result): one arc for simple shooting, the junctions of multiple shooting."""
         root = None
         if settings.final in ("auto", "shooting"):
             r = solve_shooting(
@@ -607,7 +627,8 @@ def leapfrog(
             count.add(r)
             root = r.root
             if r.success:
-                return r.costate0, "shooting", root
+                one = Arcs(np.array([T0, T1]), np.array([start, goal]), r.costate0[None, :])
+                return one, "shooting", root
         if settings.final in ("auto", "multiple-shooting"):
             # Converged first with the local problems' tolerances (rtol 1e-7, |F| <= 1e-5), then
             # polished with the final ones (one or two iterations): an evaluation integrates
@@ -630,7 +651,10 @@ def leapfrog(
                 )
             count.add(root)
             if root.success:
-                return root.x[: start.size].copy(), "multiple-shooting", root
+                Z = ms.unpack(root.x)
+                nx = start.size
+                ends = np.vstack([Z[:, :nx], goal[None, :]])
+                return Arcs(ms.t.copy(), ends, Z[:, nx:].copy()), "multiple-shooting", root
         return None, None, root
 
     # Final step: simple shooting over the whole horizon from the first arc's costate.
@@ -638,9 +662,9 @@ def leapfrog(
     retry_time = 0.0
     first_failure = None  # the root result of the first final solves, when they were retried
     sweeps_before_retry = len(history)
-    costate0, solver, root = final_solve(arcs.lam0[0], last_multi)
+    extremal, solver, root = final_solve(arcs.lam0[0], last_multi)
     level = last_multi
-    if costate0 is None and settings.final_retry_sweeps and arcs.q == 2 and level.q > 2:
+    if extremal is None and settings.final_retry_sweeps and arcs.q == 2 and level.q > 2:
         # Both final solves failed after the sweeps reached q = 2 from a level that was left with
         # a large costate jump: sweep that level on (at most final_retry_sweeps more sweeps, until
         # the jump is below final_retry_jump or a sweep no longer lowers the cost) and try both
@@ -654,11 +678,11 @@ def leapfrog(
                 break
         retry_time = time.perf_counter() - t_more
         final_jump = level.max_jump()
-        costate0, solver, root = final_solve(level.lam0[0], level)
+        extremal, solver, root = final_solve(level.lam0[0], level)
     final_time = time.perf_counter() - t_final - retry_time
     sweep_time += retry_time
     more = len(history) - sweeps_before_retry
-    if costate0 is None:
+    if extremal is None:
         msg = f"final solve failed ({root.status}: {root.message})" if root else "no final solve"
         if first_failure is not None:
             msg += f", also after {more} more sweeps at q = {level.q}"
@@ -670,9 +694,10 @@ def leapfrog(
                 f" {first_failure.status})"
             )
     return LeapfrogRun(
-        success=costate0 is not None,
+        success=extremal is not None,
         message=msg,
-        costate0=costate0,
+        costate0=None if extremal is None else extremal.lam0[0].copy(),
+        extremal=extremal,
         final_solver=solver,
         initial_cost=initial_cost,
         max_costate_jump=final_jump,
@@ -683,7 +708,13 @@ def leapfrog(
         sweep_time_s=sweep_time,
         final_time_s=final_time,
         final_root=root,
+        arcs=_exact(arcs if arcs.q > 2 or arcs is last_multi else level),
     )
+
+
+def _exact(arcs: _Arcs) -> Arcs:
+    """A frozen copy of arcs that meet at their junctions (not of halved ones, which jump)."""
+    return Arcs(arcs.t.copy(), arcs.X.copy(), arcs.lam0.copy(), arcs.cost.copy())
 
 
 def _failed(message, count, initial_cost, history, increases, sweep_time) -> LeapfrogRun:
@@ -691,6 +722,7 @@ def _failed(message, count, initial_cost, history, increases, sweep_time) -> Lea
         success=False,
         message=message,
         costate0=None,
+        extremal=None,
         final_solver=None,
         initial_cost=initial_cost,
         max_costate_jump=float("nan"),

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .initial_path import InitialPath
+from .integrate.flow import Trajectory
 from .problem import OptimalControlProblem
 
 
@@ -95,6 +96,35 @@ class PathGuide:
         return self._poses(np.array([(t - self.t0) / self.horizon]))[0]
 
     def costate(self, t: float) -> np.ndarray:
+        return self._costates(np.array([t]))[0]
+
+    def _costates(self, t: np.ndarray) -> np.ndarray:
+        """Costates at the times ``t`` (rows)."""
+        return np.array([self._costate(float(tk)) for tk in t])
+
+    def trajectory(self, samples: int = 1001) -> Trajectory:
+        """The path followed, sampled uniformly: a feasible motion, not an extremal (``dH_du``
+        and the Hamiltonian are NaN); ``cost`` is the running cost integrated by the trapezoidal
+        rule, as in :func:`estimated_costs`."""
+        t = self.t0 + self.horizon * np.linspace(0.0, 1.0, samples)
+        X = self._poses(np.linspace(0.0, 1.0, samples))
+        lam = self._costates(t)
+        model = self.problem.model
+        nx, nu = model.nx, model.nu
+        f, A = np.empty((samples, nx)), np.empty((samples, nx, nx))
+        B, R = np.empty((samples, nx, nu)), np.empty((samples, nu, nu))
+        p = np.asarray(self.problem.parameters, dtype=float)
+        model.kernels.linearize_rows(X, np.zeros(nu), p, f, A, B, R)
+        u = -np.linalg.solve(R, np.einsum("nij,ni->nj", B, lam)[..., None])[..., 0]
+        running = 0.5 * np.einsum("ni,nij,nj->n", u, R, u) + self.problem.penalty(X[:, :2])
+        cost = np.concatenate(([0.0], np.cumsum(0.5 * (running[1:] + running[:-1]) * np.diff(t))))
+        nan = np.full(samples, np.nan)
+        return Trajectory(
+            t=t, x=X, lam=lam, u=u, cost=cost, hamiltonian=nan,
+            dH_du=np.full((samples, nu), np.nan), at_step=np.zeros(samples, dtype=bool),
+        )  # fmt: skip
+
+    def _costate(self, t: float) -> np.ndarray:
         s = (t - self.t0) / self.horizon
         ds = _DIFFERENCE_STEP
         grid = np.array([max(0.0, s - ds), min(max(s, 0.0), 1.0), min(1.0, s + ds)])

@@ -18,10 +18,19 @@ import numpy as np
 from ._blas import held_by_parent, single_threaded_blas
 from .errors import ScenarioError, SettingsError, require_integer
 from .initial_path import InitialPath, initial_paths
-from .integrate.flow import Flow
-from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
+from .integrate.flow import Flow, Trajectory
+from .leapfrog import LeapfrogRun, LeapfrogSettings, SweepRecord, leapfrog
 from .path_ranking import PathGuide, rank_paths
-from .results import LeapfrogResult, PathOutcome, PlanStatus, validate
+from .problem import OptimalControlProblem
+from .results import (
+    LeapfrogResult,
+    PathOutcome,
+    PlanStatus,
+    Validation,
+    penalty_integral,
+    piecewise_trajectory,
+    validate_arcs,
+)
 from .scenario import Scenario, load_scenario
 
 log = logging.getLogger(__name__)
@@ -92,6 +101,75 @@ class PlannerSettings:
         )
 
 
+#: When no extremal clears the obstacles and some passed through one, those initial paths are
+#: planned again with the obstacle weight raised by this factor, at most ``WEIGHT_RAISES`` times
+#: (16 W in all). On 500 random scenarios (one path each) every rescue needed 4 W or 16 W, and a
+#: third raise rescued none while costing seconds (the penalty at 64 W is stiff).
+WEIGHT_FACTOR = 4.0
+WEIGHT_RAISES = 2
+
+
+@dataclass(frozen=True)
+class PathRun:
+    """Leapfrog from one initial path at one obstacle weight: the run and its validated answer
+    (``None`` when the run failed)."""
+
+    path: InitialPath
+    guide: PathGuide
+    run: LeapfrogRun
+    junctions: tuple[np.ndarray, np.ndarray]  # (t, X) of the initial path
+    validation: Validation | None
+    weight: float
+    raises: int  # how often the weight was raised from the scenario's for this run
+    validation_time_s: float
+
+    @property
+    def extremal(self) -> bool:
+        """A validated extremal (through an obstacle or not)."""
+        return _valid(self.validation)
+
+    @property
+    def collides(self) -> bool:
+        return self.extremal and _touches(self.validation.clearance)
+
+    @property
+    def clear(self) -> bool:
+        return self.extremal and not _touches(self.validation.clearance)
+
+    def outcome(self) -> PathOutcome:
+        v = self.validation
+        status = PlanStatus.CONVERGED if self.clear else PlanStatus.FAILED
+        if self.collides:
+            status = PlanStatus.COLLIDES
+        return PathOutcome(
+            label=self.path.label,
+            status=status,
+            cost=v.cost if self.extremal else float("nan"),
+            initial_cost=self.run.initial_cost,
+            sweeps=len(self.run.history),
+            message=self.run.message,
+            weight=self.weight,
+        )
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The trajectory a plan returns, its validation (extremals only) and where it came from."""
+
+    trajectory: Trajectory
+    validation: Validation | None
+    source: str
+
+
+def _touches(clearance: np.ndarray) -> bool:
+    return bool(clearance.size) and not clearance.min() >= 0.0
+
+
+def _clearance(problem: OptimalControlProblem, tr: Trajectory) -> float:
+    c = problem.penalty.clearance(tr.x[:, :2])
+    return float(c.min()) if c.size else np.inf
+
+
 # Scenario [solver] keys mapped to settings names.
 _SOLVER_KEY_MAP = {
     "method": "method",
@@ -127,6 +205,8 @@ class Planner:
         self.flow = Flow(self.problem, self.settings.leapfrog.final_shooting.integrator)
         self.progress = progress
         self._progress_lock = threading.Lock()
+        self._weights_lock = threading.Lock()
+        self._weighted = {float(self.scenario.weight): (self.problem, self.flow)}
 
     def initial_paths(self) -> list[InitialPath]:
         """The ``initial_paths`` candidates of least estimated cost, cheapest first."""
@@ -148,114 +228,155 @@ class Planner:
         with single_threaded_blas():
             return self._plan()
 
-    def _plan(self) -> LeapfrogResult:
+    def _at_weight(self, weight: float) -> tuple[OptimalControlProblem, Flow]:
+        """The problem and its flow with obstacle weight ``weight`` (built once, shared)."""
+        with self._weights_lock:
+            if weight not in self._weighted:
+                problem = self.problem.with_weight(weight)
+                self._weighted[weight] = (problem, Flow(problem, self.flow.settings))
+            return self._weighted[weight]
+
+    def _run_path(self, k: int, path: InitialPath, paths: int, raises: int) -> PathRun:
+        """Leapfrog from ``path`` with the obstacle weight raised ``raises`` times, and the
+        validation of its answer."""
         s, st = self.scenario, self.settings
+        T0 = 0.0
+        weight = float(s.weight) * WEIGHT_FACTOR**raises
+        label = path.label + (f" (obstacle weight {weight:g})" if raises else "")
+        self._emit(PlanEvent("path", k, paths, label))
+        t, X = path.junctions(st.leapfrog.partitions, s.horizon, T0)
+
+        def on_sweep(rec):
+            self._emit(PlanEvent("sweep", k, paths, label, rec))
+
+        problem, flow = self._at_weight(weight)
+        guide = PathGuide(problem, path, s.horizon, T0)
+        with held_by_parent():
+            run = leapfrog(
+                problem, t, X, guide=guide, settings=st.leapfrog, flow=flow, progress=on_sweep
+            )
+            log.info("path %s: %s", label, run.message)
+            # Validated here, in the path's own thread: the re-integration overlaps the other
+            # paths' sweeps.
+            t0 = time.perf_counter()
+            v = validate_arcs(problem, run.extremal, st.samples) if run.success else None
+            t_val = time.perf_counter() - t0
+        return PathRun(path, guide, run, (t, X), v, weight, raises, t_val)
+
+    def _run_paths(self, paths: list[InitialPath], raises: int) -> list[PathRun]:
+        """:meth:`_run_path` for each path, in parallel threads (see ``threads``)."""
+        n = len(paths)
+        workers = min(n, self.settings.threads or n)
+        args = (range(n), paths, [n] * n, [raises] * n)
+        if workers > 1:
+            with ThreadPoolExecutor(workers, thread_name_prefix="leapfrog-path") as pool:
+                return list(pool.map(self._run_path, *args))
+        return list(map(self._run_path, *args))
+
+    def _plan(self) -> LeapfrogResult:
         t_begin = time.perf_counter()
         paths = self.initial_paths()
         t_paths = time.perf_counter() - t_begin
-        T0, T1 = 0.0, float(s.horizon)
-
-        def run_path(k: int, path: InitialPath) -> tuple:
-            """Leapfrog from ``path``, then the validation of its answer: (path, run, initial
-            junctions, validation or None, validation time)."""
-            self._emit(PlanEvent("path", k, len(paths), path.label))
-            t, X = path.junctions(st.leapfrog.partitions, s.horizon, T0)
-
-            def on_sweep(rec):
-                self._emit(PlanEvent("sweep", k, len(paths), path.label, rec))
-
-            with held_by_parent():
-                run = leapfrog(
-                    self.problem,
-                    t,
-                    X,
-                    guide=PathGuide(self.problem, path, s.horizon, T0),
-                    settings=st.leapfrog,
-                    flow=self.flow,
-                    progress=on_sweep,
-                )
-                log.info("path %s: %s", path.label, run.message)
-                # Validated here, in the path's own thread: the re-integration overlaps the
-                # other paths' sweeps.
-                t_val = time.perf_counter()
-                v = None
-                if run.success:
-                    v = validate(
-                        self.problem, T0, s.start, T1, s.goal, run.costate0, samples=st.samples
-                    )
-            return path, run, (t, X), v, time.perf_counter() - t_val
-
-        workers = min(len(paths), st.threads or len(paths))
-        if workers > 1:
-            with ThreadPoolExecutor(workers, thread_name_prefix="leapfrog-path") as pool:
-                runs = list(pool.map(run_path, range(len(paths)), paths))
-        else:
-            runs = [run_path(k, path) for k, path in enumerate(paths)]
+        runs = self._run_paths(paths, 0)
+        # No path clears at the scenario's weight, and some extremal passed through an obstacle:
+        # those paths again with the weight raised, until one clears (also where the run at the
+        # last raise failed: a higher weight may still clear).
+        for raises in range(1, WEIGHT_RAISES + 1):
+            collided = {r.path for r in runs if r.collides}
+            again = [r.path for r in runs if r.raises == raises - 1 and r.path in collided]
+            if any(r.clear for r in runs) or not again or not self.scenario.weight > 0.0:
+                break
+            log.info("no extremal clears the obstacles: weight x %g", WEIGHT_FACTOR**raises)
+            runs += self._run_paths(again, raises)
         t_runs = time.perf_counter() - t_begin - t_paths
         self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
-        checked = [c[:4] for c in runs]
-        ok = [c for c in checked if _valid(c[3])]
-        best = min(ok, key=lambda c: c[3].cost) if ok else checked[0]
-        t_val = sum(c[4] for c in runs)
-        return self._result(best, checked, t_paths, t_runs, t_val, time.perf_counter() - t_begin)
+        return self._result(runs, t_paths, t_runs, time.perf_counter() - t_begin)
 
     def _emit(self, event: PlanEvent):
         if self.progress is not None:
             with self._progress_lock:  # paths run in threads: one event at a time
                 self.progress(event)
 
-    def _result(self, best, checked, t_paths, t_runs, t_val, wall) -> LeapfrogResult:
-        path, run, junctions, v = best
-        s = self.scenario
-        info = self.problem.model
-        status = (
-            PlanStatus.CONVERGED if v is not None and np.isfinite(v.cost) else PlanStatus.FAILED
-        )
+    def _answer(self, runs: list[PathRun]) -> tuple[PlanStatus, PathRun, Answer]:
+        """The status, the run it rests on, and the trajectory returned.
+
+        Converged: the collision-free extremal at the lowest obstacle weight (the scenario's own
+        when any path clears there), the cheapest of those. Otherwise the cheapest piecewise
+        extremal of the sweeps (at the lowest weight) that is collision-free, else the first
+        initial path followed at constant speed: a feasible motion, marked as not optimal."""
+        clear = [r for r in runs if r.clear]
+        if clear:
+            best = min(clear, key=lambda r: (r.weight, r.validation.cost))
+            v = best.validation
+            return PlanStatus.CONVERGED, best, Answer(v.trajectory, v, "extremal")
+        extremals = [r for r in runs if r.extremal]
+        status = PlanStatus.COLLIDES if extremals else PlanStatus.FAILED
+        for r in sorted(
+            (r for r in runs if r.run.arcs is not None),
+            key=lambda r: (r.weight, float(r.run.arcs.cost.sum())),
+        ):
+            problem, flow = self._at_weight(r.weight)
+            try:
+                tr = piecewise_trajectory(flow, r.run.arcs, self.settings.samples)
+            except ValueError:
+                continue
+            if _clearance(self.problem, tr) >= 0.0:
+                q = r.run.arcs.t.size - 1
+                return status, r, Answer(tr, None, f"Leapfrog iterate (q = {q}), not optimal")
+        first = runs[0]  # the best ranked path at the scenario's weight
+        tr = first.guide.trajectory(self.settings.samples)
+        return status, first, Answer(tr, None, "initial path, not optimal")
+
+    def _result(self, runs, t_paths, t_runs, wall) -> LeapfrogResult:
+        status, best, answer = self._answer(runs)
+        s, info, run, v = self.scenario, self.problem.model, best.run, answer.validation
+        tr = answer.trajectory
+        problem = self._at_weight(best.weight)[0]
         nan = float("nan")
         # The runs' wall time (paths in parallel threads, each validated in its thread), split
         # in the ratio of the parts' own times.
-        sweeps = sum(r.sweep_time_s for _, r, _, _ in checked)
-        finals = sum(r.final_time_s for _, r, _, _ in checked)
+        t_val = sum(r.validation_time_s for r in runs)
+        sweeps = sum(r.run.sweep_time_s for r in runs)
+        finals = sum(r.run.final_time_s for r in runs)
         share = t_runs / max(sweeps + finals + t_val, 1e-300)
         alternatives = tuple(
-            PathOutcome(
-                label=p.label,
-                status=PlanStatus.CONVERGED if _valid(vv) else PlanStatus.FAILED,
-                cost=vv.cost if _valid(vv) else nan,
-                initial_cost=r.initial_cost,
-                sweeps=len(r.history),
-                message=r.message,
-            )
-            for p, r, _, vv in checked
-            if p is not path
+            _best_of([r for r in runs if r.path is path]).outcome()
+            for path in dict.fromkeys(r.path for r in runs)
+            if path is not best.path
         )
+        if v is not None:
+            cost, energy, penalty = v.cost, v.energy, v.penalty
+            end_error, clearance = v.end_state_error, v.clearance
+        else:
+            penalty = penalty_integral(problem, tr, tr.t.size)
+            cost = float(tr.cost[-1])
+            energy, end_error = cost - penalty, float(np.linalg.norm(tr.x[-1] - s.goal))
+            clearance = problem.penalty.clearance(tr.x[:, :2])
         return LeapfrogResult(
             status=status,
-            message=run.message if v is not None else f"{run.message} (initial path {path.label})",
+            message=self._message(status, best, answer, runs),
             scenario=s.name,
             model=info.name,
             state_names=info.states,
             control_names=info.controls,
             method=self.settings.leapfrog.method,
-            final_solver=run.final_solver,
-            initial_path=path.label,
-            costate0=run.costate0,
-            trajectory=v.trajectory if v else None,
-            cost=v.cost if v else nan,
-            energy=v.energy if v else nan,
-            penalty=v.penalty if v else nan,
-            clearance=v.clearance
-            if v
-            else self.problem.penalty.clearance(path.curve(np.linspace(0, 1, 501))[0]),
-            end_state_error=v.end_state_error if v else float("inf"),
+            final_solver=run.final_solver if v is not None else None,
+            initial_path=best.path.label,
+            costate0=run.costate0 if v is not None else None,
+            trajectory=tr,
+            cost=cost,
+            energy=energy,
+            penalty=penalty,
+            clearance=clearance,
+            end_state_error=end_error,
             max_costate_jump=run.max_costate_jump,
-            max_dH_du=v.max_dH_du if v else nan,
-            hamiltonian_variation=v.hamiltonian_variation if v else nan,
+            max_dH_du=v.max_dH_du if v is not None else nan,
+            hamiltonian_variation=v.hamiltonian_variation if v is not None else nan,
             initial_cost=run.initial_cost,
             history=run.history,
-            initial_junctions=junctions,
-            newton_iterations=sum(r.newton_iterations for _, r, _, _ in checked),
-            f_evals=sum(r.f_evals for _, r, _, _ in checked),
+            initial_junctions=best.junctions,
+            newton_iterations=sum(r.run.newton_iterations for r in runs),
+            f_evals=sum(r.run.f_evals for r in runs),
             cost_increases=run.cost_increases,
             time_initial_path_s=t_paths,
             time_sweeps_s=sweeps * share,
@@ -263,7 +384,39 @@ class Planner:
             time_validation_s=t_val * share,
             wall_time_s=wall,
             alternatives=alternatives,
+            weight=best.weight,
+            optimal=v is not None,
+            trajectory_source=answer.source,
         )
+
+    def _message(self, status, best: PathRun, answer: Answer, runs) -> str:
+        if status is PlanStatus.CONVERGED:
+            msg = best.run.message
+            if best.raises:
+                first = next(r for r in runs if r.path is best.path and r.raises == 0)
+                msg += (
+                    f"; the obstacle weight was raised from {first.weight:g} to"
+                    f" {best.weight:g} to clear the obstacles (at {first.weight:g} the extremal"
+                    f" passed {-first.validation.clearance.min():.3g} inside one)"
+                )
+            return msg
+        if status is PlanStatus.COLLIDES:
+            worst = min(r.validation.clearance.min() for r in runs if r.extremal)
+            what = (
+                f"every extremal found passes through an obstacle (down to {-worst:.3g} inside,"
+                f" obstacle weight up to {max(r.weight for r in runs):g})"
+            )
+        else:
+            what = "; ".join(f"path {r.path.label}: {r.run.message}" for r in runs if r.raises == 0)
+            what = f"no initial path led to an extremal ({what})"
+        return f"{what}; returned: the {answer.source}"
+
+
+def _best_of(runs: list[PathRun]) -> PathRun:
+    """A path's run to report: the first that clears, else the first extremal, else the last."""
+    return next((r for r in runs if r.clear), None) or next(
+        (r for r in runs if r.extremal), runs[-1]
+    )
 
 
 def _valid(v) -> bool:

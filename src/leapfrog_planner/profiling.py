@@ -173,7 +173,7 @@ def _patched(clock: _Clock):
         (loop, "newton_correction", "linear_algebra"),
         (loop, "linear_solve", "linear_algebra"),
         (planner_mod.Planner, "initial_paths", "initial_path"),
-        (planner_mod, "validate", "validation"),
+        (planner_mod, "validate_arcs", "validation"),
         (shooting, "expm", "linear_algebra"),
         (shooting, "solve", "linear_algebra"),
     ] + [(np.linalg, name, "linear_algebra") for name in ("solve", "svd", "lstsq", "norm")]

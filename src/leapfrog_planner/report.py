@@ -2,7 +2,9 @@
 
 ``build_report(records)`` (records as :func:`.sweep_store.read_records` gives them) computes:
 
-- per method: runs, successes and the success rate with its 95% Wilson interval; the cost
+- per method: runs, successes and the success rate with its 95% Wilson interval (a success is a
+  converged run whose path clears every obstacle: a record that says converged but has a
+  negative ``min_clearance``, as other solvers' may, counts as a failure, ``collides``); the cost
   relative to the best cost any method found on the same scenario (converged runs only); the
   solver's wall time; Newton iterations;
 - per pair of methods, on the scenarios both ran: who succeeds where the other fails, with the
@@ -160,7 +162,12 @@ def build_report(records: list[dict]) -> Report:
     scenarios = list(dict.fromkeys(r["scenario"] for r in records))
 
     def ok(r):
-        return r is not None and r["status"] == "converged" and r.get("cost") is not None
+        return (
+            r is not None
+            and r["status"] == "converged"
+            and r.get("cost") is not None
+            and (r.get("min_clearance") is None or r["min_clearance"] >= 0.0)
+        )
 
     best = {}
     for s in scenarios:
@@ -179,8 +186,9 @@ def build_report(records: list[dict]) -> Report:
         lo, hi = wilson_interval(len(conv), len(rs))
         failures: dict[str, int] = {}
         for r in rs:
-            if r["status"] != "converged":
-                reason = r.get("failure") or "solver"
+            if not ok(r):
+                collided = r["status"] == "converged"  # with a negative clearance
+                reason = r.get("failure") or ("collides" if collided else "solver")
                 failures[reason] = failures.get(reason, 0) + 1
         ratio = [r["cost"] / best[r["scenario"]] for r in conv if best[r["scenario"]] > 0]
         ratios[m] = tuple(ratio)

@@ -22,7 +22,7 @@ and ``alternatives`` (the other initial paths: ``label``, ``status``, ``cost``).
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 from enum import StrEnum
 from pathlib import Path
 
@@ -30,7 +30,7 @@ import numpy as np
 
 from ._atomic import write_atomic
 from .integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
-from .leapfrog import SweepRecord
+from .leapfrog import Arcs, SweepRecord
 from .problem import OptimalControlProblem
 
 SCHEMA = 1
@@ -38,8 +38,9 @@ VALIDATION = IntegratorSettings(method="dop853", rtol=1e-12, atol=1e-12)
 
 
 class PlanStatus(StrEnum):
-    CONVERGED = "converged"
-    FAILED = "failed"
+    CONVERGED = "converged"  # a collision-free extremal that meets Pontryagin's conditions
+    COLLIDES = "collides"  # every extremal found passes through an obstacle
+    FAILED = "failed"  # no extremal found
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,7 @@ class PathOutcome:
     initial_cost: float
     sweeps: int
     message: str
+    weight: float  # the obstacle weight of its last run
 
 
 @dataclass(frozen=True)
@@ -72,30 +74,84 @@ def validate(
     problem: OptimalControlProblem, t0, x0, t1, x1, costate0, samples: int = 1001
 ) -> Validation:
     """Re-integrate at rtol 1e-12 and check the end state and Pontryagin's conditions."""
+    one = Arcs(np.array([t0, t1], dtype=float), np.array([x0, x1], dtype=float), costate0[None])
+    return validate_arcs(problem, one, samples)
+
+
+def validate_arcs(problem: OptimalControlProblem, arcs: Arcs, samples: int = 1001) -> Validation:
+    """Re-integrate an extremal arc by arc from its junctions at rtol 1e-12 and check it.
+
+    ``end_state_error`` is the largest jump of the state or the costate where one arc meets the
+    next, or of the state from the goal ``arcs.X[-1]`` at the end: with one arc, the end-state
+    error of simple shooting. The cost and the conditions are those of the joined arcs."""
+    nan = float("nan")
     flow = Flow(problem, VALIDATION)
-    r = flow(t0, np.concatenate([x0, costate0]), t1, samples=samples)
-    if r.status != FlowStatus.OK or r.trajectory is None:
-        nan = float("nan")
-        return Validation(
-            None, nan, nan, nan, np.full(problem.obstacles.shape[0], nan), float("inf"), nan, nan
+    q = arcs.t.size - 1
+    T = arcs.t[-1] - arcs.t[0]
+    parts, cost, penalty, error = [], 0.0, 0.0, 0.0
+    for j in range(q):
+        n = (
+            samples
+            if q == 1
+            else max(3, 2 * round(samples * (arcs.t[j + 1] - arcs.t[j]) / T / 2) + 1)
         )
-    tr = r.trajectory
-    xy = tr.x[:, :2]
-    penalty = _penalty_integral(problem, tr, samples) if problem.obstacles.shape[0] else 0.0
+        z0 = np.concatenate([arcs.X[j], arcs.lam0[j]])
+        r = flow(arcs.t[j], z0, arcs.t[j + 1], samples=n)
+        if r.status != FlowStatus.OK or r.trajectory is None:
+            return Validation(
+                None, nan, nan, nan, np.full(problem.obstacles.shape[0], nan), np.inf, nan, nan
+            )
+        target = arcs.X[j + 1] if j == q - 1 else np.concatenate([arcs.X[j + 1], arcs.lam0[j + 1]])
+        end = r.x if j == q - 1 else r.z
+        error = max(error, float(np.linalg.norm(end - target)))
+        tr = r.trajectory
+        if problem.obstacles.shape[0]:
+            penalty += penalty_integral(problem, tr, n)
+        parts.append(replace(tr, cost=tr.cost + cost))
+        cost += r.cost
+    tr = _joined(parts)
     H = tr.hamiltonian[tr.at_step]
     return Validation(
         trajectory=tr,
-        cost=r.cost,
-        energy=r.cost - penalty,
+        cost=cost,
+        energy=cost - penalty,
         penalty=penalty,
-        clearance=problem.penalty.clearance(xy),
-        end_state_error=float(np.linalg.norm(r.x - np.asarray(x1))),
+        clearance=problem.penalty.clearance(tr.x[:, :2]),
+        end_state_error=error,
         max_dH_du=float(np.abs(tr.dH_du).max()),
         hamiltonian_variation=float(np.abs(H - H[0]).max() / max(1.0, abs(H[0]))),
     )
 
 
-def _penalty_integral(problem: OptimalControlProblem, tr: Trajectory, samples: int) -> float:
+def _joined(parts: list[Trajectory]) -> Trajectory:
+    """Trajectories of consecutive arcs as one (each junction once: the later arc's row)."""
+    if len(parts) == 1:
+        return parts[0]
+    cols = {}
+    for f in fields(Trajectory):
+        pieces = [getattr(p, f.name)[:-1] for p in parts[:-1]] + [getattr(parts[-1], f.name)]
+        cols[f.name] = np.concatenate(pieces)
+    return Trajectory(**cols)
+
+
+def piecewise_trajectory(flow: Flow, arcs: Arcs, samples: int = 1001) -> Trajectory:
+    """The arcs of a piecewise extremal integrated one after the other and joined: a feasible
+    motion from start to goal (each arc meets the next junction up to the local problems'
+    tolerance), about ``samples`` rows in all; the running cost accumulates across arcs."""
+    T = arcs.t[-1] - arcs.t[0]
+    parts: list[Trajectory] = []
+    offset = 0.0
+    for j in range(arcs.t.size - 1):
+        n = max(3, round(samples * (arcs.t[j + 1] - arcs.t[j]) / T))
+        r = flow(arcs.t[j], np.concatenate([arcs.X[j], arcs.lam0[j]]), arcs.t[j + 1], samples=n)
+        if r.trajectory is None:
+            raise ValueError(f"arc {j} could not be integrated ({r.status})")
+        parts.append(replace(r.trajectory, cost=r.trajectory.cost + offset))
+        offset += float(r.cost)
+    return _joined(parts)
+
+
+def penalty_integral(problem: OptimalControlProblem, tr: Trajectory, samples: int) -> float:
     """Simpson's rule on the uniform rows of the trajectory (the others are integrator steps).
 
     Written out rather than imported: ``scipy.integrate`` takes longer to import (0.3 s) than the
@@ -143,7 +199,10 @@ class LeapfrogResult:
     time_final_s: float
     time_validation_s: float
     wall_time_s: float
-    alternatives: tuple[PathOutcome, ...] = ()
+    alternatives: tuple[PathOutcome, ...]
+    weight: float  # the obstacle weight of the problem the trajectory solves
+    optimal: bool  # the trajectory is a validated extremal (always when converged)
+    trajectory_source: str  # "extremal", "Leapfrog iterate (q = 4), not optimal", ...
 
     @property
     def success(self) -> bool:
@@ -181,6 +240,9 @@ class LeapfrogResult:
             "method": self.method,
             "final_solver": self.final_solver,
             "initial_path": self.initial_path,
+            "optimal": self.optimal,
+            "trajectory_source": self.trajectory_source,
+            "weight": self.weight,
             "cost": num(self.cost),
             "energy": num(self.energy),
             "penalty": num(self.penalty),
@@ -216,7 +278,14 @@ class LeapfrogResult:
                 for h in self.history
             ],
             "alternatives": [
-                {"label": a.label, "status": str(a.status), "cost": num(a.cost), "sweeps": a.sweeps}
+                {
+                    "label": a.label,
+                    "status": str(a.status),
+                    "cost": num(a.cost),
+                    "sweeps": a.sweeps,
+                    "weight": a.weight,
+                    "message": a.message,
+                }
                 for a in self.alternatives
             ],
             "trajectory": {k: v.tolist() for k, v in self.trajectory_columns().items()},

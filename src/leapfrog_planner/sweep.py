@@ -27,7 +27,8 @@ process loads the compiled kernels once and keeps them. A pair that raises, exce
 or kills its worker is recorded as failed with a reason; the sweep goes on.
 
 Record fields: ``scenario``, ``method``, ``status`` (``converged``/``failed``), ``failure``
-(``null``, ``solver``, ``timeout``, ``crash`` or ``error``), ``message``, ``cost``,
+(``null``, ``solver``, ``collides`` (the path found passes through an obstacle), ``timeout``,
+``crash`` or ``error``), ``message``, ``cost``,
 ``min_clearance``, ``end_state_error``, ``newton_iterations``, ``f_evals``, ``sweeps``,
 ``final_solver``, ``obstacles`` (count), ``scenario_hash`` and ``settings_hash`` (what was run;
 a resume with other content or settings is refused), and the timings ``wall_time_s`` (the
@@ -82,7 +83,7 @@ DIRECT_INTERVALS = 100
 #: The sweep's planner defaults (see the module docstring); overridden by ``SweepSettings.planner``.
 # threads=1: the sweep already runs one pair per core; path threads would only oversubscribe.
 DEFAULT_PLANNER_OPTIONS = {"initial_paths": 1, "threads": 1}
-FAILURES = ("solver", "timeout", "crash", "error")
+FAILURES = ("solver", "collides", "timeout", "crash", "error")
 
 
 class SweepError(LeapfrogError, ValueError):
@@ -313,7 +314,8 @@ def _run_planner(sc: Scenario, method: str, options: dict, deadline: float) -> d
 
     r = Planner(sc, progress=check, **options, method=method).plan()
     return {
-        "status": str(r.status),
+        "status": "converged" if r.success else "failed",
+        "failure": "collides" if r.status == "collides" else None,
         "message": r.message,
         "cost": _num(r.cost),
         "min_clearance": _num(r.min_clearance),
@@ -378,6 +380,7 @@ def _run_direct(sc: Scenario, options: dict) -> dict:
     message = r.message if clear else f"{r.message}; the path collides ({r.min_clearance:.3g})"
     return {
         "status": "converged" if ok else "failed",
+        "failure": "collides" if r.success and not clear else None,
         "message": message,
         "cost": _num(r.cost) if r.success else None,
         "min_clearance": _num(r.min_clearance) if sc.obstacles.size else None,
@@ -418,7 +421,7 @@ def _record(task: PairTask, out: dict, failure: str | None, task_time: float, wa
     if status not in ("converged", "failed"):
         status, failure, out = "failed", "error", {"message": f"bad status {status!r}"}
     if status == "failed" and failure is None:
-        failure = "solver"
+        failure = out.get("failure") if out.get("failure") in FAILURES else "solver"
     rec = {
         "scenario": task.scenario.name,
         "method": task.method_name,
