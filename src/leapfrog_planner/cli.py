@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import sys
 from pathlib import Path
@@ -272,12 +273,25 @@ def _plan_with_progress(planner):
 def _summary(r) -> Table:
     table = Table(title=f"{r.scenario}: Leapfrog ({r.method})", show_header=False)
     clearance = "n/a (no obstacles)" if r.min_clearance is None else f"{r.min_clearance:.4g}"
-    rows = [
-        ("status", str(r.status) + ("" if r.success else f": {r.message}")),
-        ("cost", f"{r.cost:.8g}  (energy {r.energy:.6g} + penalty {r.penalty:.6g})"),
-        ("min clearance", clearance),
-        ("end-state error", f"{r.end_state_error:.2e}"),
-        ("final solve", f"{r.final_solver} from initial path {r.initial_path}"),
+    cost = f"{r.cost:.8g}  (energy {r.energy:.6g} + penalty {r.penalty:.6g})"
+    what = r.message.split("; returned: ")[0]  # the returned trajectory has its own row
+    rows = [("status", str(r.status) + ("" if r.success else f": {what}"))]
+    if r.optimal:
+        rows += [
+            ("cost", cost),
+            ("min clearance", clearance),
+            ("end-state error", f"{r.end_state_error:.2e}"),
+            ("final solve", f"{r.final_solver} from initial path {r.initial_path}"),
+        ]
+        if "raised" in r.message:
+            rows.append(("obstacle weight", r.message.split("; ", 1)[1]))
+    else:
+        rows += [
+            ("returned", f"the {r.trajectory_source} (from initial path {r.initial_path})"),
+            ("its cost", cost),
+            ("its clearance", clearance),
+        ]
+    rows += [
         ("sweeps", str(r.sweeps)),
         ("Newton iterations", f"{r.newton_iterations}  ({r.f_evals} F evaluations)"),
         (
@@ -288,7 +302,10 @@ def _summary(r) -> Table:
         ),
     ]
     for a in r.alternatives:
-        rows.append((f"other path {a.label}", f"{a.status}, cost {a.cost:.8g}"))
+        what = f"{a.status}, cost {a.cost:.8g}" if math.isfinite(a.cost) else f"{a.status}"
+        if a.weight != r.weight:
+            what += f" (obstacle weight {a.weight:g})"
+        rows.append((f"other path {a.label}", what))
     for k, v in rows:
         table.add_row(k, v)
     return table

@@ -278,7 +278,10 @@ class _SmoothCurve:
         "samples",
     )
 
-    def __init__(self, polyline: np.ndarray, theta0: float, theta1: float):
+    def __init__(self, polyline: np.ndarray, theta0: float, theta1: float, free_end=False):
+        """``theta0``, ``theta1``: tangent directions at the ends. With ``free_end`` the curve
+        ends along ``theta1`` but its heading there is its own turning from ``theta0`` (no
+        whole turns are added), and ``theta1`` becomes that heading."""
         self.theta0 = float(theta0)
         self.theta1 = float(theta1)
         pts = np.array(polyline, dtype=np.float64)
@@ -311,6 +314,8 @@ class _SmoothCurve:
         self.phi = phi
         # theta1 - phi[-1] is a multiple of 2 pi (up to rounding): the number of extra turns the
         # goal heading asks for beyond the curve's own turning. It is spread linearly over s.
+        if free_end:
+            self.theta1 = float(phi[-1])
         self.delta = self.theta1 - float(phi[-1])
 
     def _eval(self, u: np.ndarray, i: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -356,15 +361,21 @@ class EndModes:
     ``reverse``: the path is driven backwards (heading = tangent direction + pi). ``turn_start``
     (``turn_goal``): the robot turns in place at the start (goal) between its heading and the
     direction of the first (last) leg, instead of leaving (arriving) along its heading with a
-    turning arc. The default is forward with turning arcs where needed.
+    turning arc. ``cusp``: the path drives (forwards, or backwards with ``reverse``) along the
+    start heading to a cusp point, turns there in place as far as needed, and drives the other
+    way into the goal along the goal heading: a three-point turn. The default is forward with
+    turning arcs where needed.
     """
 
     reverse: bool = False
     turn_start: bool = False
     turn_goal: bool = False
+    cusp: bool = False
 
     def describe(self) -> str:
         """``""`` for the default, else e.g. ``"reverse, turn in place at start"``."""
+        if self.cusp:
+            return "reverse, then forward" if self.reverse else "forward, then reverse"
         parts = ["reverse"] if self.reverse else []
         ends = [e for e, on in (("start", self.turn_start), ("goal", self.turn_goal)) if on]
         if ends:
@@ -375,50 +386,86 @@ class EndModes:
 FORWARD = EndModes()
 
 
-class _PoseCurve:
-    """Poses ``(x, y, heading)`` at normalised time ``s``: a turn in place at the start by
-    ``spin0``, the smooth curve at constant speed (heading = its tangent direction, minus
-    ``offset`` = pi when reversing), a turn in place at the goal by ``spin1``.
+class _Drive:
+    """A smooth curve driven at constant speed: heading = tangent direction minus ``offset``
+    (pi when reversing)."""
 
-    Time is shared in proportion to the unicycle's own metric (its cost is ``1/2 (v^2 +
-    omega^2)``): a turn of ``rho`` radians takes the time of ``rho`` units of path. Without turns
-    and offset the poses are the curve's own, unchanged.
-    """
+    __slots__ = ("curve", "offset")
 
-    __slots__ = ("curve", "theta0", "theta1", "spin0", "spin1", "offset", "a", "b", "plain")
-
-    def __init__(self, curve: _SmoothCurve, theta0, theta1, spin0=0.0, spin1=0.0, offset=0.0):
-        self.curve = curve
-        self.theta0, self.theta1 = float(theta0), float(theta1)
-        self.spin0, self.spin1, self.offset = float(spin0), float(spin1), float(offset)
-        self.plain = self.spin0 == 0.0 and self.spin1 == 0.0 and self.offset == 0.0
-        total = curve.length + abs(self.spin0) + abs(self.spin1)
-        self.a = abs(self.spin0) / total if total > 0.0 else 0.0
-        self.b = 1.0 - abs(self.spin1) / total if total > 0.0 else 1.0
+    def __init__(self, curve: _SmoothCurve, offset: float = 0.0):
+        self.curve, self.offset = curve, float(offset)
 
     @property
-    def length(self) -> float:
+    def metric(self) -> float:
         return self.curve.length
 
     @property
     def samples(self) -> np.ndarray:
         return self.curve.samples
 
+    def evaluate(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        xy, th = self.curve.evaluate(u)
+        return xy, (th - self.offset if self.offset else th)
+
+
+class _Turn:
+    """A turn in place at ``xy`` from heading ``theta0`` to ``theta1``."""
+
+    __slots__ = ("xy", "theta0", "theta1")
+
+    def __init__(self, xy: np.ndarray, theta0: float, theta1: float):
+        self.xy, self.theta0, self.theta1 = np.array(xy[:2], dtype=float), theta0, theta1
+
+    @property
+    def metric(self) -> float:
+        return abs(self.theta1 - self.theta0)
+
+    @property
+    def samples(self) -> np.ndarray:
+        return self.xy[None, :]
+
+    def evaluate(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.repeat(self.xy[None, :], u.size, axis=0), self.theta0 + (
+            self.theta1 - self.theta0
+        ) * u
+
+
+class _PoseCurve:
+    """Poses ``(x, y, heading)`` at normalised time ``s`` along a sequence of pieces, each a
+    drive along a smooth curve (:class:`_Drive`) or a turn in place (:class:`_Turn`).
+
+    Time is shared in proportion to the unicycle's own metric (its cost is ``1/2 (v^2 +
+    omega^2)``): a turn of ``rho`` radians takes the time of ``rho`` units of path. A single
+    forward drive gives the curve's own poses, unchanged.
+    """
+
+    __slots__ = ("pieces", "shares", "length", "samples")
+
+    def __init__(self, pieces: list):
+        pieces = [p for p in pieces if not (isinstance(p, _Turn) and p.metric == 0.0)]
+        self.pieces = pieces
+        metric = np.array([p.metric for p in pieces])
+        total = metric.sum()
+        cum = np.concatenate(([0.0], np.cumsum(metric))) / total if total > 0.0 else None
+        if cum is None:
+            cum = np.linspace(0.0, 1.0, len(pieces) + 1)
+        cum[-1] = 1.0
+        self.shares = cum
+        self.length = float(sum(p.metric for p in pieces if isinstance(p, _Drive)))
+        self.samples = np.vstack([p.samples for p in pieces])
+
     def evaluate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.plain:
-            return self.curve.evaluate(s)
-        a, b = self.a, self.b
+        if len(self.pieces) == 1:
+            return self.pieces[0].evaluate(s)
         xy = np.empty((s.size, 2))
         th = np.empty(s.size)
-        drive = (s >= a) & (s <= b)
-        sigma = np.clip((s[drive] - a) / (b - a), 0.0, 1.0) if b > a else np.zeros(drive.sum())
-        xy[drive], th[drive] = self.curve.evaluate(sigma)
-        th[drive] -= self.offset
-        before, after = s < a, s > b
-        xy[before] = self.curve.samples[0]
-        th[before] = self.theta0 + self.spin0 * (s[before] / a)
-        xy[after] = self.curve.samples[-1]
-        th[after] = self.theta1 - self.spin1 * ((1.0 - s[after]) / (1.0 - b))
+        k = np.clip(np.searchsorted(self.shares, s, side="right") - 1, 0, len(self.pieces) - 1)
+        for j, piece in enumerate(self.pieces):
+            at = k == j
+            if at.any():
+                a, b = self.shares[j], self.shares[j + 1]
+                u = np.clip((s[at] - a) / (b - a), 0.0, 1.0) if b > a else np.zeros(at.sum())
+                xy[at], th[at] = piece.evaluate(u)
         return xy, th
 
 
@@ -805,19 +852,23 @@ def _make_path(poly, S, G, obs, label, tol, signature=None, modes=FORWARD) -> In
     offset = math.pi if modes.reverse else 0.0
     h0, h1 = S[2] + offset, G[2] + offset  # the curve's tangent direction at its ends
     if modes.turn_start and poly.shape[0] >= 2:
-        h0 = _near_branch(math.atan2(*(poly[1] - poly[0])[::-1]), h0)
+        h0 = _near_branch(_direction(poly[1] - poly[0]), h0)
     if modes.turn_goal and poly.shape[0] >= 2:
-        h1 = _near_branch(math.atan2(*(poly[-1] - poly[-2])[::-1]), h1)
+        h1 = _near_branch(_direction(poly[-1] - poly[-2]), h1)
     poly, sig = _with_turns(poly, h0, h1, obs, tol, signature)
-    smooth = _SmoothCurve(poly, h0, h1)
-    curve = _PoseCurve(smooth, S[2], G[2], h0 - offset - S[2], G[2] - (h1 - offset), offset)
+    pieces = [_Turn(S, S[2], h0 - offset), _Drive(_SmoothCurve(poly, h0, h1), offset)]
+    pieces.append(_Turn(G, h1 - offset, G[2]))
+    return _path(poly, _PoseCurve(pieces), S, G, obs, label, tol, sig, modes)
+
+
+def _path(poly, curve, S, G, obs, label, tol, signature, modes) -> InitialPath:
     poly = poly.copy()
     for arr in (poly, S, G):
         arr.setflags(write=False)
     return InitialPath(
         polyline=poly,
         length=curve.length,
-        signature=_signature(poly, obs, tol) if sig is None else sig,
+        signature=_signature(poly, obs, tol) if signature is None else signature,
         min_clearance=_clearance(curve.samples, obs),
         label=label,
         start=S,
@@ -825,6 +876,69 @@ def _make_path(poly, S, G, obs, label, tol, signature=None, modes=FORWARD) -> In
         _curve=curve,
         modes=modes,
     )
+
+
+def _direction(v: np.ndarray) -> float:
+    return math.atan2(v[1], v[0])
+
+
+#: A cusp point is used only this many start-goal distances away at most.
+_CUSP_REACH = 2.0
+#: Cusp points along the start (goal) heading, as fractions of the start-goal distance.
+_CUSP_STEPS = (0.25, 0.5)
+
+
+def _cusp_points(S, G, e0: np.ndarray, m1: np.ndarray, chord: float) -> list[np.ndarray]:
+    """Where a three-point turn may reverse: along the start's line of motion ``e0`` (backing
+    out, or driving on, a quarter or half of the chord), along the goal's ``m1`` (driving past
+    the goal and back in), and where the two lines meet ahead of both ends."""
+    points = [S[:2] + f * chord * e0 for f in _CUSP_STEPS]
+    points += [G[:2] - f * chord * m1 for f in _CUSP_STEPS]
+    M = np.column_stack([e0, m1])
+    if abs(np.linalg.det(M)) > 1e-3:
+        a, b = np.linalg.solve(M, G[:2] - S[:2])
+        if 0.0 < a <= _CUSP_REACH * chord and 0.0 < b <= _CUSP_REACH * chord:
+            points.append(S[:2] + a * e0)
+    return points
+
+
+def _cusp_paths(S, G, obs, margin, tol) -> list[tuple[np.ndarray, InitialPath]]:
+    """Three-point turns: drive from the start along its heading (forwards, and also
+    backwards) to a cusp point (:func:`_cusp_points`), turn there in place as far as needed,
+    and drive the other way into the goal, arriving along its heading. Each leg goes round the
+    obstacles by its shortest way; cusp points inside an inflated obstacle are skipped.
+    Returns ``(cusp point, path)`` pairs."""
+    chord = math.hypot(*(G[:2] - S[:2]))
+    out = []
+    for reverse in (False, True):
+        off0, off1 = (math.pi, 0.0) if reverse else (0.0, math.pi)
+        e0 = np.array([math.cos(S[2] + off0), math.sin(S[2] + off0)])  # leaving the start
+        m1 = np.array([math.cos(G[2] + off1), math.sin(G[2] + off1)])  # arriving at the goal
+        for C in _cusp_points(S, G, e0, m1, chord):
+            if min(math.hypot(*(C - S[:2])), math.hypot(*(C - G[:2]))) <= tol or (
+                obs.shape[0] and np.any(np.hypot(*(C - obs[:, :2]).T) <= obs[:, 2] + margin)
+            ):
+                continue
+            out.append((C, _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse)))
+    return out
+
+
+def _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse) -> InitialPath:
+    """Drive (heading = tangent - ``off0``) from the start to ``C``, turn in place, drive
+    (heading = tangent - ``off1``) to the goal."""
+    first, second = _route(S[:2], C, obs, margin, tol), _route(C, G[:2], obs, margin, tol)
+    h0 = S[2] + off0
+    first, _ = _with_turns(first, h0, _direction(first[-1] - first[-2]), obs, tol, None)
+    one = _SmoothCurve(first, h0, _direction(first[-1] - first[-2]), free_end=True)
+    at_cusp = one.theta1 - off0  # the heading on arriving at the cusp
+    h2 = _near_branch(_direction(second[1] - second[0]), at_cusp + off1)
+    h3 = G[2] + off1
+    second, _ = _with_turns(second, h2, h3, obs, tol, None)
+    two = _SmoothCurve(second, h2, h3)
+    pieces = [_Drive(one, off0), _Turn(C, at_cusp, h2 - off1), _Drive(two, off1)]
+    poly = np.vstack([first, second[1:]])
+    modes = EndModes(reverse=reverse, cusp=True)
+    return _path(poly, _PoseCurve(pieces), S, G, obs, "", tol, None, modes)
 
 
 # --------------------------------------------------------------------------- tangent graph
@@ -1439,23 +1553,28 @@ def initial_paths(
         for path in variants:
             how = path.modes.describe()
             out.append(_relabel(path, f"{name}, {how}" if how else name))
+    if len(end_modes(np.vstack([S[:2], G[:2]]), S, G)) > 1:  # an end heading points away
+        for C, path in _cusp_paths(S, G, obs, used, tol):
+            label = f"three-point turn at ({C[0]:.3g}, {C[1]:.3g}), {path.modes.describe()}"
+            out.append(_relabel(path, label + note))
     return out
 
 
 def _through(points: np.ndarray, obs: np.ndarray, margin: float, tol: float) -> np.ndarray:
-    """The polyline through ``points`` in order, each leg the shortest path round the inflated
-    obstacles (the margin falls back as for a whole path; a leg with no path at all stays
-    straight, and its clearance shows it)."""
-    poly = [points[:1]]
-    for a, b in zip(points[:-1], points[1:], strict=True):
-        leg = np.vstack([a, b])
-        for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
-            cands = _plan(np.append(a, 0.0), np.append(b, 0.0), obs, m, 1, tol)
-            if cands is not None:
-                leg = cands[0].polyline
-                break
-        poly.append(leg[1:])
-    return np.vstack(poly)
+    """The polyline through ``points`` in order, each leg routed by :func:`_route`."""
+    legs = [_route(a, b, obs, margin, tol) for a, b in zip(points[:-1], points[1:], strict=True)]
+    return np.vstack([points[:1]] + [leg[1:] for leg in legs])
+
+
+def _route(a: np.ndarray, b: np.ndarray, obs: np.ndarray, margin: float, tol: float) -> np.ndarray:
+    """The shortest polyline from ``a`` to ``b`` round the inflated obstacles (the margin falls
+    back as for a whole path; with no path at all, the straight segment, whose clearance shows
+    it)."""
+    for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
+        cands = _plan(np.append(a, 0.0), np.append(b, 0.0), obs, m, 1, tol)
+        if cands is not None:
+            return cands[0].polyline
+    return np.vstack([a, b])
 
 
 def _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes) -> InitialPath:

@@ -402,9 +402,11 @@ class Planner:
             return msg
         if status is PlanStatus.COLLIDES:
             worst = min(r.validation.clearance.min() for r in runs if r.extremal)
+            top = max(r.weight for r in runs)
+            weights = f"obstacle weight up to {top:g}" if top > 0 else "the obstacle weight is 0"
             what = (
                 f"every extremal found passes through an obstacle (down to {-worst:.3g} inside,"
-                f" obstacle weight up to {max(r.weight for r in runs):g})"
+                f" {weights})"
             )
         else:
             what = "; ".join(f"path {r.path.label}: {r.run.message}" for r in runs if r.raises == 0)
