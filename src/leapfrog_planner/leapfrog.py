@@ -226,6 +226,10 @@ class LeapfrogRun:
     # q > 2, or the initial path's arcs): a feasible motion from start to goal even when the
     # final solve fails. None when the initial path's segments failed.
     arcs: Arcs | None = None
+    # How the initial path's segments were solved: segments per strategy ("warm", "path
+    # costate", "weight continuation", "end-state continuation", "affine guess"), "failed"
+    # (every strategy failed) and "split" (segments split in two after failing).
+    fit_strategies: dict[str, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -333,6 +337,7 @@ def leapfrog(
     if settings.method == "modified-newton":
         local_method = ModifiedNewtonStep(max_halvings=settings.local_halvings)
     count = _Counter()
+    strategies = _Strategies()
 
     # By identity: hashing the settings cost more than a local solve's bookkeeping. The shooter
     # holds its flow, settings and method, so the ids stay theirs while it is in the table.
@@ -395,35 +400,29 @@ def leapfrog(
         return r or solve(ta, xa, tb, xb, None, local, local_flow, attempt)
 
     def continuation(ta, xa, tb, xb, guess) -> LocalSolution | None:
-        """Raise the obstacle weight from 0 to W, each solve warm-starting the next.
-
-        The increment doubles after a success and halves after a failure (down to
-        ``continuation_min_step`` W); the next guess is extrapolated from the last two solutions
-        (secant predictor), so each solve starts close to its answer.
-        """
+        """Raise the obstacle weight from 0 to W (:func:`_continuation`), from a solve at
+        weight 0 (the direct attempts there)."""
         r = direct(ta, xa, tb, xb, guess, *at_weight(0.0))
         if r is None:
             return None
-        w, s, prev = 0.0, r.costate0, None
-        dw = settings.continuation_first_step * W
-        min_dw = settings.continuation_min_step * W
-        for _ in range(settings.continuation_steps):
-            wn = min(W, w + dw)
-            pred = s if prev is None else s + (wn - w) * (s - prev[1]) / (w - prev[0])
-            pw, fw = at_weight(wn)
-            r = solve(ta, xa, tb, xb, pred, pw, fw, attempt)
-            if r is None and prev is not None:
-                r = solve(ta, xa, tb, xb, s, pw, fw, attempt)
-            if r is None:
-                if dw <= min_dw:
-                    return None
-                dw = max(0.5 * dw, min_dw)
-                continue
-            prev, w, s = (w, s), wn, r.costate0
-            if w >= W:
-                return r
-            dw *= 2.0
-        return None  # the step budget is spent: a failure, handled like any other
+
+        def at(w, g):
+            return solve(ta, xa, tb, xb, g, *at_weight(w), attempt)
+
+        return _continuation(at, r.costate0, W, settings)
+
+    def target_continuation(ta, xa, tb, xb, guess) -> LocalSolution | None:
+        """Move the end state from where ``guess`` leads (there ``guess`` is exact) to ``xb``
+        (:func:`_continuation`): a problem family that starts solved, for any method."""
+        r = flow(ta, np.concatenate([xa, guess]), tb)
+        if not r.ok:
+            return None
+        reached = r.x
+
+        def at(p, g):
+            return solve(ta, xa, tb, reached + p * (xb - reached), g, settings=attempt)
+
+        return _continuation(at, guess, 1.0, settings)
 
     def two_arcs(ta, xa, tb, xb, guess, mid) -> LocalSolution | None:
         """The local problem as two arcs through the junction ``mid = (t_i, x_i, lambda_i)``.
@@ -446,25 +445,30 @@ def leapfrog(
         return r
 
     def segment_solve(ta, xa, tb, xb, warm) -> LocalSolution | None:
-        """A segment of the initial path: from the costate ``warm`` at the end of the segment
-        before (if any) and from the path's own costate (or, with neither, from the affine
-        guess), then by continuation in the obstacle weight from the first of these, and last
+        """A segment of the initial path, by the first of these that succeeds (counted in
+        ``fit_strategies``): from the costate ``warm`` at the end of the segment before (if
+        any); from the path's own costate (or, with neither, from the affine guess); by
+        continuation in the obstacle weight, then in the end state, from the first of these;
         from the affine guess.
 
         Continuation comes before the affine guess at the full weight: there the affine guess
         mostly failed too, and its failing iterates run long flows near the obstacles (paper
         case 4, second path: 5 segments, 96 evaluations and 17 ms), while continuation solved
         each segment in 2 ms."""
-        guesses = [g for g in (warm, guide and guide.costate(ta)) if g is not None] or [None]
-        for g in guesses:
+        tries = [("warm", warm), ("path costate", guide and guide.costate(ta))]
+        tries = [(name, g) for name, g in tries if g is not None] or [("affine guess", None)]
+        for name, g in tries:
             r = solve(ta, xa, tb, xb, g, settings=attempt)
             if r is not None:
-                return r
-        if has_obstacles:
-            r = continuation(ta, xa, tb, xb, guesses[0])
-            if r is not None:
-                return r
-        return None if guesses[0] is None else solve(ta, xa, tb, xb, None, settings=attempt)
+                return strategies.solved(name, r)
+        first = tries[0][1]
+        if has_obstacles and (r := continuation(ta, xa, tb, xb, first)) is not None:
+            return strategies.solved("weight continuation", r)
+        if first is not None and (r := target_continuation(ta, xa, tb, xb, first)) is not None:
+            return strategies.solved("end-state continuation", r)
+        if first is not None and (r := solve(ta, xa, tb, xb, None, settings=attempt)):
+            return strategies.solved("affine guess", r)
+        return strategies.failed()
 
     def fit(ta, xa, tb, xb, depth, warm) -> list | None:
         r = segment_solve(ta, xa, tb, xb, warm)
@@ -472,6 +476,7 @@ def leapfrog(
             return [(ta, xa, r.costate0, r.costate1, r.cost)]
         if depth >= settings.max_split_depth or guide is None:
             return None
+        strategies.split()
         tm = 0.5 * (ta + tb)
         xm = guide.state(tm)
         left = fit(ta, xa, tm, xm, depth + 1, warm)
@@ -483,17 +488,13 @@ def leapfrog(
     for i in range(t.size - 1):
         seg = fit(t[i], X[i], t[i + 1], X[i + 1], 0, pieces[-1][3] if pieces else None)
         if seg is None:
+            tried = "warm start, path costate, weight and end-state continuation, affine guess"
+            if guide is not None and settings.max_split_depth:
+                tried += f", split {settings.max_split_depth} times"
             return _failed(
-                f"the two-point problem of initial segment {i} failed"
-                + (
-                    " even after splitting"
-                    if guide is not None and settings.max_split_depth
-                    else ""
-                ),
+                f"the two-point problem of initial segment {i} failed ({tried})",
                 count,
-                np.inf,
-                (),
-                0,
+                strategies.counts,
                 time.perf_counter() - t_start,
             )
         pieces += seg
@@ -630,32 +631,45 @@ def leapfrog(
                 one = Arcs(np.array([T0, T1]), np.array([start, goal]), r.costate0[None, :])
                 return one, "shooting", root
         if settings.final in ("auto", "multiple-shooting"):
-            # Converged first with the local problems' tolerances (rtol 1e-7, |F| <= 1e-5), then
-            # polished with the final ones (one or two iterations): an evaluation integrates
-            # every arc with its full sensitivities, 3 ms at rtol 1e-12 for the 8 arcs of paper
-            # case 4 (measured there: 43 -> 14 ms for the fallback, the same answer). When the
-            # coarse solve fails the fallback has failed: on 2 x 150 random scenarios and the
-            # paper cases, solving again at rtol 1e-12 from the start never converged instead
-            # (its diverging iterates cost 70-100 ms on case 4 with NM).
-            Z = np.hstack([junctions.X[:-1], junctions.lam0])
-            ms = MultipleShootingSystem(coarse_flow, junctions.t, start, goal)
-            w0 = ms.pack(junctions.lam0[0], Z)
-            root = solve_multiple_shooting(
-                ms, w0, settings.method, coarse_root, final_settings.compiled
-            )
-            if root.success:
-                count.add(root)
-                ms = MultipleShootingSystem(final_flow, junctions.t, start, goal)
-                root = solve_multiple_shooting(
-                    ms, root.x, settings.method, final_settings.root, final_settings.compiled
-                )
-            count.add(root)
-            if root.success:
-                Z = ms.unpack(root.x)
-                nx = start.size
-                ends = np.vstack([Z[:, :nx], goal[None, :]])
-                return Arcs(ms.t.copy(), ends, Z[:, nx:].copy()), "multiple-shooting", root
+            # Over the level's junctions, then over twice as many (every arc split at its
+            # middle): shorter arcs, a better conditioned system. With the end-state
+            # continuation of the initial segments, on the general preset (500 scenarios, 3
+            # paths): MNM 497 -> 499 converged, NM 492 -> 495.
+            for level in (junctions, junctions.refined(flow)):
+                extremal, root = multiple_shooting(level)
+                if extremal is not None:
+                    return extremal, "multiple-shooting", root
         return None, None, root
+
+    def multiple_shooting(junctions: _Arcs):
+        """Multiple shooting from the arcs ``junctions``: (its extremal or None, root result).
+
+        Converged first with the local problems' tolerances (rtol 1e-7, |F| <= 1e-5), then
+        polished with the final ones (one or two iterations): an evaluation integrates every
+        arc with its full sensitivities, 3 ms at rtol 1e-12 for the 8 arcs of paper case 4
+        (measured there: 43 -> 14 ms for the fallback, the same answer). When the coarse solve
+        fails the fallback has failed: on 2 x 150 random scenarios and the paper cases, solving
+        again at rtol 1e-12 from the start never converged instead (its diverging iterates cost
+        70-100 ms on case 4 with NM)."""
+        Z = np.hstack([junctions.X[:-1], junctions.lam0])
+        ms = MultipleShootingSystem(coarse_flow, junctions.t, start, goal)
+        w0 = ms.pack(junctions.lam0[0], Z)
+        root = solve_multiple_shooting(
+            ms, w0, settings.method, coarse_root, final_settings.compiled
+        )
+        if root.success:
+            count.add(root)
+            ms = MultipleShootingSystem(final_flow, junctions.t, start, goal)
+            root = solve_multiple_shooting(
+                ms, root.x, settings.method, final_settings.root, final_settings.compiled
+            )
+        count.add(root)
+        if not root.success:
+            return None, root
+        Z = ms.unpack(root.x)
+        nx = start.size
+        ends = np.vstack([Z[:, :nx], goal[None, :]])
+        return Arcs(ms.t.copy(), ends, Z[:, nx:].copy()), root
 
     # Final step: simple shooting over the whole horizon from the first arc's costate.
     t_final = time.perf_counter()
@@ -709,7 +723,55 @@ def leapfrog(
         final_time_s=final_time,
         final_root=root,
         arcs=_exact(arcs if arcs.q > 2 or arcs is last_multi else level),
+        fit_strategies=dict(strategies.counts),
     )
+
+
+def _continuation(solve_at, s0, end: float, settings: LeapfrogSettings):
+    """Natural-parameter continuation: ``solve_at(p, guess)`` solves the problem at parameter
+    ``p`` (None on failure); ``s0`` solves it at ``p = 0``. ``p`` goes to ``end``: the step
+    (first ``continuation_first_step * end``) doubles after a success and halves after a
+    failure, down to ``continuation_min_step * end``; each guess is extrapolated from the last
+    two solutions (secant predictor), else the last one is tried too; at most
+    ``continuation_steps`` steps. Returns the solution at ``end``, or None."""
+    p, s, prev = 0.0, s0, None
+    dp = settings.continuation_first_step * end
+    min_dp = settings.continuation_min_step * end
+    for _ in range(settings.continuation_steps):
+        pn = min(end, p + dp)
+        pred = s if prev is None else s + (pn - p) * (s - prev[1]) / (p - prev[0])
+        r = solve_at(pn, pred)
+        if r is None and prev is not None:
+            r = solve_at(pn, s)
+        if r is None:
+            if dp <= min_dp:
+                return None
+            dp = max(0.5 * dp, min_dp)
+            continue
+        prev, p, s = (p, s), pn, r.costate0
+        if p >= end:
+            return r
+        dp *= 2.0
+    return None  # the step budget is spent: a failure, handled like any other
+
+
+class _Strategies:
+    """How the initial path's segments were solved: per strategy, the segments it solved;
+    segments that failed every strategy, and splits."""
+
+    def __init__(self):
+        self.counts: dict[str, int] = {}
+
+    def solved(self, name: str, r):
+        self.counts[name] = self.counts.get(name, 0) + 1
+        return r
+
+    def failed(self):
+        self.counts["failed"] = self.counts.get("failed", 0) + 1
+        return None
+
+    def split(self):
+        self.counts["split"] = self.counts.get("split", 0) + 1
 
 
 def _exact(arcs: _Arcs) -> Arcs:
@@ -717,20 +779,22 @@ def _exact(arcs: _Arcs) -> Arcs:
     return Arcs(arcs.t.copy(), arcs.X.copy(), arcs.lam0.copy(), arcs.cost.copy())
 
 
-def _failed(message, count, initial_cost, history, increases, sweep_time) -> LeapfrogRun:
+def _failed(message, count, strategies, sweep_time) -> LeapfrogRun:
+    """A run whose initial path's segments could not all be solved."""
     return LeapfrogRun(
         success=False,
         message=message,
         costate0=None,
         extremal=None,
         final_solver=None,
-        initial_cost=initial_cost,
+        initial_cost=np.inf,
         max_costate_jump=float("nan"),
-        history=tuple(history),
+        history=(),
         newton_iterations=count.iterations,
         f_evals=count.f_evals,
-        cost_increases=increases,
+        cost_increases=0,
         sweep_time_s=sweep_time,
         final_time_s=0.0,
         final_root=None,
+        fit_strategies=dict(strategies),
     )
