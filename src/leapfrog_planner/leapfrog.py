@@ -252,6 +252,9 @@ class _Arcs:
     lam0: np.ndarray  # (q, nx) costate at the start of each arc
     lam1: np.ndarray  # (q, nx) costate at the end of each arc
     cost: np.ndarray  # (q,)
+    # Junctions of this level whose local problem end-state continuation failed to solve: it
+    # is not tried there again (see local_solve).
+    hopeless: set[int] = field(default_factory=set)
 
     @property
     def q(self) -> int:
@@ -437,11 +440,18 @@ def leapfrog(
         count.add(root)
         return solve(ta, xa, tb, xb, root.x[: xa.size], settings=attempt) if root.success else None
 
-    def local_solve(ta, xa, tb, xb, guess, mid, warm_failed=False) -> LocalSolution | None:
-        """In a sweep: the direct attempts, then continuation in the obstacle weight."""
+    def local_solve(ta, xa, tb, xb, guess, mid, warm_failed, level, i) -> LocalSolution | None:
+        """In a sweep, the local problem of junction ``i`` of ``level``: the direct attempts,
+        then continuation in the obstacle weight, then in the end state (once per junction
+        and level: where it fails once it fails again, measured, and each try costs up to
+        ``continuation_steps`` solves)."""
         r = direct(ta, xa, tb, xb, guess, mid=mid, warm_failed=warm_failed)
         if r is None and has_obstacles:
             r = continuation(ta, xa, tb, xb, guess)
+        if r is None and i not in level.hopeless:
+            r = target_continuation(ta, xa, tb, xb, guess)
+            if r is None:
+                level.hopeless.add(i)
         return r
 
     def segment_solve(ta, xa, tb, xb, warm) -> LocalSolution | None:
@@ -539,7 +549,7 @@ def leapfrog(
             ta, tb = arcs.t[i - 1], arcs.t[i + 1]
             xa, xb = arcs.X[i - 1], arcs.X[i + 1]
             mid = (arcs.t[i], arcs.X[i], arcs.lam0[i])
-            r = local_solve(ta, xa, tb, xb, arcs.lam0[i - 1], mid, warm_failed)
+            r = local_solve(ta, xa, tb, xb, arcs.lam0[i - 1], mid, warm_failed, arcs, i)
             if r is None:
                 failures += 1
                 continue
