@@ -1515,7 +1515,7 @@ def initial_paths(
     tol = _tolerance(S, G, obs)
 
     if wps is not None and wps.shape[0]:
-        poly = _through(np.vstack([S[:2], wps, G[:2]]), obs, margin, tol)
+        poly = _clean(_through(np.vstack([S[:2], wps, G[:2]]), obs, margin, tol), S[:2], G[:2], tol)
         variants = [_smooth_best(poly, S, G, obs, tol, None, m) for m in end_modes(poly, S, G)]
         return [
             _relabel(p, ", ".join(filter(None, ("waypoints", p.modes.describe()))))
