@@ -2,10 +2,19 @@
 
 JSON schema (``schema`` = 1). These top-level keys are a stable contract for other tools:
 
-- ``status``: ``"converged"`` on success, ``"failed"`` otherwise; ``message`` says why.
-- numbers: ``cost`` (= ``energy`` + ``penalty``), ``min_clearance`` (smallest distance from the
-  path to an obstacle edge; ``null`` without obstacles), ``end_state_error`` (|x(T) - goal| after
-  re-integrating the returned initial state and costate with DOP853 at rtol 1e-12),
+- ``status``: ``"converged"`` on success (a collision-free extremal that meets Pontryagin's
+  conditions), ``"collides"`` when every extremal found passes through an obstacle, ``"failed"``
+  when none was found; ``message`` says why, and what was returned.
+- ``optimal`` (the trajectory is a validated extremal: always when converged),
+  ``trajectory_source`` (``"extremal"``, or for the best collision-free motion of a failure
+  ``"Leapfrog iterate (q = 4), not optimal"`` or ``"initial path, not optimal"``) and
+  ``weight`` (the obstacle weight of the problem the trajectory solves: the scenario's, unless
+  it was raised to clear the obstacles).
+- numbers (of the returned trajectory): ``cost`` (= ``energy`` + ``penalty``),
+  ``min_clearance`` (smallest distance from the path to an obstacle edge; ``null`` without
+  obstacles), ``end_state_error`` (|x(T) - goal| after re-integrating the extremal arc by arc
+  from its solver's junctions with DOP853 at rtol 1e-12, and the largest jump where its arcs
+  meet),
   ``max_costate_jump`` (at the junctions after the last sweep, relative), ``wall_time_s``.
 - ``method`` (local Newton method), ``sweeps``, ``newton_iterations``.
 - ``trajectory``: equal-length arrays ``t``, the states (``x``, ``y``, ``theta``), the controls
@@ -16,7 +25,8 @@ Further keys: ``schema``, ``scenario``, ``model``, ``final_solver`` (``"shooting
 ``max_dH_du``, ``hamiltonian_variation``, ``f_evals``, ``timing`` (``initial_path_s``,
 ``sweeps_s``, ``final_s``, ``validation_s``), ``history`` (one object per sweep: ``q``, ``cost``,
 ``max_costate_jump``, ``newton_iterations``, ``f_evals``, ``failures``, ``rejected``, ``time_s``)
-and ``alternatives`` (the other initial paths: ``label``, ``status``, ``cost``).
+and ``alternatives`` (the other initial paths: ``label``, ``status``, ``cost``, ``sweeps``,
+``weight``, ``message``).
 """
 
 from __future__ import annotations
