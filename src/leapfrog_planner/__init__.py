@@ -11,7 +11,17 @@ from .scenario import Scenario, builtin_scenarios, load_scenario
 from .shooting import ShootingResult, ShootingSettings, affine_costate_guess, solve_shooting
 
 # SymPy-backed names load on first use, so that `import leapfrog_planner` stays fast.
-_LAZY = {"VehicleModel": ".models.base", "CanonicalSystem": ".pmp", "derive": ".pmp"}
+# The planner too: it loads the initial-path kernels.
+_LAZY = {
+    "VehicleModel": ".models.base",
+    "CanonicalSystem": ".pmp",
+    "derive": ".pmp",
+    "plan": ".planner",
+    "Planner": ".planner",
+    "PlannerSettings": ".planner",
+    "LeapfrogResult": ".results",
+    "PlanStatus": ".results",
+}
 
 
 def __getattr__(name):
@@ -30,10 +40,14 @@ __all__ = [
     "FlowStatus",
     "IntegratorSettings",
     "LeapfrogError",
+    "LeapfrogResult",
     "ModelInfo",
     "ModelError",
     "ObstaclePenalty",
     "OptimalControlProblem",
+    "PlanStatus",
+    "Planner",
+    "PlannerSettings",
     "ScenarioError",
     "Scenario",
     "SettingsError",
@@ -48,5 +62,6 @@ __all__ = [
     "load_scenario",
     "model_info",
     "obstacle_penalty",
+    "plan",
     "solve_shooting",
 ]
