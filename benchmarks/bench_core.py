@@ -60,12 +60,12 @@ from scipy.optimize import root as scipy_root  # noqa: E402
 T_IMPORT0 = time.perf_counter()
 import leapfrog_planner  # noqa: E402
 from leapfrog_planner import Flow, IntegratorSettings, OptimalControlProblem  # noqa: E402
-from leapfrog_planner.scenario import load_scenario  # noqa: E402
-from leapfrog_planner.shooting import (  # noqa: E402
+from leapfrog_planner.bvp.shooting import (  # noqa: E402
     ShootingSettings,
     affine_costate_guess,
     solve_shooting,
 )
+from leapfrog_planner.planning.scenario import load_scenario  # noqa: E402
 
 T_IMPORT = time.perf_counter() - T_IMPORT0
 
@@ -554,7 +554,7 @@ CHILD_SHOOT = textwrap.dedent(
     import json, math, statistics, sys, timeit
     from dataclasses import replace
     from leapfrog_planner import Flow, OptimalControlProblem
-    from leapfrog_planner.shooting import ShootingSettings, affine_costate_guess, solve_shooting
+    from leapfrog_planner.bvp.shooting import ShootingSettings, affine_costate_guess, solve_shooting
     runs = int(sys.argv[1])
     p = OptimalControlProblem.create("unicycle")
     base = ShootingSettings()
@@ -791,8 +791,8 @@ CHILD = textwrap.dedent(
     t0 = time.perf_counter()
     import json, math
     from leapfrog_planner import OptimalControlProblem
-    from leapfrog_planner.codegen import load_kernels
-    from leapfrog_planner.shooting import solve_shooting
+    from leapfrog_planner.model.codegen import load_kernels
+    from leapfrog_planner.bvp.shooting import solve_shooting
     t1 = time.perf_counter()
     load_kernels("unicycle")
     t2 = time.perf_counter()

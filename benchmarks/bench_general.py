@@ -18,8 +18,8 @@ import json
 import statistics
 import time
 
-from leapfrog_planner.generate import GeneratorSpec, generate
-from leapfrog_planner.planner import plan
+from leapfrog_planner.batch.generate import GeneratorSpec, generate
+from leapfrog_planner.planning.planner import plan
 
 TARGET_MEDIAN_S, TARGET_P95_S = 0.100, 1.0
 

@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from leapfrog_planner.planner import Planner
+from leapfrog_planner.planning.planner import Planner
 
 REFERENCE = {1: 10.32320, 2: 21.20621, 3: 3.274137, 4: 5.663875}
 PAPER_S = {  # Table 1 of the paper: (NM, MNM) seconds

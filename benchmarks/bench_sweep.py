@@ -28,16 +28,16 @@ import tempfile
 import time
 from pathlib import Path
 
-from leapfrog_planner.generate import GeneratorSpec, generate
-from leapfrog_planner.planner import Planner
-from leapfrog_planner.sweep import DEFAULT_PLANNER_OPTIONS, SweepSettings, run_sweep
-from leapfrog_planner.sweep_store import read_records
+from leapfrog_planner.batch.generate import GeneratorSpec, generate
+from leapfrog_planner.batch.store import read_records
+from leapfrog_planner.batch.sweep import DEFAULT_PLANNER_OPTIONS, SweepSettings, run_sweep
+from leapfrog_planner.planning.planner import Planner
 
 TARGET_PAIRS_PER_S, TARGET_OVERHEAD = 20.0, 0.10
 
 
 def serial(scenarios, methods, options):
-    from leapfrog_planner.sweep import _run_shooting
+    from leapfrog_planner.batch.sweep import _run_shooting
 
     Planner(scenarios[0], **options).plan()  # warm-up
     rows = []

@@ -27,9 +27,9 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from leapfrog_planner.generate import GeneratorSpec, generate_one
-from leapfrog_planner.planner import Planner
-from leapfrog_planner.profiling import count_work
+from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+from leapfrog_planner.experiments.profiling import count_work
+from leapfrog_planner.planning.planner import Planner
 
 METHODS = ("newton", "modified-newton")
 PAPER = tuple(f"paper-case-{c}" for c in (1, 2, 3, 4))

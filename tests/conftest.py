@@ -143,7 +143,7 @@ settings.load_profile("leapfrog")
 @pytest.fixture(scope="session")
 def extremal():
     """``extremal(case)``: the ShootingResult of a paper case from its good guess (cached)."""
-    from leapfrog_planner.shooting import solve_shooting
+    from leapfrog_planner.bvp.shooting import solve_shooting
 
     cache = {}
 

@@ -10,14 +10,14 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from leapfrog_planner import bench, peers
-from leapfrog_planner.bench import BenchSettings, run_bench, target_ratios
 from leapfrog_planner.cli import main
-from leapfrog_planner.direct import DirectResult, arc_end_state
 from leapfrog_planner.errors import SettingsError
-from leapfrog_planner.planner import Planner, plan
-from leapfrog_planner.profiling import PARTS
-from leapfrog_planner.scenario import load_scenario
+from leapfrog_planner.experiments import bench, peers
+from leapfrog_planner.experiments.bench import BenchSettings, run_bench, target_ratios
+from leapfrog_planner.experiments.direct import DirectResult, arc_end_state
+from leapfrog_planner.experiments.profiling import PARTS
+from leapfrog_planner.planning.planner import Planner, plan
+from leapfrog_planner.planning.scenario import load_scenario
 
 
 def run(argv) -> int:
@@ -217,7 +217,7 @@ def test_measure_warms_up_then_times_the_peers_in_turn():
 
 
 def test_cli_solver_choices_are_the_benchmark_solvers():
-    from leapfrog_planner.cli_experiments import SOLVER_CHOICES
+    from leapfrog_planner.cli.experiments import SOLVER_CHOICES
 
     assert tuple(SOLVER_CHOICES) == bench.SOLVERS
 
@@ -272,8 +272,8 @@ def test_work_count_is_deterministic_and_counts_every_evaluation():
     """count_work (benchmarks/bench_work.py compares code versions by it): the same counts on
     every run, paths in parallel threads included, every F evaluation counted as an
     integration, and the patched functions restored afterwards."""
+    from leapfrog_planner.experiments.profiling import count_work
     from leapfrog_planner.integrate.flow import Flow
-    from leapfrog_planner.profiling import count_work
 
     run = Flow._run
     counts = []

@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 
 from leapfrog_planner.errors import LeapfrogError
-from leapfrog_planner.planner import Planner
-from leapfrog_planner.scenario import load_scenario
+from leapfrog_planner.planning.planner import Planner
+from leapfrog_planner.planning.scenario import load_scenario
 
 WORKERS = 4
 TIMEOUT = 300
@@ -71,8 +71,8 @@ def test_module_runs_main():
     """``python -m leapfrog_planner.cli`` (used below) must call ``run``, as the script does."""
     import leapfrog_planner.cli as cli
 
-    text = Path(cli.__file__).read_text()
-    assert re.search(r'^if __name__ == "__main__":\n    run\(\)', text, re.M)
+    text = (Path(cli.__file__).parent / "__main__.py").read_text()
+    assert re.search(r"^from \.main import run\n\nrun\(\)$", text, re.M)
     (script,) = entry_points(group="console_scripts", name="leapfrog")
     assert script.value == "leapfrog_planner.cli:run"
 

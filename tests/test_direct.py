@@ -17,7 +17,8 @@ import pytest
 pytest.importorskip("casadi")
 
 from conftest import CASES as PAPER
-from leapfrog_planner.direct import (  # noqa: E402
+from leapfrog_planner.errors import LeapfrogError  # noqa: E402
+from leapfrog_planner.experiments.direct import (  # noqa: E402
     DirectResult,
     DirectTranscription,
     multistart_guesses,
@@ -25,7 +26,6 @@ from leapfrog_planner.direct import (  # noqa: E402
     solve_direct,
     straight_line_guess,
 )
-from leapfrog_planner.errors import LeapfrogError  # noqa: E402
 
 PI = math.pi
 # The paper's cases, transcribed once from the spec in conftest.

@@ -9,8 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from leapfrog_planner.errors import SettingsError
-from leapfrog_planner.generate import (
+from leapfrog_planner.batch.generate import (
     GeneratorError,
     GeneratorSpec,
     generate,
@@ -18,7 +17,8 @@ from leapfrog_planner.generate import (
     parse_range,
     write_scenarios,
 )
-from leapfrog_planner.scenario import load_scenario
+from leapfrog_planner.errors import SettingsError
+from leapfrog_planner.planning.scenario import load_scenario
 
 
 def test_same_seed_same_scenarios_and_subsets_are_stable():

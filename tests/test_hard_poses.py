@@ -16,11 +16,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from leapfrog_planner.generate import GeneratorSpec, generate, generate_one
-from leapfrog_planner.leapfrog import LeapfrogSettings, _continuation
-from leapfrog_planner.planner import Planner, plan
-from leapfrog_planner.results import PlanStatus
-from leapfrog_planner.scenario import Scenario
+from leapfrog_planner.batch.generate import GeneratorSpec, generate, generate_one
+from leapfrog_planner.planning.leapfrog import LeapfrogSettings, _continuation
+from leapfrog_planner.planning.planner import Planner, plan
+from leapfrog_planner.planning.results import PlanStatus
+from leapfrog_planner.planning.scenario import Scenario
 
 PI = math.pi
 
@@ -48,7 +48,7 @@ KINDS = {
 @pytest.mark.parametrize("kind", list(KINDS))
 def test_hard_pose_converges_to_the_direct_methods_cost(kind):
     pytest.importorskip("casadi")
-    from leapfrog_planner.direct import solve_direct
+    from leapfrog_planner.experiments.direct import solve_direct
 
     sc = Scenario(name=kind, **KINDS[kind])
     planner = Planner(sc)

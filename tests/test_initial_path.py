@@ -9,7 +9,7 @@ import pytest
 
 from conftest import CASES
 from leapfrog_planner.errors import ScenarioError, SettingsError
-from leapfrog_planner.initial_path import (
+from leapfrog_planner.planning.initial_path import (
     FORWARD,
     EndModes,
     InitialPath,

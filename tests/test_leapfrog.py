@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 
 from conftest import CASES, EXTREMAL_COSTATE
+from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+from leapfrog_planner.bvp.shooting import solve_shooting
 from leapfrog_planner.errors import SettingsError
-from leapfrog_planner.generate import GeneratorSpec, generate_one
-from leapfrog_planner.leapfrog import LeapfrogSettings, SweepRecord, _Arcs, leapfrog
-from leapfrog_planner.path_ranking import PathGuide
-from leapfrog_planner.planner import Planner, plan
-from leapfrog_planner.results import validate
-from leapfrog_planner.shooting import solve_shooting
+from leapfrog_planner.planning.leapfrog import LeapfrogSettings, SweepRecord, _Arcs, leapfrog
+from leapfrog_planner.planning.path_ranking import PathGuide
+from leapfrog_planner.planning.planner import Planner, plan
+from leapfrog_planner.planning.results import validate
 
 MNM, NM = "modified-newton", "newton"
 CASE1 = CASES[1]
@@ -186,7 +186,7 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
     shooting takes over, first with the local problems' integrator, then, from its answer, with
     the final one in at most two iterations. A failing coarse stage is the fallback's failure
     (no second solve from the start)."""
-    import leapfrog_planner.leapfrog as lf
+    import leapfrog_planner.planning.leapfrog as lf
 
     stages = []
     real = lf.solve_multiple_shooting
@@ -428,7 +428,7 @@ def test_initial_segments_go_to_continuation_before_the_affine_guess(monkeypatch
     """On the initial path, a segment whose warm guess and path costate fail at the full weight
     is solved next by continuation (its first solve at weight 0), not from the affine guess at
     the full weight. Paper case 4's second initial path has such segments."""
-    import leapfrog_planner.leapfrog as lf
+    import leapfrog_planner.planning.leapfrog as lf
 
     calls = []
     real = lf.LocalShooter.__call__
@@ -485,7 +485,7 @@ def test_two_arc_attempts_reach_the_same_optimum_with_less_work():
 
 def _multiple_shooting_calls(monkeypatch, run) -> list:
     """The arguments of every multiple-shooting solve made by ``run()``."""
-    import leapfrog_planner.leapfrog as lf
+    import leapfrog_planner.planning.leapfrog as lf
 
     calls = []
     real = lf.solve_multiple_shooting
@@ -505,7 +505,7 @@ def test_compiled_multiple_shooting_is_the_python_loop_bit_for_bit(monkeypatch):
     and the final multiple-shooting fallback of paper case 4's third path (q = 4, coarse then
     polished) run as one compiled call each; the shared Python loop on the same system is the
     reference. Statuses, messages, counts, iterates and histories are identical, bit for bit."""
-    from leapfrog_planner.multiple_shooting import solve_multiple_shooting
+    from leapfrog_planner.bvp.multiple_shooting import solve_multiple_shooting
     from leapfrog_planner.roots import solve_root
 
     calls = []
@@ -562,9 +562,9 @@ def test_the_compiled_local_newton_changes_nothing_but_time(case, method):
 def _sweeps_fused_and_python(monkeypatch, run):
     """``run()`` with the compiled warm sweep and with every junction from Python, each with
     its counted integrator work."""
-    import leapfrog_planner.leapfrog as lf_module
-    from leapfrog_planner.profiling import count_work
-    from leapfrog_planner.shooting import LocalShooter
+    import leapfrog_planner.planning.leapfrog as lf_module
+    from leapfrog_planner.bvp.shooting import LocalShooter
+    from leapfrog_planner.experiments.profiling import count_work
 
     calls = []
     kernel = LocalShooter.warm_sweep

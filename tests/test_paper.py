@@ -11,8 +11,8 @@ import pytest
 
 from leapfrog_planner.cli import main
 from leapfrog_planner.errors import SettingsError
-from leapfrog_planner.paper import COLUMNS, PAPER_TABLE1, PaperSettings
-from leapfrog_planner.planner import plan
+from leapfrog_planner.experiments.paper import COLUMNS, PAPER_TABLE1, PaperSettings
+from leapfrog_planner.planning.planner import plan
 
 FILES = ["table1.md", "table1.csv", "comparison.md"] + [f"fig{k}.png" for k in (1, 2, 3, 4)]
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from conftest import CASES
-from leapfrog_planner.initial_path import EndModes, InitialPath, initial_paths
-from leapfrog_planner.path_ranking import PathGuide, estimated_cost, rank_paths
-from leapfrog_planner.planner import Planner
-from leapfrog_planner.problem import OptimalControlProblem
+from leapfrog_planner.model.problem import OptimalControlProblem
+from leapfrog_planner.planning.initial_path import EndModes, InitialPath, initial_paths
+from leapfrog_planner.planning.path_ranking import PathGuide, estimated_cost, rank_paths
+from leapfrog_planner.planning.planner import Planner
 
 
 def straight(length: float, obstacles=None) -> InitialPath:

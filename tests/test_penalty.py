@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 
 from conftest import CASES, EXTREMAL_COSTATE, fd_jacobian
 from leapfrog_planner import Flow, OptimalControlProblem, obstacle_penalty
-from leapfrog_planner.penalty import as_obstacle_array, clearance, penalty_terms
+from leapfrog_planner.bvp.shooting import ShootingSettings, solve_shooting
+from leapfrog_planner.model.penalty import as_obstacle_array, clearance, penalty_terms
 from leapfrog_planner.roots import RootSettings
-from leapfrog_planner.shooting import ShootingSettings, solve_shooting
 
 OBSTACLES = CASES[4].obstacles
 EXPONENTS = [1, 2, 3]

@@ -20,11 +20,11 @@ from scipy.integrate import simpson, solve_ivp
 
 from conftest import CASES
 from leapfrog_planner._atomic import write_atomic
+from leapfrog_planner.bvp.shooting import solve_shooting
 from leapfrog_planner.errors import LeapfrogError, ScenarioError, SettingsError
-from leapfrog_planner.planner import PlanEvent, Planner, PlannerSettings, plan
-from leapfrog_planner.results import LeapfrogResult, PlanStatus
-from leapfrog_planner.scenario import Scenario, load_scenario, load_scenario_text
-from leapfrog_planner.shooting import solve_shooting
+from leapfrog_planner.planning.planner import PlanEvent, Planner, PlannerSettings, plan
+from leapfrog_planner.planning.results import LeapfrogResult, PlanStatus
+from leapfrog_planner.planning.scenario import Scenario, load_scenario, load_scenario_text
 
 MNM, NM = "modified-newton", "newton"
 METHODS = (MNM, NM)
@@ -279,7 +279,7 @@ def test_case_4_cheaper_optimum_agrees_with_casadi(planned):
     the N = 100 optimum, both extrapolated by Richardson (order 2) to ~1e-6.
     """
     pytest.importorskip("casadi")
-    from leapfrog_planner.direct import richardson, solve_direct
+    from leapfrog_planner.experiments.direct import richardson, solve_direct
 
     r = planned(4, MNM).result
     assert r.success, r.message
@@ -623,7 +623,7 @@ def test_parallel_paths_give_the_same_result_as_sequential(planned):
 def test_a_single_candidate_path_is_not_ranked(monkeypatch):
     """Ranking estimates each candidate's cost (0.6 ms on paper case 1); with one candidate there
     is nothing to rank. With several, the ranking still orders them."""
-    import leapfrog_planner.planner as planner_module
+    import leapfrog_planner.planning.planner as planner_module
 
     calls = []
     rank = planner_module.rank_paths

@@ -16,16 +16,16 @@ from matplotlib.patches import Circle
 from matplotlib.quiver import Quiver
 from PIL import Image
 
-from leapfrog_planner.planner import plan
-from leapfrog_planner.plots import (
+from leapfrog_planner.planning.planner import plan
+from leapfrog_planner.planning.results import PathOutcome, PlanStatus
+from leapfrog_planner.planning.scenario import load_scenario
+from leapfrog_planner.viz.plots import (
     animate_sweeps,
     plot_controls,
     plot_convergence,
     plot_path,
     save_figure,
 )
-from leapfrog_planner.results import PathOutcome, PlanStatus
-from leapfrog_planner.scenario import load_scenario
 
 matplotlib.use("Agg")
 

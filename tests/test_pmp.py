@@ -239,9 +239,9 @@ def test_the_kernel_cache_key_covers_every_file_compiled_into_the_kernels():
     import re
     from pathlib import Path
 
-    from leapfrog_planner import codegen, kernels
+    from leapfrog_planner.model import codegen, kernels
 
-    package = Path(kernels.__file__).parent
+    package = Path(kernels.__file__).parent.parent
     header = Path(codegen.__file__).read_text()
     imported = set(re.findall(r"from leapfrog_planner\.([\w.]+) import", header))
     assert imported, "the generated code imports project modules"

@@ -10,8 +10,8 @@ import sys
 import matplotlib.image as mpimg
 import pytest
 
-from leapfrog_planner.report import build_report, save_report
-from leapfrog_planner.sweep_store import read_records
+from leapfrog_planner.batch.report import build_report, save_report
+from leapfrog_planner.batch.store import read_records
 
 
 def _rec(scenario, method, cost, t, it, failure=None):

@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 
 from conftest import CASES
 from leapfrog_planner.errors import ScenarioError
-from leapfrog_planner.problem import OptimalControlProblem
-from leapfrog_planner.scenario import (
+from leapfrog_planner.model.problem import OptimalControlProblem
+from leapfrog_planner.planning.scenario import (
     SOLVER_KEYS,
     Scenario,
     builtin_scenarios,

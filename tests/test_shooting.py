@@ -17,6 +17,13 @@ from leapfrog_planner import (
     ScenarioError,
     SettingsError,
 )
+from leapfrog_planner.bvp.shooting import (
+    LocalShooter,
+    ShootingSettings,
+    ShootingSystem,
+    affine_costate_guess,
+    solve_shooting,
+)
 from leapfrog_planner.roots import (
     ModifiedNewtonStep,
     NleqErrStep,
@@ -24,13 +31,6 @@ from leapfrog_planner.roots import (
     RootStatus,
     get_strategy,
     solve_root,
-)
-from leapfrog_planner.shooting import (
-    LocalShooter,
-    ShootingSettings,
-    ShootingSystem,
-    affine_costate_guess,
-    solve_shooting,
 )
 
 METHODS = ["newton", "modified-newton", "nleq-err"]
@@ -158,7 +158,7 @@ def test_paper_case_1_from_a_good_guess(method):
 def test_paper_case_1_agrees_with_the_direct_method():
     """CasADi/IPOPT, RK4 multiple shooting, Richardson-extrapolated from meshes 100 and 200."""
     pytest.importorskip("casadi")
-    from leapfrog_planner.direct import richardson, solve_direct
+    from leapfrog_planner.experiments.direct import richardson, solve_direct
 
     c = CASES[1]
     costs = [solve_direct(c.start, c.goal, 1.0, intervals=n).cost for n in (100, 200)]
@@ -540,7 +540,7 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
     """With ``predict`` the compiled loop evaluates F alone where Newton's quadratic convergence
     predicts the iterate to converge: the same iterates, statuses and costs, bit for bit, and
     here the same number of evaluations, the last of them without the variational equations."""
-    from leapfrog_planner.shooting import _loop_arguments
+    from leapfrog_planner.bvp.shooting import _loop_arguments
 
     c = CASES[case]
     prob = c.problem("unicycle")

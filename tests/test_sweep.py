@@ -15,10 +15,10 @@ import time
 
 import pytest
 
+from leapfrog_planner.batch.generate import GeneratorSpec, generate
+from leapfrog_planner.batch.store import ResultStore, StoreError, read_records, strip_timings
+from leapfrog_planner.batch.sweep import SweepMethod, SweepSettings, run_sweep
 from leapfrog_planner.errors import SettingsError
-from leapfrog_planner.generate import GeneratorSpec, generate
-from leapfrog_planner.sweep import SweepMethod, SweepSettings, run_sweep
-from leapfrog_planner.sweep_store import ResultStore, StoreError, read_records, strip_timings
 
 SPEC = ["--n", "6", "--obstacles", "3", "--seed", "5"]
 METHODS = ["--methods", "newton,modified-newton"]

@@ -2,25 +2,26 @@
 
 import importlib
 
+from . import _compat
+from .bvp.shooting import ShootingResult, ShootingSettings, affine_costate_guess, solve_shooting
 from .errors import LeapfrogError, ModelError, ScenarioError, SettingsError
 from .integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
-from .kernels import ModelInfo, model_info
-from .models import MODELS, get_model
-from .problem import ObstaclePenalty, OptimalControlProblem, obstacle_penalty
-from .scenario import Scenario, builtin_scenarios, load_scenario
-from .shooting import ShootingResult, ShootingSettings, affine_costate_guess, solve_shooting
+from .model import MODELS, get_model
+from .model.kernels import ModelInfo, model_info
+from .model.problem import ObstaclePenalty, OptimalControlProblem, obstacle_penalty
+from .planning.scenario import Scenario, builtin_scenarios, load_scenario
 
 # SymPy-backed names load on first use, so that `import leapfrog_planner` stays fast.
 # The planner too: it loads the initial-path kernels.
 _LAZY = {
-    "VehicleModel": ".models.base",
-    "CanonicalSystem": ".pmp",
-    "derive": ".pmp",
-    "plan": ".planner",
-    "Planner": ".planner",
-    "PlannerSettings": ".planner",
-    "LeapfrogResult": ".results",
-    "PlanStatus": ".results",
+    "VehicleModel": ".model.base",
+    "CanonicalSystem": ".model.pmp",
+    "derive": ".model.pmp",
+    "plan": ".planning.planner",
+    "Planner": ".planning.planner",
+    "PlannerSettings": ".planning.planner",
+    "LeapfrogResult": ".planning.results",
+    "PlanStatus": ".planning.results",
 }
 
 
@@ -29,6 +30,8 @@ def __getattr__(name):
         return getattr(importlib.import_module(_LAZY[name], __name__), name)
     raise AttributeError(f"module 'leapfrog_planner' has no attribute {name!r}")
 
+
+_compat.install(__name__)  # the flat layout's module paths, for one release
 
 __version__ = "0.1.0"
 

@@ -14,7 +14,7 @@ from enum import IntEnum
 import numpy as np
 
 from ..errors import SettingsError, require_integer
-from ..problem import OptimalControlProblem
+from ..model.problem import OptimalControlProblem
 from .tableaux import TABLEAUX, get_tableau
 
 

@@ -1,7 +1,7 @@
 # Explicit Runge-Kutta flow of the canonical system with its variational equations.
 #
-# This file is a template, not an importable module: leapfrog_planner.codegen appends it to the
-# code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
+# This file is a template, not an importable module: leapfrog_planner.model.codegen appends it
+# to the code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
 # controls, hamiltonian_model, dH_du and linearize, and imports penalty_terms, dot and
 # transpose_times. Keeping the integrator in the same module as the model lets numba inline and
 # cache everything (functions passed as arguments would not be cached on disk).

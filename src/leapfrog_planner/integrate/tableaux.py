@@ -71,7 +71,7 @@ def _from_scipy() -> dict[str, np.ndarray]:
 @lru_cache(maxsize=1)
 def _coefficients() -> dict[str, np.ndarray]:
     from .._atomic import write_atomic
-    from ..kernels import cache_dir
+    from ..model.kernels import cache_dir
 
     path = cache_dir() / f"tableaux-scipy-{scipy.__version__}.npz"
     try:

@@ -1,0 +1,1 @@
+"""Many scenarios: seeded generation, sweeps on processes or a Dask cluster, reports."""

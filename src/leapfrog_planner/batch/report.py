@@ -1,0 +1,423 @@
+"""Statistics of a sweep's results file: per method and paired between methods.
+
+``build_report(records)`` (records as :func:`.sweep_store.read_records` gives them) computes:
+
+- per method: runs, successes and the success rate with its 95% Wilson interval (a success is a
+  converged run whose path clears every obstacle: a record that says converged but has a
+  negative ``min_clearance``, as other solvers' may, counts as a failure, ``collides``); the cost
+  relative to the best cost any method found on the same scenario (converged runs only); the
+  solver's wall time; Newton iterations;
+- per pair of methods, on the scenarios both ran: who succeeds where the other fails, with the
+  exact McNemar test (a binomial test on the discordant scenarios); on scenarios both solved,
+  which is cheaper (relative difference over ``COST_TIE``) and which is faster, each with the
+  Wilcoxon signed-rank test of the paired differences.
+
+``Report.to_markdown()`` renders it; ``save_report(report, folder)`` writes ``report.md`` and the
+figures ``success.png`` (rates with intervals), ``cost_ratio_ecdf.png`` and ``time_ecdf.png``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import write_atomic
+from ..errors import LeapfrogError
+
+__all__ = [
+    "COST_TIE",
+    "MethodStats",
+    "PairStats",
+    "Report",
+    "ReportError",
+    "build_report",
+    "save_report",
+    "wilson_interval",
+]
+
+#: Costs within this relative difference count as equal (the same extremal, found twice).
+COST_TIE = 1e-6
+
+
+class ReportError(LeapfrogError, ValueError):
+    """No records, or records without the fields a report needs."""
+
+
+def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (``(nan, nan)`` when ``n == 0``)."""
+    if n == 0:
+        return math.nan, math.nan
+    from scipy.stats import binomtest
+
+    ci = binomtest(k, n).proportion_ci(confidence_level=confidence, method="wilson")
+    return float(ci.low), float(ci.high)
+
+
+@dataclass(frozen=True)
+class Quantiles:
+    n: int
+    median: float
+    p90: float
+    mean: float
+    max: float
+
+    @classmethod
+    def of(cls, values) -> Quantiles:
+        v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+        if v.size == 0:
+            return cls(0, math.nan, math.nan, math.nan, math.nan)
+        return cls(
+            int(v.size),
+            float(np.median(v)),
+            float(np.quantile(v, 0.9)),
+            float(v.mean()),
+            float(v.max()),
+        )
+
+
+@dataclass(frozen=True)
+class MethodStats:
+    method: str
+    runs: int
+    converged: int
+    success_rate: float
+    ci_low: float
+    ci_high: float
+    failures: dict[str, int]  # by reason
+    best_found: int  # converged runs whose cost is the scenario's best (within COST_TIE)
+    cost_ratio: Quantiles  # cost / best cost on the scenario, converged runs
+    time_s: Quantiles  # solver wall time, all runs
+    time_converged_s: Quantiles
+    iterations: Quantiles  # Newton iterations, all runs that report them
+    total_time_s: float
+
+
+@dataclass(frozen=True)
+class PairStats:
+    a: str
+    b: str
+    scenarios: int  # run by both
+    both_converged: int
+    only_a: int
+    only_b: int
+    neither: int
+    mcnemar_p: float  # exact two-sided, on only_a vs only_b
+    a_cheaper: int  # among both converged
+    b_cheaper: int
+    cost_ties: int
+    cost_wilcoxon_p: float
+    a_faster: int  # among both converged
+    b_faster: int
+    median_time_ratio: float  # median over scenarios of time_a / time_b, both converged
+    time_wilcoxon_p: float
+
+
+@dataclass(frozen=True)
+class Report:
+    runs: int
+    scenarios: int
+    methods: tuple[MethodStats, ...]
+    pairs: tuple[PairStats, ...]
+    cost_ratios: dict[str, tuple[float, ...]]  # per method, for the ECDF figure
+    times: dict[str, tuple[float, ...]]
+
+    def method(self, name: str) -> MethodStats:
+        for m in self.methods:
+            if m.method == name:
+                return m
+        raise KeyError(name)
+
+    def pair(self, a: str, b: str) -> PairStats:
+        for p in self.pairs:
+            if (p.a, p.b) == (a, b):
+                return p
+        raise KeyError((a, b))
+
+    def to_markdown(self) -> str:
+        return _markdown(self)
+
+
+def _wilcoxon(d: np.ndarray) -> float:
+    """Two-sided Wilcoxon signed-rank p-value; nan when there is nothing to test."""
+    d = d[np.isfinite(d) & (d != 0)]
+    if d.size == 0:
+        return math.nan
+    from scipy.stats import wilcoxon
+
+    return float(wilcoxon(d).pvalue)
+
+
+def build_report(records: list[dict]) -> Report:
+    if not records:
+        raise ReportError("no records")
+    for i, r in enumerate(records):
+        for k in ("scenario", "method", "status"):
+            if k not in r:
+                raise ReportError(f"record {i + 1} has no {k!r}")
+    methods = list(dict.fromkeys(r["method"] for r in records))
+    by = {(r["scenario"], r["method"]): r for r in records}
+    scenarios = list(dict.fromkeys(r["scenario"] for r in records))
+
+    def ok(r):
+        return (
+            r is not None
+            and r["status"] == "converged"
+            and r.get("cost") is not None
+            and (r.get("min_clearance") is None or r["min_clearance"] >= 0.0)
+        )
+
+    best = {}
+    for s in scenarios:
+        costs = [by[(s, m)]["cost"] for m in methods if ok(by.get((s, m)))]
+        if costs:
+            best[s] = min(costs)
+
+    def is_best(r):
+        b = best[r["scenario"]]
+        return r["cost"] - b <= COST_TIE * max(1.0, abs(b))
+
+    stats, ratios, times = [], {}, {}
+    for m in methods:
+        rs = [r for r in records if r["method"] == m]
+        conv = [r for r in rs if ok(r)]
+        lo, hi = wilson_interval(len(conv), len(rs))
+        failures: dict[str, int] = {}
+        for r in rs:
+            if not ok(r):
+                collided = r["status"] == "converged"  # with a negative clearance
+                reason = r.get("failure") or ("collides" if collided else "solver")
+                failures[reason] = failures.get(reason, 0) + 1
+        ratio = [r["cost"] / best[r["scenario"]] for r in conv if best[r["scenario"]] > 0]
+        ratios[m] = tuple(ratio)
+        t_all = [r.get("wall_time_s") for r in rs]
+        times[m] = tuple(t for t in t_all if t is not None)
+        stats.append(
+            MethodStats(
+                method=m,
+                runs=len(rs),
+                converged=len(conv),
+                success_rate=len(conv) / len(rs),
+                ci_low=lo,
+                ci_high=hi,
+                failures=dict(sorted(failures.items())),
+                best_found=sum(1 for r in conv if is_best(r)),
+                cost_ratio=Quantiles.of(ratio),
+                time_s=Quantiles.of(t_all),
+                time_converged_s=Quantiles.of(r.get("wall_time_s") for r in conv),
+                iterations=Quantiles.of(r.get("newton_iterations") for r in rs),
+                total_time_s=float(sum(t for t in times[m])),
+            )
+        )
+
+    pairs = []
+    for i, a in enumerate(methods):
+        for b in methods[i + 1 :]:
+            pairs.append(_pair(a, b, scenarios, by, ok))
+    return Report(
+        runs=len(records),
+        scenarios=len(scenarios),
+        methods=tuple(stats),
+        pairs=tuple(pairs),
+        cost_ratios=ratios,
+        times=times,
+    )
+
+
+def _pair(a, b, scenarios, by, ok) -> PairStats:
+    from scipy.stats import binomtest
+
+    common = [s for s in scenarios if (s, a) in by and (s, b) in by]
+    both, only_a, only_b, neither = [], 0, 0, 0
+    for s in common:
+        ra, rb = by[(s, a)], by[(s, b)]
+        if ok(ra) and ok(rb):
+            both.append((ra, rb))
+        elif ok(ra):
+            only_a += 1
+        elif ok(rb):
+            only_b += 1
+        else:
+            neither += 1
+    disc = only_a + only_b
+    mcnemar = float(binomtest(only_a, disc, 0.5).pvalue) if disc else math.nan
+    ca = np.array([ra["cost"] for ra, _ in both], dtype=float)
+    cb = np.array([rb["cost"] for _, rb in both], dtype=float)
+    scale = np.maximum(1.0, np.abs(np.minimum(ca, cb)))
+    rel = (ca - cb) / scale
+    a_cheaper = int(np.sum(rel < -COST_TIE))
+    b_cheaper = int(np.sum(rel > COST_TIE))
+    rel_test = np.where(np.abs(rel) <= COST_TIE, 0.0, ca - cb)
+    ta = np.array([_t(ra) for ra, _ in both], dtype=float)
+    tb = np.array([_t(rb) for _, rb in both], dtype=float)
+    tvalid = np.isfinite(ta) & np.isfinite(tb) & (tb > 0)
+    return PairStats(
+        a=a,
+        b=b,
+        scenarios=len(common),
+        both_converged=len(both),
+        only_a=only_a,
+        only_b=only_b,
+        neither=neither,
+        mcnemar_p=mcnemar,
+        a_cheaper=a_cheaper,
+        b_cheaper=b_cheaper,
+        cost_ties=len(both) - a_cheaper - b_cheaper,
+        cost_wilcoxon_p=_wilcoxon(rel_test),
+        a_faster=int(np.sum(ta[tvalid] < tb[tvalid])),
+        b_faster=int(np.sum(ta[tvalid] > tb[tvalid])),
+        median_time_ratio=float(np.median(ta[tvalid] / tb[tvalid])) if tvalid.any() else math.nan,
+        time_wilcoxon_p=_wilcoxon((ta - tb)[tvalid]),
+    )
+
+
+def _t(r) -> float:
+    t = r.get("wall_time_s")
+    return math.nan if t is None else float(t)
+
+
+# --------------------------------------------------------------------------- rendering
+
+
+def _f(v, fmt=".4g") -> str:
+    return "n/a" if v is None or not math.isfinite(v) else format(v, fmt)
+
+
+def _p(v) -> str:
+    if v is None or not math.isfinite(v):
+        return "n/a"
+    return f"{v:.2e}" if v < 1e-3 else f"{v:.3f}"
+
+
+def _markdown(rep: Report) -> str:
+    out = [
+        "# Sweep report",
+        "",
+        f"{rep.runs} runs, {rep.scenarios} scenarios, {len(rep.methods)} methods.",
+        "",
+        "## Success",
+        "",
+        "| method | runs | converged | rate | 95% CI (Wilson) | failures |",
+        "|---|---:|---:|---:|---|---|",
+    ]
+    for m in rep.methods:
+        fail = ", ".join(f"{k} {v}" for k, v in m.failures.items()) or "none"
+        out.append(
+            f"| {m.method} | {m.runs} | {m.converged} | {m.success_rate:.1%} | "
+            f"[{_f(m.ci_low, '.1%')}, {_f(m.ci_high, '.1%')}] | {fail} |"
+        )
+    out += [
+        "",
+        "## Cost relative to the best method on each scenario (converged runs)",
+        "",
+        f"Ratio = cost / the lowest cost any method found on that scenario; costs within"
+        f" {COST_TIE:g} relative count as the best.",
+        "",
+        "| method | converged | best found | median ratio | 90% ratio | max ratio |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for m in rep.methods:
+        q = m.cost_ratio
+        out.append(
+            f"| {m.method} | {m.converged} | {m.best_found} | {_f(q.median, '.6g')} | "
+            f"{_f(q.p90, '.6g')} | {_f(q.max, '.6g')} |"
+        )
+    out += [
+        "",
+        "## Time and iterations",
+        "",
+        "| method | median time (s) | 90% time (s) | mean time (s) | median time, converged (s) |"
+        " total (s) | median Newton iterations | mean Newton iterations |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for m in rep.methods:
+        out.append(
+            f"| {m.method} | {_f(m.time_s.median)} | {_f(m.time_s.p90)} | {_f(m.time_s.mean)} | "
+            f"{_f(m.time_converged_s.median)} | {_f(m.total_time_s, '.1f')} | "
+            f"{_f(m.iterations.median, '.0f')} | {_f(m.iterations.mean, '.1f')} |"
+        )
+    if rep.pairs:
+        out += [
+            "",
+            "## Paired comparisons (same scenarios)",
+            "",
+            "Success: scenarios only A (only B) solved; p from the exact McNemar test. Cost and"
+            " time: among scenarios both solved; p from the Wilcoxon signed-rank test.",
+            "",
+            "| A | B | scenarios | both | only A | only B | neither | p (success) |"
+            " A cheaper | B cheaper | ties | p (cost) | A faster | B faster |"
+            " median time A/B | p (time) |",
+            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        ]
+        for p in rep.pairs:
+            out.append(
+                f"| {p.a} | {p.b} | {p.scenarios} | {p.both_converged} | {p.only_a} | "
+                f"{p.only_b} | {p.neither} | {_p(p.mcnemar_p)} | {p.a_cheaper} | "
+                f"{p.b_cheaper} | {p.cost_ties} | {_p(p.cost_wilcoxon_p)} | {p.a_faster} | "
+                f"{p.b_faster} | {_f(p.median_time_ratio, '.3g')} | {_p(p.time_wilcoxon_p)} |"
+            )
+    return "\n".join(out) + "\n"
+
+
+def _ecdf(ax, values, label):
+    v = np.sort(np.asarray(values, dtype=float))
+    if v.size:
+        ax.step(v, np.arange(1, v.size + 1) / v.size, where="post", label=label)
+
+
+def save_report(rep: Report, folder) -> list[Path]:
+    """Write ``report.md`` and the three figures into ``folder`` (created); each atomically."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only; never a window
+    import matplotlib.pyplot as plt
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    md = rep.to_markdown()
+    path = folder / "report.md"
+    write_atomic(path, lambda tmp: Path(tmp).write_text(md, encoding="utf-8"))
+    written.append(path)
+
+    def save(fig, name):
+        p = folder / name
+        write_atomic(p, lambda tmp: fig.savefig(tmp, dpi=120))
+        plt.close(fig)
+        written.append(p)
+
+    names = [m.method for m in rep.methods]
+    fig, ax = plt.subplots(figsize=(1.6 + 1.2 * len(names), 3.5), layout="constrained")
+    rate = np.array([m.success_rate for m in rep.methods])
+    err = np.array(
+        [
+            [m.success_rate - m.ci_low for m in rep.methods],
+            [m.ci_high - m.success_rate for m in rep.methods],
+        ]
+    )
+    ax.bar(names, rate, yerr=err, capsize=4, color="tab:blue")
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("success rate (95% Wilson CI)")
+    ax.tick_params(axis="x", rotation=20)
+    save(fig, "success.png")
+
+    fig, ax = plt.subplots(figsize=(5.5, 3.5), layout="constrained")
+    for m in names:
+        _ecdf(ax, rep.cost_ratios[m], m)
+    ax.set_xscale("log")
+    ax.set_xlabel("cost / best cost on the scenario")
+    ax.set_ylabel("fraction of converged runs")
+    ax.legend()
+    save(fig, "cost_ratio_ecdf.png")
+
+    fig, ax = plt.subplots(figsize=(5.5, 3.5), layout="constrained")
+    for m in names:
+        _ecdf(ax, [t for t in rep.times[m] if t > 0], m)
+    ax.set_xscale("log")
+    ax.set_xlabel("solver wall time per run (s)")
+    ax.set_ylabel("fraction of runs")
+    ax.legend()
+    save(fig, "time_ecdf.png")
+    return written

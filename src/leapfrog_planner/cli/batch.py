@@ -1,0 +1,336 @@
+"""Commands ``leapfrog generate``, ``leapfrog sweep`` and ``leapfrog report``.
+
+Bad input fails before any work with one line on stderr and exit 2 (see :func:`.cli.main`).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from ..errors import LeapfrogError
+
+EXIT_OK, EXIT_FAILED = 0, 1
+
+
+def _range(kind, name):
+    def convert(ctx, param, value):
+        if value is None:
+            return None
+        from ..batch.generate import parse_range
+
+        try:
+            return parse_range(value, kind)
+        except LeapfrogError as exc:
+            raise click.BadParameter(str(exc)) from None
+
+    return convert
+
+
+def _generator_options(fn):
+    """The generator's options, shared by ``generate`` and ``sweep``.
+
+    ``--preset`` picks a distribution; each other option, when given, overrides its value.
+    """
+    opts = [
+        click.option(
+            "--n", "n", type=click.IntRange(min=0), default=None, help="number of scenarios"
+        ),
+        click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True),
+        click.option(
+            "--preset",
+            type=click.Choice(["default", "general"]),
+            default="default",
+            show_default=True,
+            help="the distribution: 'general' has headings in every direction, T in 0.5..3,"
+            " radii 0.08..0.4 in a 3 x 3 room; the options below override it",
+        ),
+        click.option(
+            "--obstacles",
+            default=None,
+            callback=_range(int, "obstacles"),
+            help="obstacles per scenario: N or LO..HI  [default preset: 3..10]",
+        ),
+        click.option(
+            "--radius",
+            default=None,
+            callback=_range(float, "radius"),
+            help="obstacle radius: R or LO..HI  [default preset: 0.05..0.2]",
+        ),
+        click.option(
+            "--workspace",
+            nargs=4,
+            type=float,
+            default=None,
+            metavar="XMIN YMIN XMAX YMAX",
+            help="[default preset: 0 0 2 2]",
+        ),
+        click.option(
+            "--min-distance",
+            type=float,
+            default=None,
+            help="minimum start-goal distance  [default preset: 1]",
+        ),
+        click.option(
+            "--clearance",
+            type=float,
+            default=None,
+            help="start and goal clearance from obstacle edges  [default preset: 0.05]",
+        ),
+        click.option(
+            "--obstacle-gap",
+            type=float,
+            default=None,
+            help="minimum gap between obstacles  [default preset: 0]",
+        ),
+        click.option(
+            "--heading-spread",
+            type=float,
+            default=None,
+            help="headings: goal direction +- this (radians)  [default preset: pi/4]",
+        ),
+        click.option(
+            "--horizon",
+            default=None,
+            callback=_range(float, "horizon"),
+            help="T: a value or LO..HI (uniform)  [default preset: 1]",
+        ),
+        click.option(
+            "--prefix", default=None, help="scenario name prefix  [default: the preset's]"
+        ),
+    ]
+    for o in reversed(opts):
+        fn = o(fn)
+    return fn
+
+
+def _spec(n, seed, preset, prefix=None, **given):
+    """The generator spec of ``preset`` with the options that were given on top."""
+    from ..batch.generate import GeneratorSpec
+
+    overrides = {k: v for k, v in given.items() if v is not None}
+    if "workspace" in overrides:
+        overrides["workspace"] = tuple(overrides["workspace"])
+    if prefix is not None:
+        overrides["prefix"] = prefix
+    return GeneratorSpec.preset(preset, n=n, seed=seed, **overrides)
+
+
+@click.command()
+@_generator_options
+@click.option("--out", required=True, type=click.Path(file_okay=False), help="folder for the files")
+@click.option("--overwrite", is_flag=True, help="replace existing files with other content")
+def generate(out, overwrite, **gen):
+    """Write seeded random scenarios as TOML files (scenario i depends only on seed and i)."""
+    from ..batch.generate import write_scenarios
+
+    if gen["n"] is None:
+        raise click.UsageError("--n is required")
+    spec = _spec(**gen)
+    paths = write_scenarios(spec, out, overwrite=overwrite)
+    click.echo(f"{len(paths)} scenarios in {out}")
+    return EXIT_OK
+
+
+def _load_sources(sources) -> list:
+    from ..batch.sweep import SweepError
+    from ..planning.scenario import load_scenario
+
+    out = []
+    for src in sources:
+        p = Path(src)
+        if p.is_dir():
+            files = sorted(p.glob("*.toml"))
+            if not files:
+                raise SweepError(f"{src}: no .toml files in this folder")
+            out += [load_scenario(f) for f in files]
+        else:
+            out.append(load_scenario(src))
+    return out
+
+
+def _planner_options(items) -> dict:
+    opts = {}
+    for item in items:
+        if "=" not in item:
+            raise click.BadParameter(f"expected KEY=VALUE, got {item!r}", param_hint="--option")
+        k, v = item.split("=", 1)
+        try:
+            opts[k.strip().replace("-", "_")] = json.loads(v)
+        except json.JSONDecodeError:
+            opts[k.strip().replace("-", "_")] = v  # a bare string, e.g. final=auto
+    return opts
+
+
+@click.command()
+@click.argument("sources", nargs=-1)
+@_generator_options
+@click.option(
+    "--methods",
+    default="newton,modified-newton",
+    show_default=True,
+    help="comma-separated: newton, modified-newton, nleq-err, shooting, direct",
+)
+@click.option("--out", required=True, help="results file (JSON Lines); an existing one is resumed")
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=2,
+    show_default=True,
+    help="local worker processes",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="run on this Dask scheduler (e.g. tcp://host:8786) instead of locally",
+)
+@click.option(
+    "--time-limit",
+    type=click.FloatRange(min=0, min_open=True),
+    default=60.0,
+    show_default=True,
+    help="seconds per (scenario, method) pair",
+)
+@click.option(
+    "--chunk-size",
+    type=click.IntRange(min=1),
+    default=None,
+    help="pairs per Dask task  [default: about 8 tasks per worker thread]",
+)
+@click.option(
+    "--initial-paths",
+    type=click.IntRange(min=1),
+    default=None,
+    help="planner initial paths  [sweep default: 1]",
+)
+@click.option(
+    "--option",
+    "options",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="another planner option, e.g. partitions=16 (repeatable)",
+)
+@click.option("--no-sort", is_flag=True, help="leave the file in completion order at the end")
+@click.option("--quiet", is_flag=True, help="no progress bar and no summary")
+def sweep(
+    sources,
+    methods,
+    out,
+    workers,
+    scheduler,
+    time_limit,
+    chunk_size,
+    initial_paths,
+    options,
+    no_sort,
+    quiet,
+    **gen,
+):
+    """Run scenarios (SOURCES: folders, files, built-ins, and/or --n random ones) against methods.
+
+    One JSON line per (scenario, method) pair is appended to --out; rerunning with the same --out
+    runs only the missing pairs.
+    """
+    from ..batch.sweep import SweepSettings, run_sweep
+
+    planner = _planner_options(options)
+    if initial_paths is not None:
+        planner["initial_paths"] = initial_paths
+    settings = SweepSettings(
+        methods=tuple(m.strip() for m in methods.split(",") if m.strip()),
+        planner=planner,
+        time_limit=time_limit,
+        workers=workers,
+        scheduler=scheduler,
+        chunk_size=chunk_size,
+        sort=not no_sort,
+    )
+    from .main import _output_path  # the check every file-writing command uses
+
+    out_path = _output_path(out, "--out")
+    scenarios = _load_sources(sources)
+    if gen["n"] is not None:
+        from ..batch.generate import generate as gen_scenarios
+
+        scenarios += list(gen_scenarios(_spec(**gen)))
+    if not scenarios:
+        raise click.UsageError("no scenarios: give folders or files, or --n for random ones")
+    if quiet:
+        summary = run_sweep(scenarios, out_path, settings)
+    else:
+        summary = _with_progress(scenarios, out_path, settings)
+    if not quiet:
+        _print_summary(summary)
+    return EXIT_OK
+
+
+def _with_progress(scenarios, out_path, settings):
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    from ..batch.sweep import run_sweep
+
+    err = Console(stderr=True)
+    columns = [
+        TextColumn("sweep"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+    ]
+    with Progress(*columns, console=err, transient=True) as bar:  # bad input: one line only
+        task = bar.add_task("sweep", total=None, info="starting")
+
+        def on_event(ev):
+            info = f"{ev.converged} converged, {ev.failed} failed"
+            if ev.skipped:
+                info += f", {ev.skipped} already done"
+            bar.update(task, total=ev.total, completed=ev.done, info=info)
+
+        return run_sweep(scenarios, out_path, settings, progress=on_event)
+
+
+def _print_summary(s):
+    from rich.console import Console
+
+    fails = ", ".join(f"{k} {v}" for k, v in s.failures.items())
+    Console().print(
+        f"{s.path}: {s.total} pairs, {s.skipped} already done, {s.ran} run now "
+        f"({s.converged} converged, {s.failed} failed{': ' + fails if fails else ''}) "
+        f"in {s.wall_time_s:.1f} s on {s.engine}",
+        highlight=False,
+        markup=False,
+    )
+
+
+@click.command()
+@click.argument("results", type=click.Path(dir_okay=False))
+@click.option(
+    "--out",
+    default=None,
+    type=click.Path(file_okay=False),
+    help="folder for report.md and the figures",
+)
+def report(results, out):
+    """Statistics of a sweep's RESULTS file: success, cost, time, paired comparisons."""
+    from ..batch.report import build_report, save_report
+    from ..batch.store import read_records
+
+    if not Path(results).is_file():
+        raise click.UsageError(f"{results!r}: no such file")
+    rep = build_report(read_records(results))
+    if out is not None:
+        save_report(rep, out)
+    click.echo(rep.to_markdown(), nl=False)
+    return EXIT_OK

@@ -1,0 +1,166 @@
+"""``leapfrog paper`` and ``leapfrog bench``: the experiments, with a progress bar.
+
+Both write into an output folder (created if its parent exists) and exit 0 once the files are
+written: a solver failure is a result of the experiment, shown in its tables, not an error.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+EXIT_OK = 0  # as in cli.py; not imported from there, which imports this module
+
+# As bench.SOLVERS (the test checks), without importing the benchmark for --help.
+SOLVER_CHOICES = ["leapfrog-mnm", "leapfrog-mnm-1path", "leapfrog-nm", "leapfrog-nleq-err",
+                  "shooting", "bvp", "direct"]  # fmt: skip
+_console = Console()
+_err = Console(stderr=True)
+
+
+def _output_dir(value: str, option: str) -> Path:
+    """The output folder, created if needed; checked before any work (bad input exits 2)."""
+    path = Path(value)
+    if path.exists() and not path.is_dir():
+        raise click.UsageError(f"{option}: {value!r} exists and is not a folder")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not path.exists() and not parent.is_dir():
+        raise click.UsageError(f"{option}: folder {str(parent)!r} does not exist")
+    target = path if path.exists() else parent
+    if not os.access(target, os.W_OK):
+        raise click.UsageError(f"{option}: folder {str(target)!r} is not writable")
+    path.mkdir(exist_ok=True)
+    return path
+
+
+def _progress_bar():
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    columns = [
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+    ]
+    return Progress(*columns, console=_err, transient=True)
+
+
+def _run_with_bar(title: str, run, quiet: bool):
+    """Call ``run(progress)`` with a rich progress bar fed by its events (none when quiet)."""
+    if quiet:
+        return run(None)
+    with _progress_bar() as bar:
+        task = bar.add_task(title, total=None, info="")
+
+        def on_event(ev):
+            bar.update(task, total=ev.total, completed=ev.done, info=ev.label)
+
+        return run(on_event)
+
+
+@click.command()
+@click.option("--out", "out", default="paper-out", show_default=True, help="output folder")
+@click.option(
+    "--repeat",
+    type=click.IntRange(min=1),
+    default=5,
+    show_default=True,
+    help="timed repetitions per case and method (the median is reported)",
+)
+@click.option(
+    "--case",
+    "cases",
+    type=click.IntRange(1, 4),
+    multiple=True,
+    help="run only this paper case (repeatable)  [default: all four]",
+)
+@click.option("--quiet", is_flag=True, help="no progress bar and no table")
+def paper(out, repeat, cases, quiet):
+    """Reproduce the paper's Table 1 and Figures 1-4 (NM and MNM on its four cases)."""
+    from ..experiments.paper import PaperSettings, run_paper, table1_markdown, write_paper
+
+    settings = PaperSettings(repeat=repeat, **({"cases": cases} if cases else {}))
+    folder = _output_dir(out, "--out")
+    result = _run_with_bar("paper", lambda cb: run_paper(settings, progress=cb), quiet)
+    write_paper(result, folder)
+    if not quiet:
+        click.echo(table1_markdown(result))  # plain: rich would re-wrap the Markdown
+        _console.print(f"written to {folder}/", markup=False, highlight=False)
+    return EXIT_OK
+
+
+@click.command()
+@click.option("--out", "out", default="bench-out", show_default=True, help="output folder")
+@click.option(
+    "--repeat",
+    type=click.IntRange(min=1),
+    default=3,
+    show_default=True,
+    help="timed solves after a warm-up (the median is reported)",
+)
+@click.option(
+    "--case",
+    "cases",
+    type=click.IntRange(1, 4),
+    multiple=True,
+    help="paper case to include (repeatable)  [default: all four]",
+)
+@click.option(
+    "--random", "random_", type=click.IntRange(min=0), default=5, show_default=True,
+    help="seeded random scenarios",
+)  # fmt: skip
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option(
+    "--solver",
+    "solvers",
+    type=click.Choice(SOLVER_CHOICES),
+    multiple=True,
+    help="solver to run (repeatable)  [default: all]",
+)  # fmt: skip
+@click.option(
+    "--mesh",
+    "meshes",
+    type=click.IntRange(min=2),
+    multiple=True,
+    help="direct-method intervals (repeatable)  [default: 100 and 200]",
+)
+@click.option("--no-profile", is_flag=True, help="skip the profile of one Leapfrog solve")
+@click.option("--quiet", is_flag=True, help="no progress bar and no summary")
+def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, quiet):
+    """Benchmark Leapfrog against plain shooting, solve_bvp and CasADi/IPOPT."""
+    from ..experiments.bench import BenchSettings, run_bench, target_ratios, write_bench
+
+    options = {"cases": cases, "solvers": solvers, "meshes": meshes}
+    settings = BenchSettings(
+        repeat=repeat,
+        random=random_,
+        seed=seed,
+        profile=not no_profile,
+        **{k: v for k, v in options.items() if v},
+    )
+    folder = _output_dir(out, "--out")
+    result = _run_with_bar("bench", lambda cb: run_bench(settings, progress=cb), quiet)
+    write_bench(result, folder)
+    for note in result.notes:  # e.g. CasADi missing: said even when quiet
+        _err.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
+    if not quiet:
+        for r in target_ratios(result):
+            _console.print(r.text, markup=False, highlight=False, soft_wrap=True)
+        if result.profile is not None:
+            p = result.profile
+            parts = ", ".join(
+                f"{k.replace('_', ' ')} {100 * p.fraction(k):.0f}%" for k in p.parts_s
+            )
+            _console.print(
+                f"time split ({p.scenario}, {p.wall_s * 1e3:.0f} ms): {parts}",
+                markup=False,
+                highlight=False,
+                soft_wrap=True,
+            )
+        _console.print(f"written to {folder}/ (bench.md, bench.csv, bench.json, bench.png)",
+                       markup=False, highlight=False)  # fmt: skip
+    return EXIT_OK

@@ -1,0 +1,1 @@
+"""The paper's experiment, the peer benchmark, profiling, the direct method."""

@@ -1,0 +1,631 @@
+"""Direct method (CasADi + IPOPT) for the planner's optimal control problem.
+
+This is the independent cross-check for the indirect (Leapfrog) solver: it shares no code with
+it, only the problem statement (spec sections 1 and 4). The problem is transcribed by RK4
+multiple shooting: controls are piecewise constant on ``N`` intervals, the node states are
+decision variables, and the running cost is integrated as an extra quadrature state inside the
+same RK4 step, so the dynamics and the cost are discretised consistently.
+
+Accuracy: for the returned controls the cost is integrated to O(h^4), but the optimal cost of the
+transcription converges to the true optimum only at O(h^2), because piecewise-constant controls
+approximate the smooth optimal control to O(h). Use :func:`richardson` on meshes ``N`` and ``2N``
+(it assumes order 2) for reference-quality costs; on the paper cases it agrees with spec
+section 5 to about 1e-6.
+
+The NLP is built once per model, number of obstacles, ``N`` and number of RK4 substeps. Start,
+goal, horizon, obstacle data, penalty weight and exponent are inputs of the compiled solver
+(the fixed end states enter as equal lower and upper bounds on the first and last node, which
+IPOPT removes from the problem), so repeated solves never rebuild anything.
+
+casadi is an optional dependency; it is imported only when a solver is built.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..errors import ModelError, ScenarioError, SettingsError
+
+__all__ = [
+    "DirectResult",
+    "DirectTranscription",
+    "cached_transcription",
+    "multistart_guesses",
+    "richardson",
+    "solve_direct",
+    "straight_line_guess",
+]
+
+_MODELS = ("unicycle", "diff-drive")  # the direct method writes its own dynamics for these
+
+_CASADI_MISSING = "the direct method needs casadi: pip install 'leapfrog-planner[dev]'"
+
+# Samples per interval used to measure clearance along the continuous path, not just at nodes.
+_CLEARANCE_SAMPLES = 8
+
+
+def _casadi():
+    """Import casadi lazily so that the rest of the library works without it."""
+    try:
+        import casadi
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError(_CASADI_MISSING) from exc
+    return casadi
+
+
+@dataclass(frozen=True)
+class DirectResult:
+    """Outcome of one direct solve.
+
+    ``controls`` are in the model's own units: ``(v, omega)`` for the unicycle,
+    ``(omega_R, omega_L)`` for the diff-drive. ``states[k]`` is the state at ``t[k]``; the
+    control ``controls[k]`` is held constant on ``[t[k], t[k+1]]``.
+    """
+
+    success: bool
+    status: str
+    message: str
+    cost: float
+    t: np.ndarray
+    states: np.ndarray
+    controls: np.ndarray
+    min_clearance: float
+    iterations: int
+    solve_time: float
+    # |x(T) - goal| of the start state driven by the returned controls exactly (each interval an
+    # arc), not by the transcription's RK4 step: the check of the mesh's own error.
+    end_state_error: float = math.nan
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def _array(value: Any, name: str, error: type[ValueError] = ScenarioError) -> np.ndarray:
+    """``value`` as a float array, with a one-line message instead of NumPy's if it is not one."""
+    try:
+        return np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise error(f"{name} must be an array of numbers, got {value!r}") from None
+
+
+def _state(value: Any, name: str) -> np.ndarray:
+    arr = _array(value, name)
+    if arr.shape != (3,):
+        raise ScenarioError(f"{name} must have shape (3,) [x, y, heading], got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ScenarioError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _horizon(value: Any) -> float:
+    try:
+        horizon = float(value)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"horizon must be a number, got {value!r}") from None
+    if not math.isfinite(horizon) or horizon <= 0.0:
+        raise ScenarioError(f"horizon must be finite and > 0, got {horizon}")
+    return horizon
+
+
+def _obstacles(value: Any) -> np.ndarray:
+    arr = _array(value, "obstacles")
+    if arr.size == 0:
+        return np.zeros((0, 3))
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ScenarioError(f"obstacles must have shape (m, 3) rows [cx, cy, r], got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ScenarioError("obstacles must be finite")
+    if np.any(arr[:, 2] <= 0.0):
+        raise ScenarioError("obstacle radii must be > 0")
+    return arr
+
+
+def _positive(
+    value: Any, name: str, *, allow_zero: bool = False, error: type[ValueError] = ScenarioError
+) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise error(f"{name} must be a number, got {value!r}") from None
+    ok = number >= 0.0 if allow_zero else number > 0.0
+    if not math.isfinite(number) or not ok:
+        bound = ">= 0" if allow_zero else "> 0"
+        raise error(f"{name} must be finite and {bound}, got {number}")
+    return number
+
+
+def _count(value: Any, name: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise SettingsError(f"{name} must be an integer, got {value!r}")
+    if value < minimum:
+        raise SettingsError(f"{name} must be >= {minimum}, got {value}")
+    return int(value)
+
+
+def _guess(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
+    arr = _array(value, name, SettingsError)
+    if arr.shape != shape:
+        raise SettingsError(f"{name} must have shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise SettingsError(f"{name} must be finite")
+    return arr
+
+
+def _model(value: Any) -> str:
+    if value not in _MODELS:
+        raise ModelError(f"unknown model {value!r}; expected one of {', '.join(_MODELS)}")
+    return value
+
+
+# --------------------------------------------------------------------------- model helpers
+
+
+def _wheel_to_unicycle(controls: np.ndarray, radius: float, axle: float) -> np.ndarray:
+    """Map diff-drive wheel speeds (omega_R, omega_L) to unicycle (v, omega)."""
+    wr, wl = controls[:, 0], controls[:, 1]
+    return np.column_stack((radius * (wr + wl) / 2.0, radius * (wr - wl) / axle))
+
+
+def _unicycle_to_wheel(controls: np.ndarray, radius: float, axle: float) -> np.ndarray:
+    """Inverse of :func:`_wheel_to_unicycle`, used to turn state guesses into wheel guesses."""
+    v, omega = controls[:, 0], controls[:, 1]
+    half = omega * axle / (2.0 * radius)
+    return np.column_stack((v / radius + half, v / radius - half))
+
+
+def _controls_from_states(states: np.ndarray, horizon: float) -> np.ndarray:
+    """Unicycle controls that roughly reproduce a state guess, interval by interval.
+
+    The speed is the displacement projected on the mid-interval heading, so a guess whose heading
+    points backwards along the path gives a reversing robot rather than a nonsense one.
+    """
+    h = horizon / (len(states) - 1)
+    d = np.diff(states, axis=0)
+    mid = states[:-1, 2] + d[:, 2] / 2.0
+    v = (d[:, 0] * np.cos(mid) + d[:, 1] * np.sin(mid)) / h
+    return np.column_stack((v, d[:, 2] / h))
+
+
+def arc_end_state(x0, unicycle_controls: np.ndarray, horizon: float) -> np.ndarray:
+    """End state of the unicycle under piecewise-constant ``(v, omega)``, exactly (no steps)."""
+    h = horizon / len(unicycle_controls)
+    x = np.array(x0, dtype=float)
+    for v, om in unicycle_controls:
+        chord = v * h * np.sinc(om * h / (2.0 * np.pi))
+        mid = x[2] + om * h / 2.0
+        x += (chord * math.cos(mid), chord * math.sin(mid), om * h)
+    return x
+
+
+def _min_clearance(
+    states: np.ndarray, unicycle_controls: np.ndarray, horizon: float, obstacles: np.ndarray
+) -> float:
+    """Minimum of ``|p - c| - r`` over the path and all obstacles.
+
+    Between nodes the path is sampled along the exact arc for the constant (v, omega) of the
+    interval, so a thin obstacle cannot hide between two nodes.
+    """
+    if len(obstacles) == 0:
+        return math.inf
+    n = len(unicycle_controls)
+    h = horizon / n
+    tau = h * np.arange(_CLEARANCE_SAMPLES) / _CLEARANCE_SAMPLES  # (S,)
+    x0, y0, th0 = (states[:-1, i, None] for i in range(3))  # (N, 1) each
+    v, w = unicycle_controls[:, 0, None], unicycle_controls[:, 1, None]
+    # Exact arc: integral of cos(th0 + w s) over [0, tau] = tau cos(th0 + w tau/2) sinc(w tau/2).
+    chord = v * tau * np.sinc(w * tau / (2.0 * np.pi))
+    mid = th0 + w * tau / 2.0
+    xs = np.concatenate(((x0 + chord * np.cos(mid)).ravel(), states[-1:, 0]))
+    ys = np.concatenate(((y0 + chord * np.sin(mid)).ravel(), states[-1:, 1]))
+    dist = np.hypot(xs[:, None] - obstacles[:, 0], ys[:, None] - obstacles[:, 1])
+    return float(np.min(dist - obstacles[:, 2]))
+
+
+# --------------------------------------------------------------------------- transcription
+
+
+class DirectTranscription:
+    """RK4 multiple-shooting NLP for one model, obstacle count, mesh and substep count.
+
+    The NLP is built and handed to IPOPT (``casadi.nlpsol``) once, in the constructor. Its
+    parameters are the horizon, the penalty weight and exponent and the obstacle array; start and
+    goal are fixed through the bounds of the first and last node. Every :meth:`solve` is a call
+    of the same compiled solver, so warm solves for new scenarios do not rebuild anything.
+
+    Decision variables are the ``N+1`` node states and ``N`` piecewise-constant controls.
+    Each interval is integrated with ``substeps`` RK4 steps, carrying the running cost as a
+    fourth (quadrature) state so that the cost is integrated by the same scheme as the motion.
+    Heading is a plain real variable: it is never wrapped (spec section 1).
+    """
+
+    def __init__(
+        self,
+        n_obstacles: int,
+        intervals: int = 100,
+        *,
+        model: str = "unicycle",
+        substeps: int = 1,
+        wheel_radius: float = 1.0,
+        axle_length: float = 2.0,
+        tol: float = 1e-10,
+        max_iter: int = 3000,
+    ) -> None:
+        self.n_obstacles = _count(n_obstacles, "n_obstacles", 0)
+        self.intervals = _count(intervals, "intervals", 1)
+        self.model = _model(model)
+        self.substeps = _count(substeps, "substeps", 1)
+        self.wheel_radius = _positive(wheel_radius, "wheel_radius", error=SettingsError)
+        self.axle_length = _positive(axle_length, "axle_length", error=SettingsError)
+        self.tol = _positive(tol, "tol", error=SettingsError)
+        self.max_iter = _count(max_iter, "max_iter", 1)
+        self._solver = self._build()
+
+    # The symbolic model: state derivative and running cost for one (x, u). Both models spend
+    # 1/2 |u|^2 on their own controls; the diff-drive maps wheel speeds to (v, omega).
+    def _rhs(self, ca, x, u, weight, exponent, obstacles):
+        if self.model == "unicycle":
+            v, omega = u[0], u[1]
+        else:
+            r, b = self.wheel_radius, self.axle_length
+            v = r * (u[0] + u[1]) / 2
+            omega = r * (u[0] - u[1]) / b
+        effort = (u[0] ** 2 + u[1] ** 2) / 2
+        penalty = 0
+        for j in range(self.n_obstacles):
+            cx, cy, rad = obstacles[3 * j], obstacles[3 * j + 1], obstacles[3 * j + 2]
+            s = ((x[0] - cx) ** 2 + (x[1] - cy) ** 2) / rad**2
+            penalty += weight * ca.exp(-(s**exponent))
+        xdot = ca.vertcat(v * ca.cos(x[2]), v * ca.sin(x[2]), omega)
+        return xdot, effort + penalty
+
+    def _build(self):
+        ca = _casadi()
+        n, m = self.intervals, self.n_obstacles
+        horizon = ca.SX.sym("T")
+        weight = ca.SX.sym("W")
+        exponent = ca.SX.sym("n")
+        obstacles = ca.SX.sym("obs", 3 * m)
+        params = ca.vertcat(horizon, weight, exponent, obstacles)
+
+        # One interval as a casadi Function: x_k, u_k -> x_{k+1}, integral of L over the interval.
+        x = ca.SX.sym("x", 3)
+        u = ca.SX.sym("u", 2)
+        h = horizon / (n * self.substeps)
+
+        def f(xx):
+            return self._rhs(ca, xx, u, weight, exponent, obstacles)
+
+        xk, qk = x, 0
+        for _ in range(self.substeps):
+            k1, l1 = f(xk)
+            k2, l2 = f(xk + h / 2 * k1)
+            k3, l3 = f(xk + h / 2 * k2)
+            k4, l4 = f(xk + h * k3)
+            xk = xk + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            qk = qk + h / 6 * (l1 + 2 * l2 + 2 * l3 + l4)
+        step = ca.Function("rk4_interval", [x, u, params], [xk, qk])
+
+        # The N intervals are one mapped call; ``expand`` below turns the NLP into a flat SX graph.
+        # That makes the build slower (about 2 s for N=200 and 7 obstacles, once) but every IPOPT
+        # iteration 2-3 times faster than on the MX graph, which is what repeated solves need.
+        states = ca.MX.sym("X", 3, n + 1)
+        controls = ca.MX.sym("U", 2, n)
+        params_mx = ca.MX.sym("p", params.numel())
+        x_next, q = step.map(n)(states[:, :n], controls, params_mx)
+        defects = x_next - states[:, 1:]
+
+        nlp = {
+            "x": ca.vertcat(ca.vec(states), ca.vec(controls)),
+            "p": params_mx,
+            "f": ca.sum2(q),
+            "g": ca.vec(defects),
+        }
+        options = {
+            "print_time": False,
+            # Quiet by design: the library never prints. lam_p (sensitivity to the parameters)
+            # is not needed, and its gradient w.r.t. the exponent is NaN where s**n underflows.
+            "show_eval_warnings": False,
+            "calc_lam_p": False,
+            "ipopt.print_level": 0,
+            "ipopt.sb": "yes",
+            "expand": True,
+            "ipopt.tol": self.tol,
+            "ipopt.max_iter": self.max_iter,
+        }
+        return ca.nlpsol("leapfrog_direct", "ipopt", nlp, options)
+
+    def solve(
+        self,
+        start,
+        goal,
+        horizon,
+        obstacles,
+        *,
+        weight: float = 100.0,
+        exponent: float = 2,
+        guess_states=None,
+        guess_controls=None,
+    ) -> DirectResult:
+        """Solve one scenario from one initial guess.
+
+        ``guess_states`` is an ``(N+1, 3)`` array; without it the straight line with interpolated
+        heading is used. ``guess_controls`` is ``(N, 2)`` in the model's units; without it the
+        controls are derived from the state guess. The guess's end nodes are replaced by start
+        and goal, which are imposed exactly.
+        """
+        start = _state(start, "start")
+        goal = _state(goal, "goal")
+        horizon = _horizon(horizon)
+        obstacles = _obstacles(obstacles)
+        weight = _positive(weight, "weight", allow_zero=True)
+        exponent = _positive(exponent, "exponent")
+        n = self.intervals
+        if len(obstacles) != self.n_obstacles:
+            raise ScenarioError(
+                f"this transcription was built for {self.n_obstacles} obstacles, "
+                f"got {len(obstacles)}"
+            )
+
+        if guess_states is None:
+            states0, _ = straight_line_guess(start, goal, horizon, n)
+        else:
+            states0 = _guess(guess_states, "guess_states", (n + 1, 3))
+        states0[0], states0[-1] = start, goal
+        if guess_controls is None:
+            controls0 = _controls_from_states(states0, horizon)
+            if self.model == "diff-drive":
+                controls0 = _unicycle_to_wheel(controls0, self.wheel_radius, self.axle_length)
+        else:
+            controls0 = _guess(guess_controls, "guess_controls", (n, 2))
+
+        lbx = np.full(3 * (n + 1) + 2 * n, -np.inf)
+        ubx = -lbx
+        lbx[:3] = ubx[:3] = start
+        lbx[3 * n : 3 * n + 3] = ubx[3 * n : 3 * n + 3] = goal
+        x0 = np.concatenate((states0.ravel(), controls0.ravel()))
+        params = np.concatenate(([horizon, weight, exponent], obstacles.ravel()))
+
+        tic = time.perf_counter()
+        sol = self._solver(x0=x0, p=params, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
+        solve_time = time.perf_counter() - tic
+        stats = self._solver.stats()
+
+        w = np.asarray(sol["x"], dtype=float).ravel()
+        states = w[: 3 * (n + 1)].reshape(n + 1, 3)
+        controls = w[3 * (n + 1) :].reshape(n, 2)
+        unicycle = (
+            controls
+            if self.model == "unicycle"
+            else _wheel_to_unicycle(controls, self.wheel_radius, self.axle_length)
+        )
+        status = str(stats.get("return_status", "unknown"))
+        success = bool(stats.get("success", False))
+        iterations = int(stats.get("iter_count", -1))
+        return DirectResult(
+            success=success,
+            status=status,
+            message=f"IPOPT: {status} after {iterations} iterations",
+            cost=float(sol["f"]),
+            t=np.linspace(0.0, horizon, n + 1),
+            states=states,
+            controls=controls,
+            min_clearance=_min_clearance(states, unicycle, horizon, obstacles),
+            iterations=iterations,
+            solve_time=solve_time,
+            end_state_error=float(np.linalg.norm(arc_end_state(start, unicycle, horizon) - goal)),
+        )
+
+
+_TRANSCRIPTIONS: dict[tuple, DirectTranscription] = {}
+
+
+def cached_transcription(
+    n_obstacles: int, intervals: int, *, slot: int = 0, model: str = "unicycle", **kw
+) -> DirectTranscription:
+    """A :class:`DirectTranscription` built once per arguments and process (building takes 0.3
+    to 2 s; a solve reuses it). Concurrent solves need one transcription each (a CasADi solver's
+    memory is its own, and its solve releases the GIL): give each thread its own ``slot``.
+    Building is not thread-safe: build every slot in one thread first."""
+    key = (n_obstacles, intervals, slot, model, tuple(sorted(kw.items())))
+    if key not in _TRANSCRIPTIONS:
+        _TRANSCRIPTIONS[key] = DirectTranscription(n_obstacles, intervals, model=model, **kw)
+    return _TRANSCRIPTIONS[key]
+
+
+# --------------------------------------------------------------------------- initial guesses
+
+
+def straight_line_guess(start, goal, horizon, intervals) -> tuple[np.ndarray, np.ndarray]:
+    """Straight segment from start to goal, heading interpolated linearly between the two.
+
+    Returns ``(states (N+1, 3), controls (N, 2))`` with unicycle controls ``(v, omega)``. The
+    heading is interpolated rather than taken from the chord, so the guess already meets both
+    end headings without any wrapping.
+    """
+    start = _state(start, "start")
+    goal = _state(goal, "goal")
+    horizon = _horizon(horizon)
+    n = _count(intervals, "intervals", 1)
+    s = np.linspace(0.0, 1.0, n + 1)[:, None]
+    states = start + s * (goal - start)
+    return states, _controls_from_states(states, horizon)
+
+
+def _arc(start: np.ndarray, goal: np.ndarray, n: int, offset: float, heading: str) -> np.ndarray:
+    """Chord plus a quadratic lateral bump of height ``offset`` (relative to the chord length).
+
+    ``heading="tangent"`` follows the path tangent (unwrapped, shifted by whole turns to start
+    next to the start heading); ``heading="interpolated"`` blends start to goal heading.
+    """
+    chord = goal[:2] - start[:2]
+    length = float(np.hypot(*chord))
+    if length > 1e-9:
+        along, scale = chord / length, length
+    else:  # start and goal coincide in position: bump sideways of the start heading
+        along, scale = np.array([math.cos(start[2]), math.sin(start[2])]), 1.0
+    normal = np.array([-along[1], along[0]])
+    s = np.linspace(0.0, 1.0, n + 1)[:, None]
+    pos = start[:2] + s * chord + offset * scale * 4.0 * s * (1.0 - s) * normal
+    if heading == "interpolated":
+        theta = start[2] + s[:, 0] * (goal[2] - start[2])
+    else:
+        tangent = chord + offset * scale * 4.0 * (1.0 - 2.0 * s) * normal
+        if length <= 1e-9:
+            tangent = tangent + 1e-9 * along  # keep atan2 defined on a degenerate chord
+        theta = np.unwrap(np.arctan2(tangent[:, 1], tangent[:, 0]))
+        theta += 2.0 * np.pi * np.round((start[2] - theta[0]) / (2.0 * np.pi))
+    return np.column_stack((pos, theta))
+
+
+def multistart_guesses(start, goal, intervals) -> list[np.ndarray]:
+    """The deterministic set of state guesses tried by :func:`solve_direct`.
+
+    The straight line and quadratic lateral arcs peaking at ``+-0.25, +-0.5, +-0.75, +-1.0``
+    chord lengths, each once with the heading interpolated between the end headings and once
+    with the heading of the path tangent (18 guesses). Both heading choices matter: with fixed
+    end headings neighbouring extremals differ in how the heading turns, and the two families
+    lead IPOPT to different ones (paper case 1 is found only from tangent headings). The
+    offsets are dense because which guess reaches which optimum shifts with the mesh; with only
+    +-0.5 and +-1.0, paper cases 3 and 4 miss their best optimum on some meshes.
+    """
+    start = _state(start, "start")
+    goal = _state(goal, "goal")
+    n = _count(intervals, "intervals", 1)
+    return [
+        _arc(start, goal, n, offset, heading)
+        for offset in _OFFSETS
+        for heading in ("interpolated", "tangent")
+    ]
+
+
+_OFFSETS = (0.0, 0.25, -0.25, 0.5, -0.5, 0.75, -0.75, 1.0, -1.0)
+
+
+def _resample(result: DirectResult, intervals: int) -> tuple[np.ndarray, np.ndarray]:
+    """A coarse solution on a finer mesh: states linear in time, controls sampled at midpoints."""
+    t = np.linspace(0.0, result.t[-1], intervals + 1)
+    states = np.column_stack([np.interp(t, result.t, result.states[:, i]) for i in range(3)])
+    mid = (t[:-1] + t[1:]) / 2.0
+    index = np.minimum(np.searchsorted(result.t, mid, side="right") - 1, len(result.controls) - 1)
+    return states, result.controls[index]
+
+
+def _distinct(results: list[DirectResult]) -> list[DirectResult]:
+    """Successful results, cheapest first, with repeats of the same local optimum dropped."""
+    kept: list[DirectResult] = []
+    for r in sorted((r for r in results if r.success), key=lambda r: r.cost):
+        if not any(
+            abs(r.cost - k.cost) <= 1e-6 * (1.0 + abs(k.cost))
+            and np.max(np.abs(r.states - k.states)) < 1e-3
+            for k in kept
+        ):
+            kept.append(r)
+    return kept
+
+
+def solve_direct(
+    start,
+    goal,
+    horizon,
+    obstacles=(),
+    *,
+    weight: float = 100.0,
+    exponent: float = 2,
+    intervals: int = 100,
+    model: str = "unicycle",
+    multistart: bool = True,
+    guesses=None,
+    coarse_intervals: int | None = 40,
+    **kw,
+) -> DirectResult:
+    """Solve a scenario by the direct method, from several initial guesses.
+
+    With ``multistart=True`` every guess of :func:`multistart_guesses` is tried, together with
+    every ``(N+1, 3)`` state array in ``guesses``; the cheapest successful result is returned (the
+    cheapest overall if none succeeded, so the caller sees the failure). With
+    ``multistart=False`` only ``guesses`` are tried, or the straight line if there are none.
+
+    The built-in guesses are first solved on a coarse mesh of ``coarse_intervals`` (when that is
+    smaller than ``intervals``; ``None`` disables it), and each distinct coarse local optimum is
+    then refined on the full mesh. This is cheaper than solving every guess on the full mesh,
+    and it is also more reliable: a coarse optimum lies next to the fine optimum of the same
+    extremal, while a raw guess's basin of attraction changes with the mesh.
+
+    Extra keywords (``substeps``, ``wheel_radius``, ``axle_length``, ``tol``, ``max_iter``) go to
+    :class:`DirectTranscription`, built once per mesh and process (:func:`cached_transcription`)
+    and reused for all guesses.
+    """
+    start = _state(start, "start")
+    goal = _state(goal, "goal")
+    horizon = _horizon(horizon)
+    obstacles = _obstacles(obstacles)
+    n = _count(intervals, "intervals", 1)
+    _model(model)
+    if coarse_intervals is not None:
+        coarse_intervals = _count(coarse_intervals, "coarse_intervals", 1)
+    user = [] if guesses is None else list(guesses)
+
+    def solve_all(transcription, starts):
+        return [
+            transcription.solve(
+                start,
+                goal,
+                horizon,
+                obstacles,
+                weight=weight,
+                exponent=exponent,
+                guess_states=states,
+                guess_controls=controls,
+            )
+            for states, controls in starts
+        ]
+
+    starts: list[tuple[np.ndarray, np.ndarray | None]] = [(g, None) for g in user]
+    if multistart:
+        if coarse_intervals is not None and coarse_intervals < n:
+            coarse_kw = {**kw, "tol": max(kw.get("tol", 1e-10), 1e-6)}
+            coarse = cached_transcription(
+                len(obstacles), coarse_intervals, model=model, **coarse_kw
+            )
+            guesses_c = multistart_guesses(start, goal, coarse_intervals)
+            optima = _distinct(solve_all(coarse, [(g, None) for g in guesses_c]))
+            if optima:
+                starts += [_resample(r, n) for r in optima]
+            else:  # nothing converged on the coarse mesh: try the raw guesses on the full one
+                starts += [(g, None) for g in multistart_guesses(start, goal, n)]
+        else:
+            starts += [(g, None) for g in multistart_guesses(start, goal, n)]
+    if not starts:
+        starts = [(straight_line_guess(start, goal, horizon, n)[0], None)]
+
+    transcription = cached_transcription(len(obstacles), n, model=model, **kw)
+    best = None
+    for result in solve_all(transcription, starts):
+        if best is None or _better(result, best):
+            best = result
+    return best
+
+
+def richardson(cost_coarse: float, cost_fine: float, order: float = 2.0) -> float:
+    """Extrapolate the costs of meshes ``N`` and ``2N`` to a zero step.
+
+    The default order is 2, not 4, on purpose. RK4 integrates a *given* control to O(h^4), but
+    the transcription restricts the controls to piecewise constants, which approximate the smooth
+    optimal control only to O(h); at an optimum that costs O(h^2). Measured on the paper cases,
+    successive differences of the cost shrink by a factor of 4.0 per mesh doubling.
+    """
+    return cost_fine + (cost_fine - cost_coarse) / (2.0**order - 1.0)
+
+
+def _better(new: DirectResult, old: DirectResult) -> bool:
+    """Success beats failure; among equals the strictly lower finite cost wins (first kept)."""
+    if new.success != old.success:
+        return new.success
+    if not math.isfinite(new.cost):
+        return False
+    return not math.isfinite(old.cost) or new.cost < old.cost

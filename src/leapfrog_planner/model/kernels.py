@@ -1,0 +1,156 @@
+"""The compiled kernels of a vehicle model: generated once, cached on disk, loaded fast.
+
+The generated module (see :mod:`.codegen`) lives in the user's cache directory; numba caches its
+machine code beside it, so each model compiles once per machine. The cache key of a built-in
+model is the text of its source file and of the generator, so a warm start loads the module
+without importing SymPy at all.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numba
+
+from ..errors import ModelError
+from . import MODELS, builtin_source, get_model
+
+_HERE = Path(__file__).parent.parent  # the package
+# Everything compiled into the generated module, callees included: numba's disk cache does not
+# notice a change in a function that a cached function calls, so the key must.
+_GENERATOR_FILES = (
+    "model/codegen.py",
+    "model/pmp.py",
+    "integrate/flow_template.py",
+    "model/base.py",
+    "model/penalty.py",
+    "roots/linear.py",
+)
+
+
+def cache_dir() -> Path:
+    """Where generated modules live: ``$LEAPFROG_CACHE_DIR``, else the user's cache directory."""
+    env = os.environ.get("LEAPFROG_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "leapfrog-planner"
+
+
+def _key(model) -> str:
+    """Hash of everything that shapes the generated text: model, generator, derivation, template."""
+    h = hashlib.sha256()
+    model_text = builtin_source(model) if isinstance(model, str) else model.fingerprint()
+    for part in (
+        numba.__version__,
+        model_text,
+        *((_HERE / f).read_text() for f in _GENERATOR_FILES),
+    ):
+        h.update(part.encode())
+        h.update(b"\0")
+    return h.hexdigest()[:16]
+
+
+def _writable_dir() -> Path:
+    d = cache_dir() / "models"
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        probe = d / f".probe-{os.getpid()}"
+        probe.write_text("")
+        probe.unlink()
+        return d
+    except OSError:  # read-only home (e.g. some clusters): fall back to the temp directory
+        d = Path(tempfile.gettempdir()) / "leapfrog-planner" / "models"
+        d.mkdir(parents=True, exist_ok=True)
+        return d
+
+
+@cache
+def load_kernels(model) -> ModuleType:
+    """The compiled kernel module of ``model`` (a built-in name or a ``VehicleModel``)."""
+    if isinstance(model, str) and model not in MODELS:
+        raise ModelError(f"unknown model {model!r} (known: {', '.join(MODELS)})")
+    key = _key(model)
+    name = model if isinstance(model, str) else model.name
+    mod_name = "lfp_" + "".join(ch if ch.isalnum() else "_" for ch in name) + "_" + key
+    if mod_name in sys.modules:
+        return sys.modules[mod_name]
+    path = _writable_dir() / f"{mod_name}.py"
+    if not path.exists():
+        from .codegen import module_text  # SymPy only when generating
+
+        text = module_text(get_model(model))
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.replace(tmp, path)  # atomic: concurrent processes write identical text
+    spec = importlib.util.spec_from_file_location(mod_name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[mod_name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+@dataclass(frozen=True)
+class ModelInfo:
+    """What the numerics need to know about a model, read from its generated module."""
+
+    name: str
+    states: tuple[str, ...]
+    controls: tuple[str, ...]
+    parameters: tuple[str, ...]
+    defaults: tuple[float, ...]
+    positive: tuple[bool, ...]
+    description: str
+    definition: Any = field(repr=False, compare=False)  # a built-in name or a VehicleModel
+
+    @property
+    def nx(self) -> int:
+        return len(self.states)
+
+    @property
+    def nu(self) -> int:
+        return len(self.controls)
+
+    def parameter_values(self, overrides: dict[str, float] | None = None) -> tuple[float, ...]:
+        """Default parameter values with ``overrides`` (by name); unknown names are errors."""
+        overrides = dict(overrides or {})
+        unknown = sorted(set(overrides) - set(self.parameters))
+        if unknown:
+            known = ", ".join(self.parameters) or "none"
+            raise ModelError(
+                f"model {self.name!r} has no parameter {unknown[0]!r} (known: {known})"
+            )
+        return tuple(
+            float(overrides.get(n, d)) for n, d in zip(self.parameters, self.defaults, strict=True)
+        )
+
+    @property
+    def kernels(self) -> ModuleType:
+        return load_kernels(self.definition)
+
+
+def model_info(model) -> ModelInfo:
+    """Metadata of ``model`` (a built-in name, a ``VehicleModel`` or a ``ModelInfo``)."""
+    if isinstance(model, ModelInfo):
+        return model
+    K = load_kernels(model)
+    return ModelInfo(
+        name=K.MODEL_NAME,
+        states=K.STATE_NAMES,
+        controls=K.CONTROL_NAMES,
+        parameters=K.PARAMETER_NAMES,
+        defaults=K.PARAMETER_DEFAULTS,
+        positive=K.PARAMETER_POSITIVE,
+        description=K.DESCRIPTION,
+        definition=model,
+    )

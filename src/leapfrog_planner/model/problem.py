@@ -1,0 +1,127 @@
+"""The optimal control problem: a vehicle model, the obstacle penalty and model parameters.
+
+End states and times are not part of it: the same problem is solved between many pairs of
+junctions by Leapfrog.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ScenarioError
+from .kernels import ModelInfo, model_info
+from .penalty import as_obstacle_array, clearance
+
+
+@dataclass(frozen=True, eq=False)
+class ObstaclePenalty:
+    """``P(x, y) = sum_j W exp(-(|(x, y) - c_j|^2 / r_j^2)^n)`` over disc obstacles."""
+
+    obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    weight: float = 100.0
+    exponent: int = 2
+
+    def __post_init__(self):
+        obs = as_obstacle_array(self.obstacles)
+        if not np.all(np.isfinite(obs)):
+            raise ScenarioError("obstacles: values must be finite")
+        if obs.shape[0] and np.any(obs[:, 2] <= 0):
+            raise ScenarioError("obstacles: radius must be > 0")
+        if not (np.isfinite(self.weight) and self.weight >= 0):
+            raise ScenarioError(f"penalty.weight must be a finite number >= 0, got {self.weight}")
+        if int(self.exponent) != self.exponent or self.exponent < 1:
+            raise ScenarioError(f"penalty.exponent must be an integer >= 1, got {self.exponent}")
+        obs.setflags(write=False)
+        object.__setattr__(self, "obstacles", obs)
+        object.__setattr__(self, "weight", float(self.weight))
+        object.__setattr__(self, "exponent", int(self.exponent))
+
+    def __call__(self, xy) -> np.ndarray:
+        """Penalty values at points ``xy`` of shape ``(..., 2)``."""
+        xy = np.asarray(xy, dtype=float)
+        obs = self.obstacles
+        if obs.shape[0] == 0:
+            return np.zeros(xy.shape[:-1])
+        d2 = ((xy[..., None, :] - obs[:, :2]) ** 2).sum(-1) / obs[:, 2] ** 2
+        return (self.weight * np.exp(-(d2**self.exponent))).sum(-1)
+
+    def clearance(self, xy) -> np.ndarray:
+        """Per obstacle, the smallest distance from the path ``xy`` to its edge."""
+        return clearance(np.asarray(xy, dtype=float).reshape(-1, 2), self.obstacles)
+
+
+def obstacle_penalty(obstacles=(), weight: float = 100.0, exponent: int = 2) -> ObstaclePenalty:
+    """The obstacle penalty for ``obstacles`` given as rows ``[cx, cy, r]``."""
+    return ObstaclePenalty(np.asarray(obstacles, dtype=float), weight, exponent)
+
+
+@dataclass(frozen=True, eq=False)
+class OptimalControlProblem:
+    """``min int L_u(x, u) + P(x, y) dt`` subject to the model's dynamics."""
+
+    model: ModelInfo  # a built-in name or a VehicleModel is accepted and converted
+    penalty: ObstaclePenalty = field(default_factory=ObstaclePenalty)
+    parameters: tuple[float, ...] = ()
+
+    def __post_init__(self):
+        model = model_info(self.model)
+        object.__setattr__(self, "model", model)
+        if not self.parameters:
+            object.__setattr__(self, "parameters", model.parameter_values())
+        if len(self.parameters) != len(model.parameters):
+            raise ScenarioError(
+                f"model {model.name!r} takes {len(model.parameters)} parameters,"
+                f" got {len(self.parameters)}"
+            )
+
+    @classmethod
+    def create(
+        cls,
+        model="unicycle",
+        obstacles=(),
+        *,
+        weight: float = 100.0,
+        exponent: int = 2,
+        parameters: dict[str, float] | None = None,
+    ) -> OptimalControlProblem:
+        """Build a problem from plain values; ``parameters`` overrides model defaults by name."""
+        model = model_info(model)
+        return cls(
+            model, obstacle_penalty(obstacles, weight, exponent), model.parameter_values(parameters)
+        )
+
+    @property
+    def obstacles(self) -> np.ndarray:
+        return self.penalty.obstacles
+
+    @property
+    def nx(self) -> int:
+        return self.model.nx
+
+    def with_weight(self, weight: float) -> OptimalControlProblem:
+        """The same problem with another obstacle weight (for continuation; nothing recompiles)."""
+        pen = self.penalty
+        return OptimalControlProblem(
+            self.model, ObstaclePenalty(pen.obstacles, weight, pen.exponent), self.parameters
+        )
+
+    def __reduce__(self):
+        # Pickle by model definition (a name for built-ins), not by the loaded kernel module.
+        return (
+            _rebuild,
+            (
+                self.model.definition,
+                self.penalty.obstacles,
+                self.penalty.weight,
+                self.penalty.exponent,
+                self.parameters,
+            ),
+        )
+
+
+def _rebuild(definition, obstacles, weight, exponent, parameters):
+    return OptimalControlProblem(
+        definition, ObstaclePenalty(obstacles, weight, exponent), parameters
+    )

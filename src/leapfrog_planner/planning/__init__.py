@@ -1,0 +1,1 @@
+"""From a scenario to a validated trajectory: initial paths, Leapfrog, the planner."""

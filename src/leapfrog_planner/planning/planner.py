@@ -1,0 +1,436 @@
+"""Plan a scenario: initial feasible paths, Leapfrog from each, the cheapest validated extremal.
+
+``plan(scenario)`` is the one-call entry point; :class:`Planner` keeps the compiled flow and the
+settings for reuse across scenarios with the same model (obstacles are data: nothing recompiles).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+
+from .._blas import held_by_parent, single_threaded_blas
+from ..errors import ScenarioError, SettingsError, require_integer
+from ..integrate.flow import Flow, Trajectory
+from ..model.problem import OptimalControlProblem
+from .initial_path import InitialPath, initial_paths
+from .leapfrog import LeapfrogRun, LeapfrogSettings, SweepRecord, leapfrog
+from .path_ranking import PathGuide, rank_paths
+from .results import (
+    LeapfrogResult,
+    PathOutcome,
+    PlanStatus,
+    Validation,
+    penalty_integral,
+    piecewise_trajectory,
+    validate_arcs,
+)
+from .scenario import Scenario, load_scenario
+
+log = logging.getLogger(__name__)
+
+# A result whose re-integrated end state misses the goal by more than this is not converged.
+END_STATE_TOLERANCE = 1e-8
+
+
+@dataclass(frozen=True)
+class PlanEvent:
+    """Progress report: ``stage`` is "path" (a new initial path starts), "sweep" or "final"."""
+
+    stage: str
+    path_index: int
+    paths: int
+    label: str
+    sweep: SweepRecord | None = None
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    initial_paths: int = 3  # initial paths tried, in different homotopy classes
+    # Candidates (the shortest paths in different homotopy classes) from which the initial paths
+    # are picked by estimated cost (see path_ranking): on paper case 4 the path that leads to the
+    # cheapest optimum is only the fifth shortest.
+    candidate_paths: int = 8
+    # Obstacle inflation of the initial paths: small, since optimal paths squeeze through gaps
+    # (paper case 3's optimum passes two obstacles 0.066 apart with 0.033 clearance).
+    margin: float = 0.02
+    samples: int = 1001  # points of the returned dense trajectory
+    # Initial paths run in parallel threads (the compiled flow releases the GIL): 0 means one per
+    # path, all at once; 1 runs them one after the other. Results do not depend on it. Paths take
+    # unequal times (paper case 4: 69, 107 and 105 ms alone), and a pool of one thread per core
+    # leaves a core idle while the other finishes its second path; with one thread per path the
+    # cores share the work to the end. Measured on 2 cores, 6 interleaved rounds of 5 plans:
+    # paper case 4, 195 -> 176 ms mean of the medians (3 threads faster or equal in every round);
+    # case 3, 160 -> 158.
+    threads: int = 0
+    leapfrog: LeapfrogSettings = LeapfrogSettings()
+
+    def __post_init__(self):
+        require_integer("initial_paths", self.initial_paths)
+        require_integer("candidate_paths", self.candidate_paths)
+        require_integer("threads", self.threads, 0)
+        if not self.margin >= 0:
+            raise SettingsError(f"margin must be >= 0, got {self.margin}")
+        require_integer("samples", self.samples, 2)
+
+    @classmethod
+    def from_options(cls, base: PlannerSettings | None = None, **options) -> PlannerSettings:
+        """Settings from flat options (``method``, ``partitions``, ``initial_paths``, ...).
+
+        Keys of :class:`LeapfrogSettings` and of this class are accepted; anything else is an error.
+        """
+        base = base or cls()
+        own = {f.name for f in fields(cls)} - {"leapfrog"}
+        lf = {f.name for f in fields(LeapfrogSettings)}
+        unknown = sorted(set(options) - own - lf)
+        if unknown:
+            raise SettingsError(
+                f"unknown option {unknown[0]!r} (known: {', '.join(sorted(own | lf))})"
+            )
+        lf_opts = {k: v for k, v in options.items() if k in lf}
+        return replace(
+            base,
+            leapfrog=replace(base.leapfrog, **lf_opts),
+            **{k: v for k, v in options.items() if k in own},
+        )
+
+
+#: When no extremal clears the obstacles and some passed through one, those initial paths are
+#: planned again with the obstacle weight raised by this factor, at most ``WEIGHT_RAISES`` times
+#: (16 W in all). On 500 random scenarios (one path each) every rescue needed 4 W or 16 W, and a
+#: third raise rescued none while costing seconds (the penalty at 64 W is stiff).
+WEIGHT_FACTOR = 4.0
+WEIGHT_RAISES = 2
+
+
+@dataclass(frozen=True)
+class PathRun:
+    """Leapfrog from one initial path at one obstacle weight: the run and its validated answer
+    (``None`` when the run failed)."""
+
+    path: InitialPath
+    guide: PathGuide
+    run: LeapfrogRun
+    junctions: tuple[np.ndarray, np.ndarray]  # (t, X) of the initial path
+    validation: Validation | None
+    weight: float
+    raises: int  # how often the weight was raised from the scenario's for this run
+    validation_time_s: float
+
+    @property
+    def extremal(self) -> bool:
+        """A validated extremal (through an obstacle or not)."""
+        return _valid(self.validation)
+
+    @property
+    def collides(self) -> bool:
+        return self.extremal and _touches(self.validation.clearance)
+
+    @property
+    def clear(self) -> bool:
+        return self.extremal and not _touches(self.validation.clearance)
+
+    def outcome(self) -> PathOutcome:
+        v = self.validation
+        status = PlanStatus.CONVERGED if self.clear else PlanStatus.FAILED
+        if self.collides:
+            status = PlanStatus.COLLIDES
+        return PathOutcome(
+            label=self.path.label,
+            status=status,
+            cost=v.cost if self.extremal else float("nan"),
+            initial_cost=self.run.initial_cost,
+            sweeps=len(self.run.history),
+            message=self.run.message,
+            weight=self.weight,
+        )
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The trajectory a plan returns, its validation (extremals only) and where it came from."""
+
+    trajectory: Trajectory
+    validation: Validation | None
+    source: str
+
+
+def _touches(clearance: np.ndarray) -> bool:
+    return bool(clearance.size) and not clearance.min() >= 0.0
+
+
+def _clearance(problem: OptimalControlProblem, tr: Trajectory) -> float:
+    c = problem.penalty.clearance(tr.x[:, :2])
+    return float(c.min()) if c.size else np.inf
+
+
+# Scenario [solver] keys mapped to settings names.
+_SOLVER_KEY_MAP = {
+    "method": "method",
+    "partitions": "partitions",
+    "initial_paths": "initial_paths",
+    "max_sweeps": "max_sweeps",
+    "tolerance": "reduce_tol",
+}
+
+
+class Planner:
+    """Leapfrog planner for one scenario; reuse it to re-plan with other settings."""
+
+    def __init__(
+        self,
+        scenario: Scenario | str,
+        settings: PlannerSettings | None = None,
+        *,
+        progress: Callable[[PlanEvent], None] | None = None,
+        **options,
+    ):
+        self.scenario = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+        from_file = {_SOLVER_KEY_MAP[k]: v for k, v in self.scenario.solver.items()}
+        for key, name in _SOLVER_KEY_MAP.items():
+            if name in from_file:  # a bad value in the file is the file's error: name it
+                try:
+                    PlannerSettings.from_options(settings, **{name: from_file[name]})
+                except SettingsError as e:
+                    source = self.scenario.source or self.scenario.name
+                    raise ScenarioError(f"{source}: solver.{key}: {e}") from None
+        self.settings = PlannerSettings.from_options(settings, **{**from_file, **options})
+        self.problem = self.scenario.problem()
+        self.flow = Flow(self.problem, self.settings.leapfrog.final_shooting.integrator)
+        self.progress = progress
+        self._progress_lock = threading.Lock()
+        self._weights_lock = threading.Lock()
+        self._weighted = {float(self.scenario.weight): (self.problem, self.flow)}
+
+    def initial_paths(self) -> list[InitialPath]:
+        """The ``initial_paths`` candidates of least estimated cost, cheapest first."""
+        s, st = self.scenario, self.settings
+        candidates = initial_paths(
+            s.start,
+            s.goal,
+            s.obstacles,
+            k=max(st.initial_paths, st.candidate_paths),
+            margin=st.margin,
+            waypoints=s.waypoints,
+        )
+        if len(candidates) < 2:  # nothing to rank: the estimate took 0.6 ms of paper case 1's 9
+            return candidates
+        ranked = rank_paths(self.problem, candidates, s.horizon)
+        return [path for _, path in ranked[: st.initial_paths]]
+
+    def plan(self) -> LeapfrogResult:
+        with single_threaded_blas():
+            return self._plan()
+
+    def _at_weight(self, weight: float) -> tuple[OptimalControlProblem, Flow]:
+        """The problem and its flow with obstacle weight ``weight`` (built once, shared)."""
+        with self._weights_lock:
+            if weight not in self._weighted:
+                problem = self.problem.with_weight(weight)
+                self._weighted[weight] = (problem, Flow(problem, self.flow.settings))
+            return self._weighted[weight]
+
+    def _run_path(self, k: int, path: InitialPath, paths: int, raises: int) -> PathRun:
+        """Leapfrog from ``path`` with the obstacle weight raised ``raises`` times, and the
+        validation of its answer."""
+        s, st = self.scenario, self.settings
+        T0 = 0.0
+        weight = float(s.weight) * WEIGHT_FACTOR**raises
+        label = path.label + (f" (obstacle weight {weight:g})" if raises else "")
+        self._emit(PlanEvent("path", k, paths, label))
+        t, X = path.junctions(st.leapfrog.partitions, s.horizon, T0)
+
+        def on_sweep(rec):
+            self._emit(PlanEvent("sweep", k, paths, label, rec))
+
+        problem, flow = self._at_weight(weight)
+        guide = PathGuide(problem, path, s.horizon, T0)
+        with held_by_parent():
+            run = leapfrog(
+                problem, t, X, guide=guide, settings=st.leapfrog, flow=flow, progress=on_sweep
+            )
+            log.info("path %s: %s", label, run.message)
+            # Validated here, in the path's own thread: the re-integration overlaps the other
+            # paths' sweeps.
+            t0 = time.perf_counter()
+            v = validate_arcs(problem, run.extremal, st.samples) if run.success else None
+            t_val = time.perf_counter() - t0
+        return PathRun(path, guide, run, (t, X), v, weight, raises, t_val)
+
+    def _run_paths(self, paths: list[InitialPath], raises: int) -> list[PathRun]:
+        """:meth:`_run_path` for each path, in parallel threads (see ``threads``)."""
+        n = len(paths)
+        workers = min(n, self.settings.threads or n)
+        args = (range(n), paths, [n] * n, [raises] * n)
+        if workers > 1:
+            with ThreadPoolExecutor(workers, thread_name_prefix="leapfrog-path") as pool:
+                return list(pool.map(self._run_path, *args))
+        return list(map(self._run_path, *args))
+
+    def _plan(self) -> LeapfrogResult:
+        t_begin = time.perf_counter()
+        paths = self.initial_paths()
+        t_paths = time.perf_counter() - t_begin
+        runs = self._run_paths(paths, 0)
+        # No path clears at the scenario's weight, and some extremal passed through an obstacle:
+        # those paths again with the weight raised, until one clears (also where the run at the
+        # last raise failed: a higher weight may still clear).
+        for raises in range(1, WEIGHT_RAISES + 1):
+            collided = {r.path for r in runs if r.collides}
+            again = [r.path for r in runs if r.raises == raises - 1 and r.path in collided]
+            if any(r.clear for r in runs) or not again or not self.scenario.weight > 0.0:
+                break
+            log.info("no extremal clears the obstacles: weight x %g", WEIGHT_FACTOR**raises)
+            runs += self._run_paths(again, raises)
+        t_runs = time.perf_counter() - t_begin - t_paths
+        self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
+        return self._result(runs, t_paths, t_runs, time.perf_counter() - t_begin)
+
+    def _emit(self, event: PlanEvent):
+        if self.progress is not None:
+            with self._progress_lock:  # paths run in threads: one event at a time
+                self.progress(event)
+
+    def _answer(self, runs: list[PathRun]) -> tuple[PlanStatus, PathRun, Answer]:
+        """The status, the run it rests on, and the trajectory returned.
+
+        Converged: the collision-free extremal at the lowest obstacle weight (the scenario's own
+        when any path clears there), the cheapest of those. Otherwise the cheapest piecewise
+        extremal of the sweeps (at the lowest weight) that is collision-free, else the first
+        initial path followed at constant speed: a feasible motion, marked as not optimal."""
+        clear = [r for r in runs if r.clear]
+        if clear:
+            best = min(clear, key=lambda r: (r.weight, r.validation.cost))
+            v = best.validation
+            return PlanStatus.CONVERGED, best, Answer(v.trajectory, v, "extremal")
+        extremals = [r for r in runs if r.extremal]
+        status = PlanStatus.COLLIDES if extremals else PlanStatus.FAILED
+        for r in sorted(
+            (r for r in runs if r.run.arcs is not None),
+            key=lambda r: (r.weight, float(r.run.arcs.cost.sum())),
+        ):
+            problem, flow = self._at_weight(r.weight)
+            try:
+                tr = piecewise_trajectory(flow, r.run.arcs, self.settings.samples)
+            except ValueError:
+                continue
+            if _clearance(self.problem, tr) >= 0.0:
+                q = r.run.arcs.t.size - 1
+                return status, r, Answer(tr, None, f"Leapfrog iterate (q = {q}), not optimal")
+        first = runs[0]  # the best ranked path at the scenario's weight
+        tr = first.guide.trajectory(self.settings.samples)
+        return status, first, Answer(tr, None, "initial path, not optimal")
+
+    def _result(self, runs, t_paths, t_runs, wall) -> LeapfrogResult:
+        status, best, answer = self._answer(runs)
+        s, info, run, v = self.scenario, self.problem.model, best.run, answer.validation
+        tr = answer.trajectory
+        problem = self._at_weight(best.weight)[0]
+        nan = float("nan")
+        # The runs' wall time (paths in parallel threads, each validated in its thread), split
+        # in the ratio of the parts' own times.
+        t_val = sum(r.validation_time_s for r in runs)
+        sweeps = sum(r.run.sweep_time_s for r in runs)
+        finals = sum(r.run.final_time_s for r in runs)
+        share = t_runs / max(sweeps + finals + t_val, 1e-300)
+        alternatives = tuple(
+            _best_of([r for r in runs if r.path is path]).outcome()
+            for path in dict.fromkeys(r.path for r in runs)
+            if path is not best.path
+        )
+        if v is not None:
+            cost, energy, penalty = v.cost, v.energy, v.penalty
+            end_error, clearance = v.end_state_error, v.clearance
+        else:
+            penalty = penalty_integral(problem, tr, tr.t.size)
+            cost = float(tr.cost[-1])
+            energy, end_error = cost - penalty, float(np.linalg.norm(tr.x[-1] - s.goal))
+            clearance = problem.penalty.clearance(tr.x[:, :2])
+        return LeapfrogResult(
+            status=status,
+            message=self._message(status, best, answer, runs),
+            scenario=s.name,
+            model=info.name,
+            state_names=info.states,
+            control_names=info.controls,
+            method=self.settings.leapfrog.method,
+            final_solver=run.final_solver if v is not None else None,
+            initial_path=best.path.label,
+            costate0=run.costate0 if v is not None else None,
+            trajectory=tr,
+            cost=cost,
+            energy=energy,
+            penalty=penalty,
+            clearance=clearance,
+            end_state_error=end_error,
+            max_costate_jump=run.max_costate_jump,
+            max_dH_du=v.max_dH_du if v is not None else nan,
+            hamiltonian_variation=v.hamiltonian_variation if v is not None else nan,
+            initial_cost=run.initial_cost,
+            history=run.history,
+            initial_junctions=best.junctions,
+            newton_iterations=sum(r.run.newton_iterations for r in runs),
+            f_evals=sum(r.run.f_evals for r in runs),
+            cost_increases=run.cost_increases,
+            time_initial_path_s=t_paths,
+            time_sweeps_s=sweeps * share,
+            time_final_s=finals * share,
+            time_validation_s=t_val * share,
+            wall_time_s=wall,
+            alternatives=alternatives,
+            weight=best.weight,
+            optimal=v is not None,
+            trajectory_source=answer.source,
+        )
+
+    def _message(self, status, best: PathRun, answer: Answer, runs) -> str:
+        if status is PlanStatus.CONVERGED:
+            msg = best.run.message
+            if best.raises:
+                first = next(r for r in runs if r.path is best.path and r.raises == 0)
+                msg += (
+                    f"; the obstacle weight was raised from {first.weight:g} to"
+                    f" {best.weight:g} to clear the obstacles (at {first.weight:g} the extremal"
+                    f" passed {-first.validation.clearance.min():.3g} inside one)"
+                )
+            return msg
+        if status is PlanStatus.COLLIDES:
+            worst = min(r.validation.clearance.min() for r in runs if r.extremal)
+            top = max(r.weight for r in runs)
+            weights = f"obstacle weight up to {top:g}" if top > 0 else "the obstacle weight is 0"
+            what = (
+                f"every extremal found passes through an obstacle (down to {-worst:.3g} inside,"
+                f" {weights})"
+            )
+        else:
+            what = "; ".join(f"path {r.path.label}: {r.run.message}" for r in runs if r.raises == 0)
+            what = f"no initial path led to an extremal ({what})"
+        return f"{what}; returned: the {answer.source}"
+
+
+def _best_of(runs: list[PathRun]) -> PathRun:
+    """A path's run to report: the first that clears, else the first extremal, else the last."""
+    return next((r for r in runs if r.clear), None) or next(
+        (r for r in runs if r.extremal), runs[-1]
+    )
+
+
+def _valid(v) -> bool:
+    """A validated extremal: re-integrated without failure, reaching the goal."""
+    return v is not None and np.isfinite(v.cost) and v.end_state_error <= END_STATE_TOLERANCE
+
+
+def plan(scenario: Scenario | str, *, progress=None, **options) -> LeapfrogResult:
+    """Plan ``scenario`` (an object, a file or a built-in name) with Leapfrog.
+
+    Options: ``method`` (``newton``, ``modified-newton``, ``nleq-err``), ``partitions``,
+    ``initial_paths``, ``final`` (``auto``, ``shooting``, ``multiple-shooting``), and the other
+    fields of :class:`PlannerSettings` and :class:`LeapfrogSettings`.
+    """
+    return Planner(scenario, progress=progress, **options).plan()

@@ -1,0 +1,318 @@
+"""Leapfrog results: validated against Pontryagin's conditions, saved as JSON and NPZ.
+
+JSON schema (``schema`` = 1). These top-level keys are a stable contract for other tools:
+
+- ``status``: ``"converged"`` on success (a collision-free extremal that meets Pontryagin's
+  conditions), ``"collides"`` when every extremal found passes through an obstacle, ``"failed"``
+  when none was found; ``message`` says why, and what was returned.
+- ``optimal`` (the trajectory is a validated extremal: always when converged),
+  ``trajectory_source`` (``"extremal"``, or for the best collision-free motion of a failure
+  ``"Leapfrog iterate (q = 4), not optimal"`` or ``"initial path, not optimal"``) and
+  ``weight`` (the obstacle weight of the problem the trajectory solves: the scenario's, unless
+  it was raised to clear the obstacles).
+- numbers (of the returned trajectory): ``cost`` (= ``energy`` + ``penalty``),
+  ``min_clearance`` (smallest distance from the path to an obstacle edge; ``null`` without
+  obstacles), ``end_state_error`` (|x(T) - goal| after re-integrating the extremal arc by arc
+  from its solver's junctions with DOP853 at rtol 1e-12, and the largest jump where its arcs
+  meet),
+  ``max_costate_jump`` (at the junctions after the last sweep, relative), ``wall_time_s``.
+- ``method`` (local Newton method), ``sweeps``, ``newton_iterations``.
+- ``trajectory``: equal-length arrays ``t``, the states (``x``, ``y``, ``theta``), the controls
+  (``v``, ``omega`` for the unicycle; the model's names otherwise) and ``lambda_1`` ...
+
+Further keys: ``schema``, ``scenario``, ``model``, ``final_solver`` (``"shooting"`` or
+``"multiple-shooting"``), ``initial_path``, ``costate0``, ``clearance`` (per obstacle),
+``max_dH_du``, ``hamiltonian_variation``, ``f_evals``, ``timing`` (``initial_path_s``,
+``sweeps_s``, ``final_s``, ``validation_s``), ``history`` (one object per sweep: ``q``, ``cost``,
+``max_costate_jump``, ``newton_iterations``, ``f_evals``, ``failures``, ``rejected``, ``time_s``)
+and ``alternatives`` (the other initial paths: ``label``, ``status``, ``cost``, ``sweeps``,
+``weight``, ``message``).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, fields, replace
+from enum import StrEnum
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import write_atomic
+from ..integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
+from ..model.problem import OptimalControlProblem
+from .leapfrog import Arcs, SweepRecord
+
+SCHEMA = 1
+VALIDATION = IntegratorSettings(method="dop853", rtol=1e-12, atol=1e-12)
+
+
+class PlanStatus(StrEnum):
+    CONVERGED = "converged"  # a collision-free extremal that meets Pontryagin's conditions
+    COLLIDES = "collides"  # every extremal found passes through an obstacle
+    FAILED = "failed"  # no extremal found
+
+
+@dataclass(frozen=True)
+class PathOutcome:
+    """Summary of Leapfrog from one initial path."""
+
+    label: str
+    status: PlanStatus
+    cost: float
+    initial_cost: float
+    sweeps: int
+    message: str
+    weight: float  # the obstacle weight of its last run
+
+
+@dataclass(frozen=True)
+class Validation:
+    """A returned extremal, re-integrated from its initial state and costate."""
+
+    trajectory: Trajectory | None
+    cost: float
+    energy: float
+    penalty: float
+    clearance: np.ndarray  # per obstacle
+    end_state_error: float
+    max_dH_du: float
+    hamiltonian_variation: float
+
+
+def validate(
+    problem: OptimalControlProblem, t0, x0, t1, x1, costate0, samples: int = 1001
+) -> Validation:
+    """Re-integrate at rtol 1e-12 and check the end state and Pontryagin's conditions."""
+    one = Arcs(np.array([t0, t1], dtype=float), np.array([x0, x1], dtype=float), costate0[None])
+    return validate_arcs(problem, one, samples)
+
+
+def validate_arcs(problem: OptimalControlProblem, arcs: Arcs, samples: int = 1001) -> Validation:
+    """Re-integrate an extremal arc by arc from its junctions at rtol 1e-12 and check it.
+
+    ``end_state_error`` is the largest jump of the state or the costate where one arc meets the
+    next, or of the state from the goal ``arcs.X[-1]`` at the end: with one arc, the end-state
+    error of simple shooting. The cost and the conditions are those of the joined arcs."""
+    nan = float("nan")
+    flow = Flow(problem, VALIDATION)
+    q = arcs.t.size - 1
+    T = arcs.t[-1] - arcs.t[0]
+    parts, cost, penalty, error = [], 0.0, 0.0, 0.0
+    for j in range(q):
+        n = (
+            samples
+            if q == 1
+            else max(3, 2 * round(samples * (arcs.t[j + 1] - arcs.t[j]) / T / 2) + 1)
+        )
+        z0 = np.concatenate([arcs.X[j], arcs.lam0[j]])
+        r = flow(arcs.t[j], z0, arcs.t[j + 1], samples=n)
+        if r.status != FlowStatus.OK or r.trajectory is None:
+            return Validation(
+                None, nan, nan, nan, np.full(problem.obstacles.shape[0], nan), np.inf, nan, nan
+            )
+        target = arcs.X[j + 1] if j == q - 1 else np.concatenate([arcs.X[j + 1], arcs.lam0[j + 1]])
+        end = r.x if j == q - 1 else r.z
+        error = max(error, float(np.linalg.norm(end - target)))
+        tr = r.trajectory
+        if problem.obstacles.shape[0]:
+            penalty += penalty_integral(problem, tr, n)
+        parts.append(replace(tr, cost=tr.cost + cost))
+        cost += r.cost
+    tr = _joined(parts)
+    H = tr.hamiltonian[tr.at_step]
+    return Validation(
+        trajectory=tr,
+        cost=cost,
+        energy=cost - penalty,
+        penalty=penalty,
+        clearance=problem.penalty.clearance(tr.x[:, :2]),
+        end_state_error=error,
+        max_dH_du=float(np.abs(tr.dH_du).max()),
+        hamiltonian_variation=float(np.abs(H - H[0]).max() / max(1.0, abs(H[0]))),
+    )
+
+
+def _joined(parts: list[Trajectory]) -> Trajectory:
+    """Trajectories of consecutive arcs as one (each junction once: the later arc's row)."""
+    if len(parts) == 1:
+        return parts[0]
+    cols = {}
+    for f in fields(Trajectory):
+        pieces = [getattr(p, f.name)[:-1] for p in parts[:-1]] + [getattr(parts[-1], f.name)]
+        cols[f.name] = np.concatenate(pieces)
+    return Trajectory(**cols)
+
+
+def piecewise_trajectory(flow: Flow, arcs: Arcs, samples: int = 1001) -> Trajectory:
+    """The arcs of a piecewise extremal integrated one after the other and joined: a feasible
+    motion from start to goal (each arc meets the next junction up to the local problems'
+    tolerance), about ``samples`` rows in all; the running cost accumulates across arcs."""
+    T = arcs.t[-1] - arcs.t[0]
+    parts: list[Trajectory] = []
+    offset = 0.0
+    for j in range(arcs.t.size - 1):
+        n = max(3, round(samples * (arcs.t[j + 1] - arcs.t[j]) / T))
+        r = flow(arcs.t[j], np.concatenate([arcs.X[j], arcs.lam0[j]]), arcs.t[j + 1], samples=n)
+        if r.trajectory is None:
+            raise ValueError(f"arc {j} could not be integrated ({r.status})")
+        parts.append(replace(r.trajectory, cost=r.trajectory.cost + offset))
+        offset += float(r.cost)
+    return _joined(parts)
+
+
+def penalty_integral(problem: OptimalControlProblem, tr: Trajectory, samples: int) -> float:
+    """Simpson's rule on the uniform rows of the trajectory (the others are integrator steps).
+
+    Written out rather than imported: ``scipy.integrate`` takes longer to import (0.3 s) than the
+    rest of a warm start's solve.
+    """
+    t = tr.t
+    uniform = np.isin(t, np.linspace(t[0], t[-1], samples))
+    if uniform.sum() != samples or samples % 2 == 0:  # not the expected grid: trapezoid
+        P = problem.penalty(tr.x[:, :2])
+        return float(np.sum(0.5 * (P[1:] + P[:-1]) * np.diff(t)))
+    tu, P = t[uniform], problem.penalty(tr.x[uniform, :2])
+    h = (tu[-1] - tu[0]) / (samples - 1)
+    return float(h / 3.0 * (P[0] + P[-1] + 4.0 * P[1:-1:2].sum() + 2.0 * P[2:-1:2].sum()))
+
+
+@dataclass(frozen=True)
+class LeapfrogResult:
+    status: PlanStatus
+    message: str
+    scenario: str
+    model: str
+    state_names: tuple[str, ...]
+    control_names: tuple[str, ...]
+    method: str
+    final_solver: str | None
+    initial_path: str
+    costate0: np.ndarray | None
+    trajectory: Trajectory | None
+    cost: float
+    energy: float
+    penalty: float
+    clearance: np.ndarray
+    end_state_error: float
+    max_costate_jump: float
+    max_dH_du: float
+    hamiltonian_variation: float
+    initial_cost: float
+    history: tuple[SweepRecord, ...]
+    initial_junctions: tuple[np.ndarray, np.ndarray]  # (t, X) of the initial path
+    newton_iterations: int
+    f_evals: int
+    cost_increases: int
+    time_initial_path_s: float
+    time_sweeps_s: float
+    time_final_s: float
+    time_validation_s: float
+    wall_time_s: float
+    alternatives: tuple[PathOutcome, ...]
+    weight: float  # the obstacle weight of the problem the trajectory solves
+    optimal: bool  # the trajectory is a validated extremal (always when converged)
+    trajectory_source: str  # "extremal", "Leapfrog iterate (q = 4), not optimal", ...
+
+    @property
+    def success(self) -> bool:
+        return self.status is PlanStatus.CONVERGED
+
+    @property
+    def sweeps(self) -> int:
+        return len(self.history)
+
+    @property
+    def min_clearance(self) -> float | None:
+        return float(self.clearance.min()) if self.clearance.size else None
+
+    def trajectory_columns(self) -> dict[str, np.ndarray]:
+        """The dense trajectory as named columns of equal length."""
+        tr = self.trajectory
+        if tr is None:
+            return {}
+        cols = {"t": tr.t}
+        cols.update({n: tr.x[:, i] for i, n in enumerate(self.state_names)})
+        cols.update({n: tr.u[:, i] for i, n in enumerate(self.control_names)})
+        cols.update({f"lambda_{i + 1}": tr.lam[:, i] for i in range(tr.lam.shape[1])})
+        return cols
+
+    def to_dict(self) -> dict:
+        def num(v):
+            return None if v is None or not np.isfinite(v) else float(v)
+
+        return {
+            "schema": SCHEMA,
+            "status": str(self.status),
+            "message": self.message,
+            "scenario": self.scenario,
+            "model": self.model,
+            "method": self.method,
+            "final_solver": self.final_solver,
+            "initial_path": self.initial_path,
+            "optimal": self.optimal,
+            "trajectory_source": self.trajectory_source,
+            "weight": self.weight,
+            "cost": num(self.cost),
+            "energy": num(self.energy),
+            "penalty": num(self.penalty),
+            "min_clearance": num(self.min_clearance),
+            "clearance": [num(c) for c in self.clearance],
+            "end_state_error": num(self.end_state_error),
+            "max_costate_jump": num(self.max_costate_jump),
+            "max_dH_du": num(self.max_dH_du),
+            "hamiltonian_variation": num(self.hamiltonian_variation),
+            "costate0": None if self.costate0 is None else self.costate0.tolist(),
+            "wall_time_s": self.wall_time_s,
+            "sweeps": self.sweeps,
+            "newton_iterations": self.newton_iterations,
+            "f_evals": self.f_evals,
+            "timing": {
+                "initial_path_s": self.time_initial_path_s,
+                "sweeps_s": self.time_sweeps_s,
+                "final_s": self.time_final_s,
+                "validation_s": self.time_validation_s,
+            },
+            "history": [
+                {
+                    "sweep": h.sweep,
+                    "q": h.q,
+                    "cost": h.cost,
+                    "max_costate_jump": h.max_costate_jump,
+                    "newton_iterations": h.newton_iterations,
+                    "f_evals": h.f_evals,
+                    "failures": h.failures,
+                    "rejected": h.rejected,
+                    "time_s": h.time_s,
+                }
+                for h in self.history
+            ],
+            "alternatives": [
+                {
+                    "label": a.label,
+                    "status": str(a.status),
+                    "cost": num(a.cost),
+                    "sweeps": a.sweeps,
+                    "weight": a.weight,
+                    "message": a.message,
+                }
+                for a in self.alternatives
+            ],
+            "trajectory": {k: v.tolist() for k, v in self.trajectory_columns().items()},
+        }
+
+    def save_json(self, path) -> None:
+        text = json.dumps(self.to_dict(), indent=1, allow_nan=False)
+        write_atomic(path, lambda tmp: Path(tmp).write_text(text))
+
+    def save_npz(self, path) -> None:
+        arrays = {k: np.asarray(v) for k, v in self.trajectory_columns().items()}
+        arrays["history_cost"] = np.array([h.cost for h in self.history])
+        arrays["history_jump"] = np.array([h.max_costate_jump for h in self.history])
+        arrays["clearance"] = self.clearance
+
+        def write(tmp):
+            with open(tmp, "wb") as fh:  # a handle: np.savez would append .npz to a file name
+                np.savez(fh, **arrays)
+
+        write_atomic(path, write)

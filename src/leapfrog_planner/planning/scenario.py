@@ -1,0 +1,640 @@
+"""Scenarios: one planning task (end states, horizon, obstacles, robot, penalty) read from TOML.
+
+A scenario file is the user-facing contract of the planner (spec section 6). Built-in scenarios,
+the paper's four cases, ship with the package and are loaded by name::
+
+    load_scenario("paper-case-3")        # a built-in
+    load_scenario("my-room.toml")        # a file; an existing file always wins over a built-in
+
+File format
+-----------
+UTF-8 TOML. Exactly the keys below are accepted; any other key, at any level, is an error.
+All numbers must be finite (TOML's ``nan`` and ``inf`` are rejected), booleans are never
+numbers, and integers are accepted wherever a real number is expected::
+
+    name = "paper-case-4"          # optional; default: the file name without .toml
+    horizon = 1.0                  # required: the fixed final time T > 0
+    start = [0.0, 0.0, 0.0]        # required: x, y, heading in radians
+    goal  = [2.0, 0.0, 0.0]        # required: x, y, heading in radians
+
+    waypoints = [[0.5, 0.3], [1.2, 0.3]]   # optional, see below
+
+    [robot]                        # optional
+    model = "unicycle"             # "unicycle" (default) or "diff-drive"
+    # diff-drive only: wheel_radius = 1.0, axle_length = 2.0 (these are the defaults)
+
+    [penalty]                      # optional
+    weight = 100.0                 # W >= 0, default 100.0
+    exponent = 2                   # n, an integer >= 1, default 2
+
+    [solver]                       # optional, see below
+    method = "modified-newton"
+    partitions = 8
+
+    [[obstacles]]                  # zero or more discs
+    center = [0.4, 0.05]           # cx, cy
+    radius = 0.1                   # r > 0
+
+Keys in detail:
+
+``name``
+    A non-empty string. When absent, the file name without its extension is used (or the
+    built-in's name, or ``"scenario"`` for text without a file).
+``horizon``
+    The fixed time horizon ``T``, a number ``> 0``.
+``start``, ``goal``
+    Three numbers each, ``[x, y, theta]``. Headings are not wrapped: ``theta + 2 pi`` is a
+    different end state. Neither position may lie inside an obstacle (distance to the centre
+    less than the radius; touching the edge is allowed).
+``[robot]``
+    ``model`` names the vehicle model (``"unicycle"`` or ``"diff-drive"``). The table's other
+    keys are the model's parameters by name, each a number (``> 0`` where the model declares
+    the parameter positive); parameters not given take the model's defaults. The unicycle has no
+    parameters; ``diff-drive`` has ``wheel_radius`` (default 1.0) and ``axle_length`` (2.0).
+``[penalty]``
+    The obstacle penalty ``P = sum_j W exp(-(|p - c_j|^2 / r_j^2)^n)``: ``weight`` is ``W``,
+    a number ``>= 0``; ``exponent`` is ``n``, an integer ``>= 1`` (``2.0`` is not an integer).
+``[[obstacles]]``
+    One table per disc obstacle with exactly ``center`` (two numbers) and ``radius`` (``> 0``).
+    Error messages number obstacles from 0 in file order: ``obstacles[0]`` is the first table.
+
+Optional additions beyond the spec's contract:
+
+``waypoints``
+    An array of ``[x, y]`` points, in order, through which the planner's initial feasible path
+    passes between ``start`` and ``goal`` (the initial path decides which local optimum Leapfrog
+    finds, so this is how a user picks a homotopy class). Each point must lie outside every
+    obstacle; the segments between them are not checked here. An empty array is the same as no
+    waypoints.
+``[solver]``
+    Planner settings stored with the scenario, passed through unchanged to the planner, which
+    validates their ranges. Allowed keys and types are :data:`SOLVER_KEYS`:
+    ``method`` (string, e.g. ``"modified-newton"``), ``partitions`` (integer), ``initial_paths``
+    (integer), ``tolerance`` (number), ``max_sweeps`` (integer). Unknown keys and wrong types are
+    errors.
+
+Every problem raises :class:`~leapfrog_planner.errors.ScenarioError` (a ``ValueError``) with a
+one-line message of the form ``<source>: <key>: <problem>``, for example
+``room.toml: start: expected 3 numbers, got 2`` or
+``room.toml: goal: (1.0, 1.0) is inside obstacles[2] (center (0.9, 1.1), radius 0.2)``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+
+from ..errors import ScenarioError
+from ..model import MODELS
+from ..model.kernels import model_info
+from ..model.problem import OptimalControlProblem
+
+__all__ = [
+    "SOLVER_KEYS",
+    "Scenario",
+    "builtin_scenarios",
+    "load_scenario",
+    "load_scenario_text",
+    "scenario_from_dict",
+]
+
+#: Keys allowed in the optional ``[solver]`` table and the Python type each value must have.
+#: ``float`` accepts integers (converted); ``int`` rejects floats; booleans are neither.
+SOLVER_KEYS: dict[str, type] = {
+    "method": str,
+    "partitions": int,
+    "initial_paths": int,
+    "tolerance": float,
+    "max_sweeps": int,
+}
+
+TOP_LEVEL_KEYS = (
+    "name",
+    "horizon",
+    "start",
+    "goal",
+    "waypoints",
+    "robot",
+    "penalty",
+    "solver",
+    "obstacles",
+)
+REQUIRED_KEYS = ("horizon", "start", "goal")
+PENALTY_KEYS = ("weight", "exponent")
+OBSTACLE_KEYS = ("center", "radius")
+
+DEFAULT_MODEL = "unicycle"
+DEFAULT_WEIGHT = 100.0
+DEFAULT_EXPONENT = 2
+
+_BUILTIN_PREFIX = "builtin:"
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+# --------------------------------------------------------------------------- validation helpers
+
+
+def _short(text: str, limit: int = 40) -> str:
+    r = repr(text)
+    return r if len(r) <= limit else r[: limit - 4] + "...'"
+
+
+def _describe(value: Any) -> str:
+    """A short, one-line description of a (wrong) value for error messages."""
+    if isinstance(value, bool | np.bool_):
+        return f"boolean {str(bool(value)).lower()}"
+    if isinstance(value, str):
+        return f"string {_short(value)}"
+    if isinstance(value, numbers.Integral):
+        digits = str(int(value))
+        return f"integer {digits if len(digits) <= 30 else digits[:27] + '...'}"
+    if isinstance(value, numbers.Real):
+        return f"number {float(value)!r}"
+    if isinstance(value, Mapping):
+        return "a table"
+    if isinstance(value, list | tuple):
+        return f"an array of {len(value)}"
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}"
+    if value is None:
+        return "nothing (None)"
+    return f"{type(value).__name__} {_short(str(value))}"
+
+
+def _key_path(prefix: str, key: Any) -> str:
+    key = str(key)
+    name = key if _BARE_KEY.fullmatch(key) else _short(key)
+    return f"{prefix}.{name}" if prefix else name
+
+
+def _fmt_point(p) -> str:
+    return "(" + ", ".join(repr(float(v)) for v in p) + ")"
+
+
+class _Check:
+    """Validators that raise one-line :class:`ScenarioError` messages naming ``source``."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, key: str, message: str) -> NoReturn:
+        text = f"{self.source}: {key}: {message}" if key else f"{self.source}: {message}"
+        raise ScenarioError(" ".join(text.splitlines()))
+
+    def number(self, value: Any, key: str, *, gt: float | None = None, ge: float | None = None):
+        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+            self.fail(key, f"expected a number, got {_describe(value)}")
+        try:
+            x = float(value)
+        except OverflowError:
+            self.fail(key, f"must be finite, got {_describe(value)} (too large)")
+        if not math.isfinite(x):
+            self.fail(key, f"must be finite, got {x!r}")
+        if gt is not None and not x > gt:
+            self.fail(key, f"must be > {gt:g}, got {x!r}")
+        if ge is not None and not x >= ge:
+            self.fail(key, f"must be >= {ge:g}, got {x!r}")
+        return x
+
+    def integer(self, value: Any, key: str, *, minimum: int | None = None) -> int:
+        bound = "" if minimum is None else f" >= {minimum}"
+        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
+            self.fail(key, f"expected an integer{bound}, got {_describe(value)}")
+        n = int(value)
+        if minimum is not None and n < minimum:
+            self.fail(key, f"must be an integer{bound}, got {n}")
+        return n
+
+    def string(self, value: Any, key: str) -> str:
+        if not isinstance(value, str):
+            self.fail(key, f"expected a string, got {_describe(value)}")
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            self.fail(key, f"not valid Unicode text: {_short(value)}")
+        return str(value)
+
+    def table(self, value: Any, key: str) -> Mapping:
+        if not isinstance(value, Mapping):
+            self.fail(key, f"expected a table, got {_describe(value)}")
+        for k in value:
+            if not isinstance(k, str):
+                self.fail(key, f"keys must be strings, got {_describe(k)}")
+        return value
+
+    def known_keys(self, table: Mapping, allowed, prefix: str, what: str = "") -> None:
+        for k in table:
+            if k not in allowed:
+                hint = difflib.get_close_matches(k, list(allowed), n=1)
+                did = f"did you mean {hint[0]!r}? " if hint else ""
+                self.fail(
+                    _key_path(prefix, k),
+                    f"unknown key{what} ({did}allowed: {', '.join(allowed) or 'none'})",
+                )
+
+    def vector(self, value: Any, n: int, key: str, what: str = "") -> np.ndarray:
+        expected = f"{n} numbers"
+        if isinstance(value, np.ndarray) and value.ndim == 1:
+            items = list(value)
+        elif isinstance(value, list | tuple):
+            items = list(value)
+        else:
+            self.fail(key, f"expected an array of {expected}{what}, got {_describe(value)}")
+        if len(items) != n:
+            self.fail(key, f"expected {expected}, got {len(items)}")
+        return np.array([self.number(v, f"{key}[{i}]") for i, v in enumerate(items)], dtype=float)
+
+    def rows(self, value: Any, n: int, key: str, what: str = "") -> np.ndarray:
+        """An array of ``n``-vectors as a ``(k, n)`` float array (``k`` may be 0)."""
+        if isinstance(value, np.ndarray):
+            if value.size == 0:
+                return np.zeros((0, n))
+            if value.ndim != 2:
+                self.fail(key, f"expected an array of [{what}] rows, got shape {value.shape}")
+            items = list(value)
+        elif isinstance(value, list | tuple):
+            items = list(value)
+        else:
+            self.fail(key, f"expected an array of [{what}] rows, got {_describe(value)}")
+        out = np.zeros((len(items), n))
+        for i, item in enumerate(items):
+            out[i] = self.vector(item, n, f"{key}[{i}]", f" [{what}]")
+        return out
+
+
+def _fresh_readonly(arr: np.ndarray) -> np.ndarray:
+    arr = np.array(arr, dtype=float, copy=True)
+    arr.setflags(write=False)
+    return arr
+
+
+def _default_name(source: str) -> str:
+    if source.startswith(_BUILTIN_PREFIX):
+        return source[len(_BUILTIN_PREFIX) :]
+    if source.startswith("<") or not source.strip():
+        return "scenario"
+    return Path(source).stem or "scenario"
+
+
+# --------------------------------------------------------------------------- the scenario
+
+
+@dataclass(frozen=True, eq=False)
+class Scenario:
+    """One planning task. Construction validates everything (also via ``dataclasses.replace``).
+
+    Arrays are read-only copies. ``model_parameters`` holds every parameter of the model (given
+    values and defaults), in the model's order. Two scenarios are equal (``==``) when they
+    describe the same task; ``source`` is not compared.
+    """
+
+    name: str
+    horizon: float
+    start: np.ndarray
+    goal: np.ndarray
+    obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    model: str = DEFAULT_MODEL
+    model_parameters: dict[str, float] = field(default_factory=dict)
+    weight: float = DEFAULT_WEIGHT
+    exponent: int = DEFAULT_EXPONENT
+    waypoints: np.ndarray | None = None
+    solver: dict[str, Any] = field(default_factory=dict)
+    source: str | None = None
+
+    def __post_init__(self):
+        source = None if self.source is None else str(self.source)
+        c = _Check(source if source is not None else "<scenario>")
+        name = c.string(self.name, "name")
+        if not name:
+            c.fail("name", "expected a non-empty string")
+        horizon = c.number(self.horizon, "horizon", gt=0)
+        start = c.vector(self.start, 3, "start", " [x, y, heading]")
+        goal = c.vector(self.goal, 3, "goal", " [x, y, heading]")
+        obstacles = c.rows(self.obstacles, 3, "obstacles", "cx, cy, r")
+        for j, r in enumerate(obstacles[:, 2]):
+            c.number(r, f"obstacles[{j}].radius", gt=0)
+        model, parameters = self._check_model(c)
+        weight = c.number(self.weight, "penalty.weight", ge=0)
+        exponent = c.integer(self.exponent, "penalty.exponent", minimum=1)
+        waypoints = None
+        if self.waypoints is not None:
+            waypoints = c.rows(self.waypoints, 2, "waypoints", "x, y")
+            if waypoints.shape[0] == 0:
+                waypoints = None
+        solver = self._check_solver(c)
+
+        points = [("start", start[:2]), ("goal", goal[:2])]
+        if waypoints is not None:
+            points += [(f"waypoints[{i}]", w) for i, w in enumerate(waypoints)]
+        for key, p in points:
+            px, py = float(p[0]), float(p[1])
+            for j, (cx, cy, r) in enumerate(obstacles.tolist()):
+                if math.hypot(px - cx, py - cy) < r:  # Python floats: overflow gives inf
+                    c.fail(
+                        key,
+                        f"{_fmt_point(p)} is inside obstacles[{j}]"
+                        f" (center {_fmt_point((cx, cy))}, radius {float(r)!r})",
+                    )
+
+        values = {
+            "name": name,
+            "horizon": horizon,
+            "start": _fresh_readonly(start),
+            "goal": _fresh_readonly(goal),
+            "obstacles": _fresh_readonly(obstacles),
+            "model": model,
+            "model_parameters": parameters,
+            "weight": weight,
+            "exponent": exponent,
+            "waypoints": None if waypoints is None else _fresh_readonly(waypoints),
+            "solver": solver,
+            "source": source,
+        }
+        for k, v in values.items():
+            object.__setattr__(self, k, v)
+
+    def _check_model(self, c: _Check) -> tuple[str, dict[str, float]]:
+        model = c.string(self.model, "robot.model")
+        if model not in MODELS:
+            c.fail("robot.model", f"unknown model {model!r} (known: {', '.join(MODELS)})")
+        info = model_info(model)
+        given = {} if self.model_parameters is None else c.table(self.model_parameters, "robot")
+        positive = dict(zip(info.parameters, info.positive, strict=True))
+        c.known_keys(given, ("model", *info.parameters), "robot", f" for model {model!r}")
+        checked = {}
+        for k, v in given.items():
+            if k == "model":  # only reachable by direct construction
+                c.fail("robot.model", "give the model as Scenario.model, not a parameter")
+            checked[k] = c.number(v, _key_path("robot", k), gt=0 if positive[k] else None)
+        values = info.parameter_values(checked)
+        return model, dict(zip(info.parameters, values, strict=True))
+
+    def _check_solver(self, c: _Check) -> dict[str, Any]:
+        table = c.table({} if self.solver is None else self.solver, "solver")
+        c.known_keys(table, tuple(SOLVER_KEYS), "solver")
+        out: dict[str, Any] = {}
+        for k, v in table.items():
+            key = _key_path("solver", k)
+            expected = SOLVER_KEYS[k]
+            if expected is bool:
+                if not isinstance(v, bool | np.bool_):
+                    c.fail(key, f"expected a boolean, got {_describe(v)}")
+                out[k] = bool(v)
+            elif expected is int:
+                out[k] = c.integer(v, key)
+            elif expected is float:
+                out[k] = c.number(v, key)
+            elif expected is str:
+                out[k] = c.string(v, key)
+            else:  # pragma: no cover - SOLVER_KEYS only holds the types above
+                raise TypeError(f"SOLVER_KEYS[{k!r}]: unsupported type {expected!r}")
+        return out
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Scenario):
+            return NotImplemented
+        return self.to_dict() == other.to_dict()
+
+    __hash__ = None  # type: ignore[assignment]  # equal by value, and mutable-looking fields
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # Unpickled (or copied) arrays come back writable; keep them read-only.
+        for k, v in state.items():
+            if isinstance(v, np.ndarray):
+                v.setflags(write=False)
+            object.__setattr__(self, k, v)
+
+    # ------------------------------------------------------------------ conversions
+
+    def problem(self) -> OptimalControlProblem:
+        """The optimal control problem: model, obstacle penalty and model parameters."""
+        return OptimalControlProblem.create(
+            self.model,
+            self.obstacles,
+            weight=self.weight,
+            exponent=self.exponent,
+            parameters=dict(self.model_parameters),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain Python values in the file's layout; :func:`scenario_from_dict` inverts it."""
+        data: dict[str, Any] = {
+            "name": self.name,
+            "horizon": self.horizon,
+            "start": self.start.tolist(),
+            "goal": self.goal.tolist(),
+        }
+        if self.waypoints is not None:
+            data["waypoints"] = self.waypoints.tolist()
+        data["robot"] = {"model": self.model, **self.model_parameters}
+        data["penalty"] = {"weight": self.weight, "exponent": self.exponent}
+        if self.solver:
+            data["solver"] = dict(self.solver)
+        data["obstacles"] = [
+            {"center": [float(cx), float(cy)], "radius": float(r)} for cx, cy, r in self.obstacles
+        ]
+        return data
+
+    def to_toml(self) -> str:
+        """The scenario as a TOML file; :func:`load_scenario_text` reads it back exactly."""
+        d = self.to_dict()
+        lines = [
+            f"name = {_toml_value(d['name'])}",
+            f"horizon = {_toml_value(d['horizon'])}",
+            _toml_state("start", d["start"]),
+            _toml_state("goal", d["goal"]),
+        ]
+        if "waypoints" in d:
+            lines.append(f"waypoints = {_toml_value(d['waypoints'])}")
+        for table in ("robot", "penalty", "solver"):
+            if table in d:
+                lines += ["", f"[{table}]"]
+                lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in d[table].items()]
+        for ob in d["obstacles"]:
+            lines += ["", "[[obstacles]]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in ob.items()]
+        return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- TOML writing
+
+
+def _toml_string(s: str) -> str:
+    short = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f"}
+    short["\r"] = "\\r"
+    out = []
+    for ch in s:
+        if ch in short:
+            out.append(short[ch])
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def _toml_key(k: str) -> str:
+    return k if _BARE_KEY.fullmatch(k) else _toml_string(k)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v)  # shortest text that reads back to the same double
+    if isinstance(v, str):
+        return _toml_string(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} as TOML")  # pragma: no cover
+
+
+def _pi_fraction(theta: float) -> str | None:
+    """``"pi/2"``, ``"-3pi/4"``... when ``theta`` is exactly that double, else ``None``."""
+    if theta == 0.0 or not abs(theta) <= 8 * math.pi:
+        return None
+    for q in (1, 2, 3, 4, 6, 8, 12):
+        p = round(theta * q / math.pi)
+        if p and math.gcd(p, q) == 1 and abs(p) <= 8 * q and p * math.pi / q == theta:
+            sign = "-" if p < 0 else ""
+            num = "" if abs(p) == 1 else str(abs(p))
+            return f"{sign}{num}pi" + ("" if q == 1 else f"/{q}")
+    return None
+
+
+def _toml_state(key: str, state: list[float]) -> str:
+    line = f"{key} = {_toml_value(state)}"
+    frac = _pi_fraction(state[2])
+    return line + f"  # {frac}" if frac else line
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scenario:
+    """A scenario from a parsed file (nested tables and arrays, as :func:`tomllib.loads` gives)."""
+    source = str(source)
+    c = _Check(source)
+    if not isinstance(data, Mapping):
+        c.fail("", f"expected a table of scenario keys, got {_describe(data)}")
+    c.table(data, "(top level)")
+    c.known_keys(data, TOP_LEVEL_KEYS, "")
+    for key in REQUIRED_KEYS:
+        if key not in data:
+            c.fail(key, "missing required key")
+
+    robot = c.table(data.get("robot", {}), "robot")
+    model = robot.get("model", DEFAULT_MODEL)
+    parameters = {k: v for k, v in robot.items() if k != "model"}
+
+    penalty = c.table(data.get("penalty", {}), "penalty")
+    c.known_keys(penalty, PENALTY_KEYS, "penalty")
+
+    raw = data.get("obstacles", [])
+    if not isinstance(raw, list | tuple):
+        c.fail("obstacles", f"expected an array of tables ([[obstacles]]), got {_describe(raw)}")
+    obstacles = np.zeros((len(raw), 3))
+    for j, ob in enumerate(raw):
+        key = f"obstacles[{j}]"
+        if not isinstance(ob, Mapping):
+            c.fail(key, f"expected a table with center and radius, got {_describe(ob)}")
+        c.table(ob, key)
+        c.known_keys(ob, OBSTACLE_KEYS, key)
+        for k in OBSTACLE_KEYS:
+            if k not in ob:
+                c.fail(f"{key}.{k}", "missing required key")
+        obstacles[j, :2] = c.vector(ob["center"], 2, f"{key}.center", " [cx, cy]")
+        obstacles[j, 2] = c.number(ob["radius"], f"{key}.radius", gt=0)
+
+    return Scenario(
+        name=data.get("name", _default_name(source)),
+        horizon=data["horizon"],
+        start=data["start"],
+        goal=data["goal"],
+        obstacles=obstacles,
+        model=model,
+        model_parameters=parameters,
+        weight=penalty.get("weight", DEFAULT_WEIGHT),
+        exponent=penalty.get("exponent", DEFAULT_EXPONENT),
+        waypoints=data.get("waypoints"),
+        solver=c.table(data.get("solver", {}), "solver"),
+        source=source,
+    )
+
+
+def load_scenario_text(text: str | bytes, source: str = "<string>") -> Scenario:
+    """A scenario from TOML text; ``source`` names it in error messages and ``Scenario.source``."""
+    source = str(source)
+    if isinstance(text, bytes | bytearray):
+        text = _decode(bytes(text), source)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc)
+        if "(at end of document)" in message:  # tomllib gives no line number here
+            last = text.count("\n") + (0 if text.endswith("\n") else 1)
+            message = message.replace("(at end of document)", f"(at end of document, line {last})")
+        _Check(source).fail("", f"invalid TOML: {message}")
+    return scenario_from_dict(data, source)
+
+
+def _decode(raw: bytes, source: str) -> str:
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        _Check(source).fail(
+            "", f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start})"
+        )
+
+
+def _builtin_dir():
+    return resources.files("leapfrog_planner").joinpath("scenarios")
+
+
+def _natural_key(name: str):
+    return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name)]
+
+
+def builtin_scenarios() -> list[str]:
+    """Names of the scenarios shipped with the package (the paper's cases)."""
+    try:
+        entries = list(_builtin_dir().iterdir())
+    except (FileNotFoundError, NotADirectoryError):  # pragma: no cover - broken install
+        return []
+    names = [e.name[: -len(".toml")] for e in entries if e.name.endswith(".toml") and e.is_file()]
+    return sorted(names, key=_natural_key)
+
+
+def load_scenario(path_or_name: str | Path) -> Scenario:
+    """A scenario from a file path or, when no such file exists, a built-in name."""
+    text_name = str(path_or_name)
+    path = Path(path_or_name)
+    if text_name and path.exists():
+        if path.is_dir():
+            _Check(text_name).fail("", "is a directory, not a scenario file")
+        try:
+            raw = path.read_bytes()
+        except OSError as exc:
+            _Check(text_name).fail("", f"cannot read file: {exc.strerror or exc}")
+        return load_scenario_text(_decode(raw, text_name), text_name)
+    names = builtin_scenarios()
+    if isinstance(path_or_name, str) and path_or_name in names:
+        raw = _builtin_dir().joinpath(f"{path_or_name}.toml").read_bytes()
+        source = _BUILTIN_PREFIX + path_or_name
+        return load_scenario_text(_decode(raw, source), source)
+    raise ScenarioError(
+        f"no scenario file or built-in named {_short(text_name, 80)}"
+        f" (built-ins: {', '.join(names) or 'none'})"
+    )
