@@ -1,0 +1,156 @@
+"""The initial path: a collision-free motion from start to goal, with its polyline, homotopy
+signature and clearance."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...errors import ScenarioError, SettingsError
+from .curve import _SmoothCurve
+from .ends import (
+    FORWARD,
+    EndModes,
+    _direction,
+    _Drive,
+    _near_branch,
+    _PoseCurve,
+    _Turn,
+    _with_turns,
+)
+from .geometry import (
+    _clean,
+    _clearance,
+    _fmt,
+    _obstacles,
+    _real,
+    _rows,
+    _signature,
+    _state,
+    _tolerance,
+)
+
+
+@dataclass(frozen=True, eq=False)
+class InitialPath:
+    """A collision-free initial path from start to goal and its smoothed C1 curve.
+
+    ``polyline`` holds the vertices from start to goal (both included), ``length`` the arclength
+    of the smoothed curve, ``signature`` the homotopy class (per obstacle, the winding number of
+    the path closed by the reversed straight chord; see the module notes), ``min_clearance`` the
+    smallest distance of the smoothed curve to an obstacle edge (``inf`` without obstacles; a
+    negative value means the curve enters an obstacle) and ``label`` a short description
+    (``"straight"``, ``"visibility #2"``, ``"waypoints"``...). ``start`` and ``goal`` are the
+    full end states ``(x, y, heading)``. Compare paths by ``signature``, not with ``==``.
+    """
+
+    polyline: np.ndarray
+    length: float
+    signature: tuple[int, ...]
+    min_clearance: float
+    label: str
+    start: np.ndarray = field(repr=False)
+    goal: np.ndarray = field(repr=False)
+    _curve: _PoseCurve = field(repr=False)
+    modes: EndModes = FORWARD
+
+    @classmethod
+    def from_polyline(
+        cls, polyline, start, goal, obstacles=None, *, label: str = "custom"
+    ) -> InitialPath:
+        """Smooth a given polyline from ``start[:2]`` to ``goal[:2]`` (no collision check; a
+        turning arc is added at an end whose heading points more than 90 degrees off the leg).
+
+        The first and last vertex must be the start and goal positions (they are set to exactly
+        those). ``signature`` and ``min_clearance`` refer to ``obstacles`` (rows ``[cx, cy, r]``).
+        """
+        S = _state(start, "start")
+        G = _state(goal, "goal")
+        obs = _obstacles(obstacles)
+        poly = _rows(polyline, 2, "polyline", "x, y")
+        if poly.shape[0] < 2:
+            raise ScenarioError(f"polyline: expected at least 2 vertices, got {poly.shape[0]}")
+        tol = _tolerance(S, G, obs)
+        for key, p, end in (("first", poly[0], S), ("last", poly[-1], G)):
+            if math.hypot(*(p - end[:2])) > tol:
+                what = "start" if key == "first" else "goal"
+                raise ScenarioError(
+                    f"polyline: {key} vertex {_fmt(p)} is not the {what} position {_fmt(end[:2])}"
+                )
+        return _make_path(_clean(poly, S[:2], G[:2], tol), S, G, obs, label, tol)
+
+    def curve(self, s) -> tuple[np.ndarray, np.ndarray]:
+        """Points ``(n, 2)`` and headings ``(n,)`` of the path at normalised time ``s``.
+
+        ``s`` is a number or an array of numbers in ``[0, 1]``; the result always has a leading
+        axis of length ``n = size(s)``. The path is followed at constant speed along the smoothed
+        curve (``s`` is then its normalised arclength), after and before the turns in place of
+        its :class:`EndModes`, which take the time of as many units of path as they turn
+        radians. Headings are the tangent direction (plus pi when reversing), unwrapped along
+        the curve from the start heading; if the goal heading asks for whole extra turns beyond
+        the curve's own turning, those are added linearly in ``s``, so heading(0) is the start
+        heading and heading(1) the goal heading (both up to rounding).
+        """
+        s = np.atleast_1d(np.asarray(s, dtype=np.float64)).ravel()
+        if s.size and not (s.min() >= -1e-12 and s.max() <= 1.0 + 1e-12):  # also nan
+            raise ValueError("s: normalised arclength must lie in [0, 1]")
+        return self._curve.evaluate(np.clip(s, 0.0, 1.0))
+
+    def junctions(self, q: int, horizon: float, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Times ``(q + 1,)`` and states ``(q + 1, 3)`` of ``q`` segments at constant speed.
+
+        The times are uniform on ``[t0, t0 + horizon]`` and the junctions uniform in arclength.
+        ``X[0]`` and ``X[-1]`` are exactly the start and goal states.
+        """
+        if isinstance(q, bool) or not isinstance(q, numbers.Integral) or q < 1:
+            raise SettingsError(f"q: expected an integer >= 1, got {q!r}")
+        horizon = _real(horizon, "horizon", SettingsError)
+        t0 = _real(t0, "t0", SettingsError)
+        if not horizon > 0.0:
+            raise SettingsError(f"horizon: must be > 0, got {horizon!r}")
+        q = int(q)
+        frac = np.arange(q + 1, dtype=np.float64) / q
+        frac[-1] = 1.0
+        t = t0 + horizon * frac
+        t[0] = t0
+        t[-1] = t0 + horizon
+        xy, heading = self._curve.evaluate(frac)
+        X = np.column_stack([xy, heading])
+        X[0] = self.start
+        X[-1] = self.goal
+        return t, X
+
+
+def _make_path(poly, S, G, obs, label, tol, signature=None, modes=FORWARD) -> InitialPath:
+    """Smooth ``poly`` for ``modes`` (adding turning arcs where the curve's end directions point
+    away from it)."""
+    offset = math.pi if modes.reverse else 0.0
+    h0, h1 = S[2] + offset, G[2] + offset  # the curve's tangent direction at its ends
+    if modes.turn_start and poly.shape[0] >= 2:
+        h0 = _near_branch(_direction(poly[1] - poly[0]), h0)
+    if modes.turn_goal and poly.shape[0] >= 2:
+        h1 = _near_branch(_direction(poly[-1] - poly[-2]), h1)
+    poly, sig = _with_turns(poly, h0, h1, obs, tol, signature)
+    pieces = [_Turn(S, S[2], h0 - offset), _Drive(_SmoothCurve(poly, h0, h1), offset)]
+    pieces.append(_Turn(G, h1 - offset, G[2]))
+    return _path(poly, _PoseCurve(pieces), S, G, obs, label, tol, sig, modes)
+
+
+def _path(poly, curve, S, G, obs, label, tol, signature, modes) -> InitialPath:
+    poly = poly.copy()
+    for arr in (poly, S, G):
+        arr.setflags(write=False)
+    return InitialPath(
+        polyline=poly,
+        length=curve.length,
+        signature=_signature(poly, obs, tol) if signature is None else signature,
+        min_clearance=_clearance(curve.samples, obs),
+        label=label,
+        start=S,
+        goal=G,
+        _curve=curve,
+        modes=modes,
+    )

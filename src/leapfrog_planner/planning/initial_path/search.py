@@ -1,0 +1,330 @@
+"""Initial paths: the shortest paths round the obstacles in several homotopy classes, their
+ways of meeting the end poses, three-point turns and waypoint paths."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ...errors import ScenarioError
+from .curve import _SmoothCurve
+from .ends import (
+    FORWARD,
+    EndModes,
+    _direction,
+    _Drive,
+    _near_branch,
+    _PoseCurve,
+    _Turn,
+    _with_turns,
+    end_modes,
+)
+from .geometry import (
+    _check_outside,
+    _clean,
+    _fmt,
+    _midpoints,
+    _obstacles,
+    _real,
+    _rows,
+    _segment_distance,
+    _state,
+    _tolerance,
+)
+from .path import InitialPath, _make_path, _path
+from .tangent_graph import _TangentGraph
+
+#: At most this many obstacles get barrier rays (``2**MAX_RELEVANT`` Dijkstra runs).
+MAX_RELEVANT = 6
+#: Paths longer than this factor times the shortest path are dropped.
+MAX_DETOUR = 3.0
+#: Margin factors tried when the smoothed curve of a path cuts into an obstacle.
+_RETRY_MARGIN_FACTORS = (2.0, 4.0)
+#: Times mid-leg points are inserted (at the same margin) before the margin is increased.
+_MIDPOINT_ROUNDS = 2
+#: Margins tried, as fractions of the requested one, until some path exists; then margin 0.
+_MARGIN_FALLBACK = (1.0, 0.5, 0.25, 0.125, 0.0625)
+
+
+#: A cusp point is used only this many start-goal distances away at most.
+_CUSP_REACH = 2.0
+#: Cusp points along the start (goal) heading, as fractions of the start-goal distance.
+_CUSP_STEPS = (0.25, 0.5)
+
+
+def _cusp_points(S, G, e0: np.ndarray, m1: np.ndarray, chord: float) -> list[np.ndarray]:
+    """Where a three-point turn may reverse: along the start's line of motion ``e0`` (backing
+    out, or driving on, a quarter or half of the chord), along the goal's ``m1`` (driving past
+    the goal and back in), and where the two lines meet ahead of both ends."""
+    points = [S[:2] + f * chord * e0 for f in _CUSP_STEPS]
+    points += [G[:2] - f * chord * m1 for f in _CUSP_STEPS]
+    M = np.column_stack([e0, m1])
+    if abs(np.linalg.det(M)) > 1e-3:
+        a, b = np.linalg.solve(M, G[:2] - S[:2])
+        if 0.0 < a <= _CUSP_REACH * chord and 0.0 < b <= _CUSP_REACH * chord:
+            points.append(S[:2] + a * e0)
+    return points
+
+
+def _cusp_paths(S, G, obs, margin, tol) -> list[tuple[np.ndarray, InitialPath]]:
+    """Three-point turns: drive from the start along its heading (forwards, and also
+    backwards) to a cusp point (:func:`_cusp_points`), turn there in place as far as needed,
+    and drive the other way into the goal, arriving along its heading. Each leg goes round the
+    obstacles by its shortest way; cusp points inside an inflated obstacle are skipped.
+    Returns ``(cusp point, path)`` pairs."""
+    chord = math.hypot(*(G[:2] - S[:2]))
+    out = []
+    for reverse in (False, True):
+        off0, off1 = (math.pi, 0.0) if reverse else (0.0, math.pi)
+        e0 = np.array([math.cos(S[2] + off0), math.sin(S[2] + off0)])  # leaving the start
+        m1 = np.array([math.cos(G[2] + off1), math.sin(G[2] + off1)])  # arriving at the goal
+        for C in _cusp_points(S, G, e0, m1, chord):
+            if min(math.hypot(*(C - S[:2])), math.hypot(*(C - G[:2]))) <= tol or (
+                obs.shape[0] and np.any(np.hypot(*(C - obs[:, :2]).T) <= obs[:, 2] + margin)
+            ):
+                continue
+            out.append((C, _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse)))
+    return out
+
+
+def _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse) -> InitialPath:
+    """Drive (heading = tangent - ``off0``) from the start to ``C``, turn in place, drive
+    (heading = tangent - ``off1``) to the goal."""
+    first, second = _route(S[:2], C, obs, margin, tol), _route(C, G[:2], obs, margin, tol)
+    h0 = S[2] + off0
+    first, _ = _with_turns(first, h0, _direction(first[-1] - first[-2]), obs, tol, None)
+    one = _SmoothCurve(first, h0, _direction(first[-1] - first[-2]), free_end=True)
+    at_cusp = one.theta1 - off0  # the heading on arriving at the cusp
+    h2 = _near_branch(_direction(second[1] - second[0]), at_cusp + off1)
+    h3 = G[2] + off1
+    second, _ = _with_turns(second, h2, h3, obs, tol, None)
+    two = _SmoothCurve(second, h2, h3)
+    pieces = [_Drive(one, off0), _Turn(C, at_cusp, h2 - off1), _Drive(two, off1)]
+    poly = np.vstack([first, second[1:]])
+    modes = EndModes(reverse=reverse, cusp=True)
+    return _path(poly, _PoseCurve(pieces), S, G, obs, "", tol, None, modes)
+
+
+# --------------------------------------------------------------------------- planning
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    signature: tuple[int, ...]
+    graph_length: float
+    nodes: np.ndarray
+    order: int
+    graph: _TangentGraph = field(repr=False)
+
+    @property
+    def polyline(self) -> np.ndarray:
+        return self.graph.polyline(self.nodes)
+
+
+def _plan(
+    S: np.ndarray, G: np.ndarray, obs: np.ndarray, margin: float, k: int, tol: float
+) -> list[_Candidate] | None:
+    """Shortest paths round the inflated obstacles, one per homotopy class, shortest first."""
+    S2, G2 = S[:2], G[:2]
+    C, r = obs[:, :2], obs[:, 2]
+    dS = np.hypot(*(S2[None, :] - C).T)
+    dG = np.hypot(*(G2[None, :] - C).T)
+    R = r + np.clip(np.minimum(margin, np.minimum(dS - r, dG - r)), 0.0, None)
+    graph = _TangentGraph(S2, G2, C, R, tol)
+    lengths, paths, plen = graph.search(np.zeros(graph.src.size, np.int64), np.zeros(1, np.int64))
+    if not np.isfinite(lengths[0]):
+        return None
+    shortest = float(lengths[0])
+
+    chord = G2 - S2
+    L = math.hypot(*chord)
+    if k > 1 and graph.active.size and L > tol:
+        e = chord / L
+        nrm = np.array([-e[1], e[0]])
+        act = graph.active
+        proj = (C[act] - S2) @ e
+        poly0 = graph.polyline(paths[0, : plen[0]])
+        to_chord = _segment_distance(S2[None, :], G2[None, :], C[act])[0]
+        to_path = _segment_distance(poly0[:-1], poly0[1:], C[act]).min(axis=0)
+        relevance = np.minimum(to_chord, to_path) - R[act]
+        pick = np.flatnonzero((proj > tol) & (proj < L - tol) & (relevance < shortest))
+        rel = act[pick[np.lexsort((act[pick], relevance[pick]))][:MAX_RELEVANT]]
+        if rel.size:
+            origins = np.repeat(C[rel], 2, axis=0)
+            dirs = np.tile(np.stack([nrm, -nrm]), (rel.size, 1))
+            lo = np.minimum(np.min(C - R[:, None], axis=0), np.minimum(S2, G2))
+            hi = np.maximum(np.max(C + R[:, None], axis=0), np.maximum(S2, G2))
+            bits = graph.crossings(origins, dirs, 2.0 * math.hypot(*(hi - lo)) + 1.0)
+            pattern = np.arange(1 << rel.size)[:, None]
+            side = (pattern >> np.arange(rel.size)[None, :]) & 1
+            masks = (1 << (2 * np.arange(rel.size)[None, :] + side)).sum(axis=1)
+            more = graph.search(bits, masks.astype(np.int64))
+            lengths, paths, plen = (
+                np.concatenate(x) for x in zip((lengths, paths, plen), more, strict=True)
+            )
+
+    # Shortest first (ties: the unconstrained search, then pattern order); then the first of
+    # each distinct node path, then the first of each signature.
+    found = np.flatnonzero(lengths <= MAX_DETOUR * shortest + tol)  # finite and no long detour
+    found = found[np.argsort(lengths[found], kind="stable")].tolist()
+    found = list({paths[j, : plen[j]].tobytes(): j for j in reversed(found)}.values())[::-1]
+    sigs = graph.signatures(paths[found], plen[found], obs).tolist()
+    first = {tuple(sig): j for sig, j in reversed(list(zip(sigs, found, strict=True)))}
+    out = [
+        _Candidate(sig, float(lengths[j]), paths[j, : plen[j]], j, graph)
+        for sig, j in first.items()
+    ]
+    return sorted(out, key=lambda c: (c.graph_length, c.order))
+
+
+def _smooth_best(poly: np.ndarray, S, G, obs, tol, signature=None, modes=FORWARD) -> InitialPath:
+    """The first smoothing with non-negative clearance, else the one with the best clearance."""
+    best = None
+    for _ in range(_MIDPOINT_ROUNDS + 1):
+        path = _make_path(poly, S, G, obs, "", tol, signature, modes)
+        if path.min_clearance >= 0.0:
+            return path
+        if best is None or path.min_clearance > best.min_clearance:
+            best = path
+        poly = _midpoints(poly)
+    return best
+
+
+def initial_paths(
+    start, goal, obstacles, *, k: int = 3, margin: float = 0.05, waypoints=None
+) -> list[InitialPath]:
+    """Collision-free initial paths in up to ``k`` homotopy classes, shortest class first.
+
+    Each class comes with its ways of meeting the end poses (:func:`end_modes`: forward first,
+    then, where an end heading points away from the path, reverse and turns in place), all with
+    the class's label plus the modes' description.
+
+    ``start`` and ``goal`` are states ``[x, y, heading]``, ``obstacles`` rows ``[cx, cy, r]``
+    (or empty). Paths keep ``margin`` from every obstacle (less only where the start or goal is
+    closer than that, or when no path exists otherwise: see the label). The straight chord
+    (label ``"straight"``) is a path when it keeps the margin; it is the shortest polyline, so it
+    comes first unless the turns that the end headings ask for make its smoothed curve longer
+    than another. The result is sorted by smoothed ``length`` and deterministic. With
+    ``waypoints`` (rows ``[x, y]``), the only path (with its end modes) passes through them in
+    order, each leg the shortest path round the obstacles (label ``"waypoints"``). Raises
+    :class:`ScenarioError` for invalid input, an end (or waypoint) inside an obstacle, or when
+    no collision-free path exists (even with margin 0).
+    """
+    S = _state(start, "start")
+    G = _state(goal, "goal")
+    obs = _obstacles(obstacles)
+    if isinstance(k, bool | np.bool_) or not isinstance(k, numbers.Integral) or k < 1:
+        raise ScenarioError(f"k: expected an integer >= 1, got {k!r}")
+    margin = _real(margin, "margin")
+    if margin < 0.0:
+        raise ScenarioError(f"margin: must be >= 0, got {margin!r}")
+    wps = None if waypoints is None else _rows(waypoints, 2, "waypoints", "x, y")
+    _check_outside(S, "start", obs)
+    _check_outside(G, "goal", obs)
+    if wps is not None:
+        for i, w in enumerate(wps):
+            _check_outside(w, f"waypoints[{i}]", obs)
+    tol = _tolerance(S, G, obs)
+
+    if wps is not None and wps.shape[0]:
+        poly = _clean(_through(np.vstack([S[:2], wps, G[:2]]), obs, margin, tol), S[:2], G[:2], tol)
+        variants = [_smooth_best(poly, S, G, obs, tol, None, m) for m in end_modes(poly, S, G)]
+        return [
+            _relabel(p, ", ".join(filter(None, ("waypoints", p.modes.describe()))))
+            for p in variants
+        ]
+
+    used = None
+    for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
+        cands = _plan(S, G, obs, m, int(k), tol)
+        if cands is not None:
+            used = m
+            break
+    else:
+        raise ScenarioError(
+            f"no collision-free initial path from start {_fmt(S[:2])} to goal {_fmt(G[:2])}"
+            f" round the {obs.shape[0]} obstacles (even with margin 0)"
+        )
+    cands = cands[: int(k)]
+
+    retry: dict[float, list[_Candidate] | None] = {}
+    classes = []
+    for cand in cands:
+        variants = [
+            _smoothed_in_class(cand, S, G, obs, tol, used, int(k), retry, modes)
+            for modes in end_modes(cand.polyline, S, G)
+        ]
+        classes.append((variants, cand))
+
+    classes.sort(key=lambda vc: (vc[0][0].length, vc[1].graph_length, vc[1].order))
+    note = "" if used == margin else f" (margin {used:g})"
+    out = []
+    for rank, (variants, cand) in enumerate(classes, start=1):
+        straight = cand.nodes.size == 2  # the direct start -> goal edge of the graph
+        name = ("straight" if straight else f"visibility #{rank}") + note
+        for path in variants:
+            how = path.modes.describe()
+            out.append(_relabel(path, f"{name}, {how}" if how else name))
+    if len(end_modes(np.vstack([S[:2], G[:2]]), S, G)) > 1:  # an end heading points away
+        for C, path in _cusp_paths(S, G, obs, used, tol):
+            label = f"three-point turn at ({C[0]:.3g}, {C[1]:.3g}), {path.modes.describe()}"
+            out.append(_relabel(path, label + note))
+    return out
+
+
+def _through(points: np.ndarray, obs: np.ndarray, margin: float, tol: float) -> np.ndarray:
+    """The polyline through ``points`` in order, each leg routed by :func:`_route`."""
+    legs = [_route(a, b, obs, margin, tol) for a, b in zip(points[:-1], points[1:], strict=True)]
+    return np.vstack([points[:1]] + [leg[1:] for leg in legs])
+
+
+def _route(a: np.ndarray, b: np.ndarray, obs: np.ndarray, margin: float, tol: float) -> np.ndarray:
+    """The shortest polyline from ``a`` to ``b`` round the inflated obstacles (the margin falls
+    back as for a whole path; with no path at all, the straight segment, whose clearance shows
+    it)."""
+    for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
+        cands = _plan(np.append(a, 0.0), np.append(b, 0.0), obs, m, 1, tol)
+        if cands is not None:
+            return cands[0].polyline
+    return np.vstack([a, b])
+
+
+def _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes) -> InitialPath:
+    """The smoothed path of ``cand``'s class for ``modes``; when it cuts into an obstacle, the
+    class is re-planned with larger margins (memoised in ``retry``) and the clearest kept."""
+    path = _smooth_best(cand.polyline, S, G, obs, tol, cand.signature, modes)
+    if path.min_clearance < 0.0 and used > 0.0:
+        for f in _RETRY_MARGIN_FACTORS:
+            if f not in retry:
+                retry[f] = _plan(S, G, obs, used * f, k, tol)
+            same = [c for c in retry[f] or () if c.signature == cand.signature]
+            if same:
+                other = _smooth_best(same[0].polyline, S, G, obs, tol, cand.signature, modes)
+                if other.min_clearance > path.min_clearance:
+                    path = other
+                if path.min_clearance >= 0.0:
+                    break
+    return path
+
+
+def _relabel(path: InitialPath, label: str) -> InitialPath:
+    return replace(path, label=label)
+
+
+def plot_initial_paths(ax, paths, obstacles=None):
+    """Draw obstacles, the smoothed curves (solid) and their polylines (dotted) on ``ax``."""
+    from matplotlib.patches import Circle
+
+    for cx, cy, r in _obstacles(obstacles).tolist():
+        ax.add_patch(Circle((cx, cy), r, facecolor="0.75", edgecolor="0.4"))
+    s = np.linspace(0.0, 1.0, 400)
+    for path in paths:
+        xy, _ = path.curve(s)
+        (line,) = ax.plot(xy[:, 0], xy[:, 1], label=f"{path.label} (length {path.length:.3f})")
+        ax.plot(*path.polyline.T, ls=":", lw=0.8, color=line.get_color())
+    ax.set_aspect("equal")
+    ax.legend(fontsize="small")
+    return ax

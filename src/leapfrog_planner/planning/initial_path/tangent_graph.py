@@ -1,0 +1,502 @@
+"""The exact tangent graph of the inflated discs and its compiled searches (shortest paths
+with barrier rays, winding of each step, ray crossings)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .curve import _TWO_PI
+from .geometry import _clean, _close_and_round, _cross, _rot, _segment_distance
+
+#: Arcs of the tangent graph are sampled with at most this angle between polyline vertices.
+ARC_STEP = _TWO_PI / 36
+
+
+# --------------------------------------------------------------------------- tangent graph
+
+
+def _active_circles(C: np.ndarray, R: np.ndarray, tol: float) -> np.ndarray:
+    """Discs not contained in another disc (of equal discs, the first is kept)."""
+    m = R.size
+    D = np.hypot(C[:, None, 0] - C[None, :, 0], C[:, None, 1] - C[None, :, 1])
+    inside = D + R[:, None] <= R[None, :] + tol  # inside[i, j]: disc i within disc j
+    np.fill_diagonal(inside, False)
+    mutual = inside & inside.T
+    earlier = np.arange(m)[None, :] < np.arange(m)[:, None]
+    return ~np.any(inside & (~mutual | earlier), axis=1)
+
+
+class _Points:
+    """The graph's points, gathered in order: start (0), goal (1), then tangent points, each
+    with its circle (-1 for the ends)."""
+
+    def __init__(self, S2: np.ndarray, G2: np.ndarray):
+        self.xy = [S2[None, :], G2[None, :]]
+        self.circ = [np.array([-1, -1])]
+        self.count = 2
+
+    def add(self, p: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Append points ``p`` on circles ``c``; their indices."""
+        self.xy.append(p)
+        self.circ.append(c)
+        self.count += p.shape[0]
+        return np.arange(self.count - p.shape[0], self.count)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.concatenate(self.xy), np.concatenate(self.circ)
+
+
+class _TangentGraph:
+    """Directed tangent graph of the inflated discs ``(C, R)``; node 0 is the start, 1 the goal.
+
+    Tangent point ``p >= 2`` on circle ``circ[p]`` is node ``2 + 2 (p - 2)`` when travelled
+    counter-clockwise and node ``3 + 2 (p - 2)`` when travelled clockwise. Edges are stored in
+    CSR order (sorted by source node) with their geometry: a segment ``[ax, ay, bx, by]`` or an
+    arc ``[circle, phi0, span, nan]`` (counter-clockwise from angle ``phi0``).
+    """
+
+    def __init__(self, S2: np.ndarray, G2: np.ndarray, C: np.ndarray, R: np.ndarray, tol: float):
+        self.S2, self.G2, self.C, self.R, self.tol = S2, G2, C, R, tol
+        self._polylines: dict[bytes, np.ndarray] = {}
+        act = np.flatnonzero(_active_circles(C, R, tol)) if R.size else np.zeros(0, np.int64)
+        self.active = act
+        points = _Points(S2, G2)
+        segs, one_way = self._end_tangents(points)
+        segs += self._pair_tangents(points)
+        self.xy, self.circ = points.arrays()
+        rel = self.xy - C[np.maximum(self.circ, 0)] if C.shape[0] else self.xy
+        self.angle = np.where(self.circ >= 0, np.arctan2(rel[:, 1], rel[:, 0]), 0.0)
+        keep = self._usable_points()
+        edges = self._segment_edges(segs, one_way, keep)
+        self._add_arc_edges(keep, *edges)
+        self._index(*edges)
+
+    def _orient(self, p: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """+1 where direction ``d`` at point ``p`` of circle ``c`` turns counter-clockwise."""
+        return np.where(_cross(p - self.C[c], d) >= 0.0, 1, -1)
+
+    def _end_tangents(self, points: _Points) -> tuple[list, int]:
+        """Tangents from the start (travelled towards the circle) and to the goal (away from
+        it): families of segments ``(point a, orientation a, point b, orientation b)``, and
+        how many segments they hold (these are travelled one way only)."""
+        C, R, tol, act = self.C, self.R, self.tol, self.active
+        segs = []
+        for end, P in ((0, self.S2), (1, self.G2)) if act.size else ():
+            w = P[None, :] - C[act]
+            d = np.hypot(w[:, 0], w[:, 1])
+            u = w / np.maximum(d, tol)[:, None]
+            out = d > R[act] + tol
+            co, Ro, uo = act[out], R[act][out], u[out]
+            gamma = np.arccos(np.clip(Ro / d[out], -1.0, 1.0))
+            T = np.concatenate([C[co] + Ro[:, None] * _rot(uo, g) for g in (gamma, -gamma)])
+            cT = np.concatenate([co, co])
+            idx = points.add(T, cT)
+            o = self._orient(T, cT, T - P if end == 0 else P - T)
+            ends = np.full(idx.shape, end)
+            segs.append((ends, 0 * ends, idx, o) if end == 0 else (idx, o, ends, 0 * ends))
+            # An end on a circle (closer to the obstacle than the margin): both directions.
+            on = act[~out]
+            if on.size:
+                idx = points.add(C[on] + R[on][:, None] * u[~out], on)
+                ends = np.full(idx.shape, end)
+                for o in (np.ones_like(idx), -np.ones_like(idx)):
+                    segs.append((ends, 0 * ends, idx, o) if end == 0 else (idx, o, ends, 0 * ends))
+        return segs, sum(s[0].size for s in segs)
+
+    def _pair_tangents(self, points: _Points) -> list:
+        """Common tangents of each pair of circles: outer (sigma = +1) and inner (sigma = -1)."""
+        C, R, act = self.C, self.R, self.active
+        segs = []
+        if act.size < 2:
+            return segs
+        ci, cj = np.triu_indices(act.size, 1)
+        ci, cj = act[ci], act[cj]
+        w = C[cj] - C[ci]
+        d = np.hypot(w[:, 0], w[:, 1])
+        u = w / d[:, None]
+        for sigma in (1.0, -1.0):
+            cosb = (R[ci] - sigma * R[cj]) / d
+            ok = np.abs(cosb) < 1.0 - 1e-12
+            beta = np.arccos(cosb[ok])
+            ci_ok, cj_ok = ci[ok], cj[ok]
+            for sgn in (1.0, -1.0):
+                n = _rot(u[ok], sgn * beta)
+                Ti = C[ci_ok] + R[ci_ok][:, None] * n
+                Tj = C[cj_ok] + sigma * R[cj_ok][:, None] * n
+                pi, pj = points.add(Ti, ci_ok), points.add(Tj, cj_ok)
+                o_i, o_j = self._orient(Ti, ci_ok, Tj - Ti), self._orient(Tj, cj_ok, Tj - Ti)
+                segs.append((pi, o_i, pj, o_j))
+        return segs
+
+    def _usable_points(self) -> np.ndarray:
+        """Tangent points inside another inflated disc are no use; the ends always are."""
+        C, R, act = self.C, self.R, self.active
+        keep = np.ones(self.xy.shape[0], bool)
+        if act.size:
+            gap = np.hypot(
+                self.xy[:, None, 0] - C[None, act, 0], self.xy[:, None, 1] - C[None, act, 1]
+            )
+            keep = ~np.any(gap < R[None, act] - self.tol, axis=1)
+            keep[:2] = True
+        return keep
+
+    def _segment_edges(self, segs: list, one_way: int, keep: np.ndarray) -> tuple[list, ...]:
+        """The straight start -> goal segment, then the tangents, kept when no disc cuts them:
+        edge lists (sources, destinations, weights, geometry), both ways but for the ends'."""
+        C, R, act = self.C, self.R, self.active
+        pa, oa, pb, ob = (
+            np.concatenate([[x], *(s[i] for s in segs)]) for i, x in enumerate((0, 0, 1, 0))
+        )
+        both = np.arange(pa.size) > one_way
+        ok = keep[pa] & keep[pb]
+        if act.size:
+            dist = _segment_distance(self.xy[pa[ok]], self.xy[pb[ok]], C[act])
+            ok[ok] = ~np.any(dist < R[act][None, :] - self.tol, axis=1)
+        pa, oa, pb, ob, both = pa[ok], oa[ok], pb[ok], ob[ok], both[ok]
+        A, B = self.xy[pa], self.xy[pb]
+        seg_geo = np.column_stack([A, B])
+        seg_w = np.hypot(*(B - A).T)
+        src = [self.node(pa, oa), self.node(pb[both], -ob[both])]
+        dst = [self.node(pb, ob), self.node(pa[both], -oa[both])]
+        self.n_seg = seg_w.size + int(both.sum())
+        return src, dst, [seg_w, seg_w[both]], [seg_geo, seg_geo[both]]
+
+    def _add_arc_edges(self, keep, src, dst, wgt, geo) -> None:
+        """Arcs between neighbouring tangent points of a circle, both ways, unless another disc
+        covers them: appended to the edge lists."""
+        C, R, act = self.C, self.R, self.active
+        tp = np.flatnonzero(keep & (self.circ >= 0))
+        tp = tp[np.lexsort((tp, self.angle[tp], self.circ[tp]))]
+        cc = self.circ[tp]
+        first = np.ones(tp.size, bool)
+        first[1:] = cc[1:] != cc[:-1]
+        group = np.cumsum(first) - 1
+        g0 = np.flatnonzero(first)
+        size = np.diff(np.append(g0, tp.size))[group]
+        idx = np.arange(tp.size)
+        nxt = g0[group] + (idx - g0[group] + 1) % np.maximum(size, 1)
+        valid = size >= 2
+        a_pts, b_pts = tp[valid], tp[nxt[valid]]
+        wrap = nxt[valid] < idx[valid]
+        span = np.where(
+            wrap,
+            self.angle[b_pts] + _TWO_PI - self.angle[a_pts],
+            np.mod(self.angle[b_pts] - self.angle[a_pts], _TWO_PI),
+        )
+        ca = self.circ[a_pts]
+        if act.size >= 2:
+            D = np.hypot(C[:, None, 0] - C[None, :, 0], C[:, None, 1] - C[None, :, 1])
+            meet = (np.abs(R[:, None] - R[None, :]) < D) & (D < R[:, None] + R[None, :])
+            inactive = np.ones(R.size, bool)
+            inactive[act] = False
+            meet[:, inactive] = False
+            np.fill_diagonal(meet, False)
+            alpha = np.arctan2(C[None, :, 1] - C[:, None, 1], C[None, :, 0] - C[:, None, 0])
+            into = np.mod(alpha[ca] - self.angle[a_pts][:, None], _TWO_PI) < span[:, None]
+            free = ~np.any(meet[ca] & into, axis=1)
+            a_pts, b_pts, span, ca = a_pts[free], b_pts[free], span[free], ca[free]
+        arc_geo = np.column_stack([ca, self.angle[a_pts], span, np.full(span.shape, np.nan)])
+        for o, (s_pts, d_pts) in ((1, (a_pts, b_pts)), (-1, (b_pts, a_pts))):
+            src.append(self.node(s_pts, np.full(s_pts.shape, o)))
+            dst.append(self.node(d_pts, np.full(d_pts.shape, o)))
+            wgt.append(R[ca] * span)
+            geo.append(arc_geo)
+
+    def _index(self, src, dst, wgt, geo) -> None:
+        """The edges in CSR order (by source node), and the nodes' positions and circles."""
+        src, dst, wgt, geo = (np.concatenate(x) for x in (src, dst, wgt, geo))
+        is_arc = np.arange(src.size) >= self.n_seg
+        order = np.lexsort((dst, src))
+        self.src, self.dst, self.geo, self.is_arc = (
+            src[order],
+            dst[order],
+            geo[order],
+            is_arc[order],
+        )
+        self.wgt = np.maximum(wgt[order], 1e-6 * self.tol)  # no zero-length edges
+        self.n = 2 + 2 * (self.xy.shape[0] - 2)
+        self.indptr = np.zeros(self.n + 1, np.int64)
+        np.cumsum(np.bincount(self.src, minlength=self.n), out=self.indptr[1:])
+        nodes = np.arange(self.n)
+        pts = self.point(nodes)
+        self.node_xy = np.ascontiguousarray(self.xy[pts])
+        self.node_circ = self.circ[pts].astype(np.int64)
+        self.node_orient = np.where(nodes < 2, 0, 1 - 2 * ((nodes - 2) % 2)).astype(np.int64)
+        self.node_angle = self.angle[pts]
+
+    @staticmethod
+    def node(p: np.ndarray, o: np.ndarray) -> np.ndarray:
+        return np.where(p < 2, p, 2 + 2 * (p - 2) + (o < 0)).astype(np.int64)
+
+    @staticmethod
+    def point(v):
+        return np.where(v < 2, v, 2 + (v - 2) // 2)
+
+    def search(self, bits: np.ndarray, masks: np.ndarray):
+        """Shortest start -> goal paths, one per blocking mask: lengths (``inf`` where there is
+        none), node paths (padded with -1) and their sizes.
+
+        ``bits[e]`` has bit ``b`` set when edge ``e`` crosses barrier ``b``; a mask blocks the
+        barriers of its set bits.
+        """
+        return _search(self.indptr, self.dst, self.wgt, bits, masks, self.node_xy)
+
+    def signatures(self, paths: np.ndarray, plen: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        """Exact winding numbers ``(P, m)`` of each node path (closed by the reversed chord)
+        round each obstacle centre; arcs count with their true turn, not as chords."""
+        P, m = plen.size, obs.shape[0]
+        found = np.flatnonzero(plen >= 2)
+        out = np.zeros((P, m), np.int64)
+        if m == 0 or found.size == 0:
+            return out
+        C = obs[:, :2]
+        # Direction angle of every node seen from every centre; a step turns by the difference,
+        # taken in (-pi, pi] for a segment (or an arc seen from outside its circle, which stays
+        # in a cone narrower than pi), and monotonically for an arc seen from inside its circle.
+        rel = self.node_xy[:, None, :] - C[None, :, :]
+        angle = np.arctan2(rel[:, :, 1], rel[:, :, 0])
+        # Which centres lie inside each circle.
+        inside = np.hypot(*(C[None, :, :] - self.C[:, None, :]).transpose(2, 0, 1))
+        inside = inside < self.R[:, None]
+        turn, first = _step_turns(
+            paths, plen, found, angle, self.node_circ, self.node_orient, inside
+        )
+        total = np.add.reduceat(turn, first, axis=0)
+        out[found] = _close_and_round(total, self.S2, self.G2, obs, self.tol)
+        return out
+
+    def polyline(self, nodes) -> np.ndarray:
+        """The path's vertices: the ends of its segments, with each run of arcs round one circle
+        sampled uniformly, every :data:`ARC_STEP` at most (tangent points between them, which
+        can be very close together, are not kept). Memoised, and read-only so that no caller
+        changes the shared array: planning needs the shortest path's polyline, and smoothing
+        needs it again."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        key = nodes.tobytes()
+        if key not in self._polylines:
+            poly = self._polyline(nodes)
+            poly.setflags(write=False)
+            self._polylines[key] = poly
+        return self._polylines[key]
+
+    def _polyline(self, nodes: np.ndarray) -> np.ndarray:
+        # Python floats and lists: a path has a few dozen vertices, too few for NumPy's calls.
+        xy = self.node_xy[nodes].tolist()
+        circ = self.node_circ[nodes].tolist()
+        angle = self.node_angle[nodes].tolist()
+        nodes = nodes.tolist()
+        last = len(nodes) - 1
+        parts = [xy[0]]  # vertices, and arcs (circle, first angle, number of angles)
+        angles = []  # of all arc samples
+        i = 0
+        while i < last:
+            v0, c = nodes[i], circ[i]
+            j = i
+            while j < last and v0 >= 2 and nodes[j + 1] >= 2 and circ[j + 1] == c:
+                j += 1  # nodes[i .. j] are joined by arcs round circle c
+            if j > i:
+                o = 1 if (v0 - 2) % 2 == 0 else -1
+                span = 0.0
+                for t in range(i, j):
+                    span += ((angle[t + 1] - angle[t]) * o) % _TWO_PI
+                n = math.ceil(span / ARC_STEP)
+                if n > 1:
+                    parts.append((c, len(angles), n - 1))
+                    angles.extend(angle[i] + o * span * k / n for k in range(1, n))
+                parts.append(xy[j])
+                i = j
+            else:
+                parts.append(xy[i + 1])
+                i += 1
+        cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()  # one call for all arcs
+        out = []
+        for part in parts:
+            if isinstance(part, tuple):
+                c, a, n = part
+                cx, cy, r = float(self.C[c, 0]), float(self.C[c, 1]), float(self.R[c])
+                out.extend([cx + r * cos[k], cy + r * sin[k]] for k in range(a, a + n))
+            else:
+                out.append(part)
+        # Vertices much closer together than arc samples (the two ends of a tiny arc) would
+        # make the smoothing turn sharply there: keep only the first of them, and the goal.
+        gap = 0.25 * ARC_STEP * float(self.R[self.active].min()) if self.active.size else 0.0
+        keep = [out[0]]
+        for p in out[1:-1]:
+            if math.hypot(p[0] - keep[-1][0], p[1] - keep[-1][1]) > gap:
+                keep.append(p)
+        if len(keep) > 1 and math.hypot(out[-1][0] - keep[-1][0], out[-1][1] - keep[-1][1]) <= gap:
+            keep.pop()
+        keep.append(out[-1])
+        return _clean(np.array(keep), self.S2, self.G2, self.tol)
+
+    def crossings(self, origins: np.ndarray, dirs: np.ndarray, reach: float) -> np.ndarray:
+        """Per edge, bit ``b`` set when it crosses the ray ``origins[b] + t dirs[b]``, t in
+        ``[0, reach]``."""
+        return _crossings(self.is_arc, self.geo, self.C, self.R, origins, dirs, reach)
+
+
+@njit(cache=True)
+def _crossings(is_arc, geo, C, R, origins, dirs, reach):
+    bits = np.zeros(geo.shape[0], np.int64)
+    two_pi = 2.0 * math.pi
+    for e in range(geo.shape[0]):
+        for b in range(origins.shape[0]):
+            ox, oy, dx, dy = origins[b, 0], origins[b, 1], dirs[b, 0], dirs[b, 1]
+            hit = False
+            if not is_arc[e]:
+                ax, ay = geo[e, 0], geo[e, 1]
+                rx, ry = geo[e, 2] - ax, geo[e, 3] - ay
+                sx, sy = dx * reach, dy * reach
+                den = rx * sy - ry * sx
+                if den != 0.0:
+                    qx, qy = ox - ax, oy - ay
+                    t = (qx * sy - qy * sx) / den
+                    u = (qx * ry - qy * rx) / den
+                    hit = (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
+            else:
+                c = np.int64(geo[e, 0])
+                fx, fy = ox - C[c, 0], oy - C[c, 1]
+                bb = fx * dx + fy * dy
+                disc = bb * bb - (fx * fx + fy * fy - R[c] * R[c])
+                if disc >= 0.0:
+                    root = math.sqrt(disc)
+                    for sgn in range(-1, 2, 2):
+                        tt = -bb + sgn * root
+                        if 0.0 <= tt <= reach:
+                            x = math.atan2(fy + tt * dy, fx + tt * dx) - geo[e, 1]
+                            if x - two_pi * np.floor(x / two_pi) <= geo[e, 2]:
+                                hit = True
+            if hit:
+                bits[e] |= np.int64(1) << np.int64(b)
+    return bits
+
+
+@njit(cache=True)
+def _step_turns(paths, plen, found, angle, node_circ, node_orient, inside):
+    """For :meth:`_TangentGraph.signatures`: the turn ``(steps, m)`` of every step of the paths
+    ``found`` seen from each centre (``angle``: directions of the nodes from the centres), and
+    the first step of each path. A loop over the steps of a few dozen paths, where NumPy's
+    gathers and masks cost more; the same operations as those (``np.round`` is ``rint``)."""
+    first = np.empty(found.size, np.int64)
+    n_steps = 0
+    for k in range(found.size):
+        first[k] = n_steps
+        n_steps += plen[found[k]] - 1
+    m = angle.shape[1]
+    turn = np.empty((n_steps, m))
+    row = 0
+    for k in range(found.size):
+        p = found[k]
+        for t in range(plen[p] - 1):
+            u, v = paths[p, t], paths[p, t + 1]
+            cu = node_circ[u]
+            arc = u >= 2 and v >= 2 and cu >= 0 and cu == node_circ[v]
+            o = np.float64(node_orient[u])
+            for j in range(m):
+                x = angle[v, j] - angle[u, j]
+                if arc and inside[cu, j]:
+                    turn[row, j] = o * ((o * x) % _TWO_PI)
+                else:
+                    turn[row, j] = x - _TWO_PI * np.rint(x / _TWO_PI)
+            row += 1
+    return turn, first
+
+
+@njit(cache=True)
+def _search(indptr, dst, wgt, bits, masks, node_xy):
+    """For each mask: the shortest path from node 0 to node 1 without the edges whose ``bits``
+    meet the mask (Dijkstra, ordered by the A* bound ``distance + straight line to the goal``,
+    which is consistent here): lengths (inf: none), node paths padded with -1, path sizes."""
+    n = indptr.size - 1
+    n_masks = masks.size
+    lengths = np.full(n_masks, np.inf)
+    paths = np.full((n_masks, n), -1, np.int64)
+    plen = np.zeros(n_masks, np.int64)
+    dist = np.empty(n)
+    pred = np.empty(n, np.int64)
+    done = np.empty(n, np.bool_)
+    gx, gy = node_xy[1, 0], node_xy[1, 1]
+    hkey = np.empty(dst.size + 1)
+    hval = np.empty(dst.size + 1, np.int64)
+    togo = np.empty(n)
+    for v in range(n):
+        togo[v] = math.hypot(node_xy[v, 0] - gx, node_xy[v, 1] - gy)
+    for p in range(n_masks):
+        blocked = masks[p]
+        dist[:] = np.inf
+        pred[:] = -1
+        done[:] = False
+        dist[0] = 0.0
+        # A binary heap of (key, node) pairs in two arrays, ordered lexicographically; every
+        # edge is relaxed at most once, so it never holds more than len(dst) + 1 entries.
+        hkey[0] = togo[0]
+        hval[0] = 0
+        size = 1
+        while size > 0:
+            u = hval[0]
+            size -= 1
+            if size > 0:
+                key = hkey[size]
+                val = hval[size]
+                i = 0
+                while True:
+                    c = 2 * i + 1
+                    if c >= size:
+                        break
+                    if c + 1 < size and (
+                        hkey[c + 1] < hkey[c] or (hkey[c + 1] == hkey[c] and hval[c + 1] < hval[c])
+                    ):
+                        c += 1
+                    if hkey[c] < key or (hkey[c] == key and hval[c] < val):
+                        hkey[i] = hkey[c]
+                        hval[i] = hval[c]
+                        i = c
+                    else:
+                        break
+                hkey[i] = key
+                hval[i] = val
+            if done[u]:
+                continue
+            done[u] = True
+            if u == 1:
+                break
+            d = dist[u]
+            for e in range(indptr[u], indptr[u + 1]):
+                if bits[e] & blocked:
+                    continue
+                v = dst[e]
+                nd = d + wgt[e]
+                if nd < dist[v]:
+                    dist[v] = nd
+                    pred[v] = u
+                    key = nd + togo[v]
+                    i = size
+                    size += 1
+                    while i > 0:
+                        par = (i - 1) // 2
+                        if key < hkey[par] or (key == hkey[par] and v < hval[par]):
+                            hkey[i] = hkey[par]
+                            hval[i] = hval[par]
+                            i = par
+                        else:
+                            break
+                    hkey[i] = key
+                    hval[i] = v
+        if not done[1]:
+            continue
+        lengths[p] = dist[1]
+        k = 0
+        v = np.int64(1)
+        while v != -1:
+            k += 1
+            v = pred[v]
+        plen[p] = k
+        v = np.int64(1)
+        while v != -1:  # written backwards from the goal
+            k -= 1
+            paths[p, k] = v
+            v = pred[v]
+    return lengths, paths, plen
