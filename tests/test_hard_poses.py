@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from leapfrog_planner.batch.generate import GeneratorSpec, generate, generate_one
-from leapfrog_planner.planning.leapfrog import LeapfrogSettings, _continuation
+from leapfrog_planner.planning.leapfrog import LeapfrogSettings, continuation
 from leapfrog_planner.planning.planner import Planner, plan
 from leapfrog_planner.planning.results import PlanStatus
 from leapfrog_planner.planning.scenario import Scenario
@@ -103,12 +103,12 @@ def test_continuation_steps_adapt_and_predict():
         return Root(root) if abs(guess - root) < 0.3 else None
 
     settings = LeapfrogSettings(continuation_steps=60)
-    r = _continuation(solve_at, 0.0, 1.0, settings)
+    r = continuation(solve_at, 0.0, 1.0, settings)
     assert r is not None and r.costate0 == 10.0
     steps = np.diff([0.0] + sorted(set(calls)))
     assert steps.min() < settings.continuation_first_step  # halved somewhere
     # Within a tight step budget, or with a too small minimum step, it gives up.
-    assert _continuation(solve_at, 0.0, 1.0, LeapfrogSettings(continuation_steps=3)) is None
+    assert continuation(solve_at, 0.0, 1.0, LeapfrogSettings(continuation_steps=3)) is None
 
 
 def test_general_preset_sample_converges_without_collisions():

@@ -17,7 +17,7 @@ from conftest import CASES, EXTREMAL_COSTATE
 from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
 from leapfrog_planner.bvp.shooting import solve_shooting
 from leapfrog_planner.errors import SettingsError
-from leapfrog_planner.planning.leapfrog import LeapfrogSettings, SweepRecord, _Arcs, leapfrog
+from leapfrog_planner.planning.leapfrog import Junctions, LeapfrogSettings, SweepRecord, leapfrog
 from leapfrog_planner.planning.path_ranking import PathGuide
 from leapfrog_planner.planning.planner import Planner, plan
 from leapfrog_planner.planning.results import validate
@@ -186,7 +186,7 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
     shooting takes over, first with the local problems' integrator, then, from its answer, with
     the final one in at most two iterations. A failing coarse stage is the fallback's failure
     (no second solve from the start)."""
-    import leapfrog_planner.planning.leapfrog as lf
+    import leapfrog_planner.planning.leapfrog.final as lf
 
     stages = []
     real = lf.solve_multiple_shooting
@@ -299,8 +299,8 @@ def test_default_settings_are_documented_values():
         ("max_refinements", -1, "max_refinements"),
         ("attempt_stall_window", -1, "attempt_stall_window"),
         ("two_arc_attempt", "yes", "two_arc_attempt"),
-        ("local_halvings", -1, "local_halvings"),
-        ("local_halvings", 2.5, "local_halvings"),
+        ("local", "modified-newton", "step object"),
+        ("fused_sweeps", 1, "fused_sweeps"),
         ("final_retry_sweeps", -1, "final_retry_sweeps"),
         ("final_retry_jump", 0.0, "final_retry_jump"),
     ],
@@ -365,7 +365,7 @@ def test_refined_arcs_are_the_same_piecewise_extremal(case1):
         z.append(r.z)
         cost.append(r.cost)
     Z = np.array(z)
-    arcs = _Arcs(t=t, X=Z[:, :3].copy(), lam0=Z[:-1, 3:].copy(), lam1=Z[1:, 3:].copy(),
+    arcs = Junctions(t=t, X=Z[:, :3].copy(), lam0=Z[:-1, 3:].copy(), lam1=Z[1:, 3:].copy(),
                  cost=np.array(cost))  # fmt: skip
     fine = arcs.refined(flow)
     assert fine.q == 8
@@ -428,7 +428,7 @@ def test_initial_segments_go_to_continuation_before_the_affine_guess(monkeypatch
     """On the initial path, a segment whose warm guess and path costate fail at the full weight
     is solved next by continuation (its first solve at weight 0), not from the affine guess at
     the full weight. Paper case 4's second initial path has such segments."""
-    import leapfrog_planner.planning.leapfrog as lf
+    import leapfrog_planner.planning.leapfrog.local as lf
 
     calls = []
     real = lf.LocalShooter.__call__
@@ -485,16 +485,17 @@ def test_two_arc_attempts_reach_the_same_optimum_with_less_work():
 
 def _multiple_shooting_calls(monkeypatch, run) -> list:
     """The arguments of every multiple-shooting solve made by ``run()``."""
-    import leapfrog_planner.planning.leapfrog as lf
+    from leapfrog_planner.planning.leapfrog import final, local
 
     calls = []
-    real = lf.solve_multiple_shooting
+    real = local.solve_multiple_shooting
 
     def spy(system, w0, method, settings, compiled):
         calls.append((system, np.array(w0, dtype=float), method, settings))
         return real(system, w0, method, settings, compiled)
 
-    monkeypatch.setattr(lf, "solve_multiple_shooting", spy)
+    for module in (local, final):  # the two-arc attempts and the final fallback
+        monkeypatch.setattr(module, "solve_multiple_shooting", spy)
     run()
     monkeypatch.undo()
     return calls
@@ -560,9 +561,8 @@ def test_the_compiled_local_newton_changes_nothing_but_time(case, method):
 
 
 def _sweeps_fused_and_python(monkeypatch, run):
-    """``run()`` with the compiled warm sweep and with every junction from Python, each with
-    its counted integrator work."""
-    import leapfrog_planner.planning.leapfrog as lf_module
+    """``run(fused_sweeps=...)`` with the compiled warm sweep and with every junction from
+    Python, each with its counted integrator work."""
     from leapfrog_planner.bvp.shooting import LocalShooter
     from leapfrog_planner.experiments.profiling import count_work
 
@@ -573,9 +573,8 @@ def _sweeps_fused_and_python(monkeypatch, run):
     )
     out = []
     for fused in (True, False):
-        monkeypatch.setattr(lf_module, "_FUSED_SWEEPS", fused)
         calls.clear()
-        out.append(count_work(run))
+        out.append(count_work(lambda fused=fused: run(fused_sweeps=fused)))
         assert bool(calls) == fused  # the compiled sweep ran, or not at all
     return out
 
@@ -600,7 +599,7 @@ def test_the_compiled_warm_sweep_is_the_python_sweep_bit_for_bit(monkeypatch, me
     answer and the integrator work are identical with and without the compiled sweep."""
     fast, ref = _sweeps_fused_and_python(
         monkeypatch,
-        lambda: Planner(CASES[3].name, method=method, initial_paths=1, threads=1).plan(),
+        lambda **kw: Planner(CASES[3].name, method=method, initial_paths=1, threads=1, **kw).plan(),
     )
     _same_sweeps(fast.value.history, ref.value.history)
     assert (fast.value.costate0 == ref.value.costate0).all()
@@ -619,10 +618,46 @@ def test_the_compiled_warm_sweep_keeps_failures_and_rejections(monkeypatch):
     t, X = straight_junctions(planner.scenario, 4)
     fast, ref = _sweeps_fused_and_python(
         monkeypatch,
-        lambda: leapfrog(planner.problem, t, X, settings=LeapfrogSettings(partitions=4)),
+        lambda **kw: leapfrog(planner.problem, t, X, settings=LeapfrogSettings(partitions=4, **kw)),
     )
     assert sum(h.failures for h in fast.value.history) > 0
     assert sum(h.rejected for h in fast.value.history) > 0
     _same_sweeps(fast.value.history, ref.value.history)
     assert (fast.value.costate0 == ref.value.costate0).all()
     assert fast.steps == ref.steps and fast.integrations == ref.integrations
+
+
+# --------------------------------------------------------------------------- the rule for q
+
+
+def _rec(cost, jump=1.0, failures=0):
+    return SweepRecord(1, 8, cost, jump, 0, 0, failures, 0, 0.0, np.zeros(9), np.zeros((9, 3)))
+
+
+def test_next_level_is_a_pure_rule_of_the_sweep_record():
+    """Without integrating anything: halve when settled, stay while progressing, refine a
+    level that ends with failures (at most max_refinements times), and after refinements ask
+    for ten times less decrease per refinement."""
+    from leapfrog_planner.planning.leapfrog import Level, LevelState, next_level
+
+    s = LeapfrogSettings()
+    fresh = LevelState()
+    # 1% decrease: progress, stay; 0.01%: settled, halve; a tiny jump settles too.
+    assert next_level(_rec(99.0), 100.0, fresh, s) == (Level.STAY, LevelState(1, 0, 0))
+    assert next_level(_rec(99.99), 100.0, fresh, s) == (Level.HALVE, LevelState())
+    assert next_level(_rec(90.0, jump=1e-7), 100.0, fresh, s)[0] is Level.HALVE
+    # Settled but a local problem failed: stay once, then (two stalls) refine.
+    move, state = next_level(_rec(99.99, failures=1), 100.0, fresh, s)
+    assert (move, state) == (Level.STAY, LevelState(1, 1, 0))
+    assert next_level(_rec(99.99, failures=1), 100.0, state, s) == (
+        Level.REFINE,
+        LevelState(0, 0, 1),
+    )
+    # Refinements are spent: halve instead.
+    spent = LevelState(1, 1, s.max_refinements)
+    assert next_level(_rec(99.9999, failures=1), 100.0, spent, s)[0] is Level.HALVE
+    # After one refinement, a 0.05% decrease is progress (the bar is 0.01%).
+    assert next_level(_rec(99.95), 100.0, LevelState(0, 0, 1), s)[0] is Level.STAY
+    # The level's sweep budget ends it whatever the progress.
+    last = LevelState(s.sweeps_per_level - 1, 0, 0)
+    assert next_level(_rec(50.0), 100.0, last, s)[0] is Level.HALVE

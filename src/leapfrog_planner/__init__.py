@@ -20,6 +20,7 @@ _LAZY = {
     "plan": ".planning.planner",
     "Planner": ".planning.planner",
     "PlannerSettings": ".planning.planner",
+    "PlanResult": ".planning.results",
     "LeapfrogResult": ".planning.results",
     "PlanStatus": ".planning.results",
 }
@@ -44,6 +45,7 @@ __all__ = [
     "IntegratorSettings",
     "LeapfrogError",
     "LeapfrogResult",
+    "PlanResult",
     "ModelInfo",
     "ModelError",
     "ObstaclePenalty",

@@ -8,6 +8,7 @@ Jacobian ``DF = dx(t1)/dlambda(t0)`` comes from the variational equations (the c
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import expm, solve
@@ -261,6 +262,20 @@ def solve_shooting(
     return shooting_result(flow, t0, x0, t1, x1, root, settings.samples, last)
 
 
+class SweepOutcome(NamedTuple):
+    """What the compiled warm sweep returns: why it stopped (the kernels' ``SWEEP_DONE``,
+    ``SWEEP_WARM_FAILED`` or ``SWEEP_PYTHON``), at which junction, and its counts."""
+
+    code: int
+    junction: int
+    iterations: int
+    f_evals: int
+    rejected: int
+    steps: int  # accepted integrator steps
+    integrations: int
+    jacobians: int  # integrations with the variational equations
+
+
 _FUSED = (NewtonStep, ModifiedNewtonStep, NleqErrStep)  # codes 0, 1, 2 of shoot_newton
 _CODES = tuple(RootStatus)  # the compiled loop's status codes, in RootStatus order
 
@@ -369,12 +384,12 @@ class LocalShooter:
         """Whether the compiled loop runs this shooter's solves (and :meth:`warm_sweep` works)."""
         return self._fused
 
-    def warm_sweep(self, T, X, L0, L1, C, i: int) -> tuple:
+    def warm_sweep(self, T, X, L0, L1, C, i: int) -> SweepOutcome:
         """Leapfrog's sweep from junction ``i`` over the arcs ``(T, X, L0, L1, C)`` (in place),
         as long as each local problem converges from its warm guess: the model kernels'
-        ``sweep_warm``, whose raw outputs are returned."""
-        return self.flow.kernels.sweep_warm(
-            T, X, L0, L1, C, i, *self._args, self._norms, self._lams
+        ``sweep_warm``."""
+        return SweepOutcome(
+            *self.flow.kernels.sweep_warm(T, X, L0, L1, C, i, *self._args, self._norms, self._lams)
         )
 
     def _loop(self, ends, s0) -> tuple:

@@ -24,7 +24,7 @@ from pathlib import Path
 from .._atomic import write_atomic
 from ..errors import SettingsError
 from ..planning.planner import Planner
-from ..planning.results import LeapfrogResult
+from ..planning.results import PlanResult
 
 __all__ = [
     "PAPER_TABLE1",
@@ -86,7 +86,7 @@ class MethodRun:
     """One (case, method): the result of the last repetition and every repetition's time."""
 
     method: str
-    result: LeapfrogResult
+    result: PlanResult
     times_s: tuple[float, ...]
 
     @property
@@ -219,7 +219,7 @@ def table_rows(result: PaperResult) -> list[dict]:
     return rows
 
 
-def _cost_cell(r: LeapfrogResult, case: int) -> str:
+def _cost_cell(r: PlanResult, case: int) -> str:
     if not r.success:
         return "**failed**"
     gap = (r.cost - REFERENCE_COST[case]) / REFERENCE_COST[case]

@@ -146,7 +146,7 @@ def _outcome(solver, sc, ok, cost, err, times, message) -> PeerOutcome:
 
 def leapfrog_peer(sc: Scenario, method: str, solver: str | None = None, **options) -> Peer:
     """Leapfrog with ``method`` (and planner ``options``); its value is the
-    :class:`~leapfrog_planner.planning.results.LeapfrogResult`."""
+    :class:`~leapfrog_planner.planning.results.PlanResult`."""
     from ..planning.planner import Planner
 
     name = solver or f"leapfrog-{method}"
@@ -180,7 +180,7 @@ def shooting_peer(sc: Scenario, guess=None, solver: str = "shooting", per_round:
 
 
 def run_leapfrog(sc: Scenario, method: str, repeat: int, solver: str | None = None, **options):
-    """:func:`leapfrog_peer` measured alone: the outcome and the last ``LeapfrogResult``."""
+    """:func:`leapfrog_peer` measured alone: the outcome and the last ``PlanResult``."""
     ((out, res),) = measure([leapfrog_peer(sc, method, solver, **options)], repeat)
     return out, res
 

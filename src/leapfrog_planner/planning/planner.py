@@ -20,11 +20,11 @@ from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, Trajectory
 from ..model.problem import OptimalControlProblem
 from .initial_path import InitialPath, initial_paths
-from .leapfrog import LeapfrogRun, LeapfrogSettings, SweepRecord, leapfrog
+from .leapfrog import LeapfrogSettings, LeapfrogSolution, SweepRecord, leapfrog
 from .path_ranking import PathGuide, rank_paths
 from .results import (
-    LeapfrogResult,
     PathOutcome,
+    PlanResult,
     PlanStatus,
     Validation,
     penalty_integral,
@@ -52,22 +52,14 @@ class PlanEvent:
 
 @dataclass(frozen=True)
 class PlannerSettings:
-    initial_paths: int = 3  # initial paths tried, in different homotopy classes
-    # Candidates (the shortest paths in different homotopy classes) from which the initial paths
-    # are picked by estimated cost (see path_ranking): on paper case 4 the path that leads to the
-    # cheapest optimum is only the fifth shortest.
-    candidate_paths: int = 8
-    # Obstacle inflation of the initial paths: small, since optimal paths squeeze through gaps
-    # (paper case 3's optimum passes two obstacles 0.066 apart with 0.033 clearance).
-    margin: float = 0.02
+    """The planner's settings (the measurements behind the defaults: ``docs/tuning.md``)."""
+
+    initial_paths: int = 3  # initial paths tried, of least estimated cost
+    candidate_paths: int = 8  # homotopy classes planned, from which those are picked
+    margin: float = 0.02  # obstacle inflation of the initial paths
     samples: int = 1001  # points of the returned dense trajectory
-    # Initial paths run in parallel threads (the compiled flow releases the GIL): 0 means one per
-    # path, all at once; 1 runs them one after the other. Results do not depend on it. Paths take
-    # unequal times (paper case 4: 69, 107 and 105 ms alone), and a pool of one thread per core
-    # leaves a core idle while the other finishes its second path; with one thread per path the
-    # cores share the work to the end. Measured on 2 cores, 6 interleaved rounds of 5 plans:
-    # paper case 4, 195 -> 176 ms mean of the medians (3 threads faster or equal in every round);
-    # case 3, 160 -> 158.
+    # Initial paths run in parallel threads (the compiled flow releases the GIL): 0 means one
+    # per path, all at once; 1 runs them one after the other. Results do not depend on it.
     threads: int = 0
     leapfrog: LeapfrogSettings = LeapfrogSettings()
 
@@ -103,8 +95,7 @@ class PlannerSettings:
 
 #: When no extremal clears the obstacles and some passed through one, those initial paths are
 #: planned again with the obstacle weight raised by this factor, at most ``WEIGHT_RAISES`` times
-#: (16 W in all). On 500 random scenarios (one path each) every rescue needed 4 W or 16 W, and a
-#: third raise rescued none while costing seconds (the penalty at 64 W is stiff).
+#: (16 W in all; see docs/tuning.md).
 WEIGHT_FACTOR = 4.0
 WEIGHT_RAISES = 2
 
@@ -116,7 +107,7 @@ class PathRun:
 
     path: InitialPath
     guide: PathGuide
-    run: LeapfrogRun
+    run: LeapfrogSolution
     junctions: tuple[np.ndarray, np.ndarray]  # (t, X) of the initial path
     validation: Validation | None
     weight: float
@@ -224,7 +215,7 @@ class Planner:
         ranked = rank_paths(self.problem, candidates, s.horizon)
         return [path for _, path in ranked[: st.initial_paths]]
 
-    def plan(self) -> LeapfrogResult:
+    def plan(self) -> PlanResult:
         with single_threaded_blas():
             return self._plan()
 
@@ -273,7 +264,7 @@ class Planner:
                 return list(pool.map(self._run_path, *args))
         return list(map(self._run_path, *args))
 
-    def _plan(self) -> LeapfrogResult:
+    def _plan(self) -> PlanResult:
         t_begin = time.perf_counter()
         paths = self.initial_paths()
         t_paths = time.perf_counter() - t_begin
@@ -327,7 +318,7 @@ class Planner:
         tr = first.guide.trajectory(self.settings.samples)
         return status, first, Answer(tr, None, "initial path, not optimal")
 
-    def _result(self, runs, t_paths, t_runs, wall) -> LeapfrogResult:
+    def _result(self, runs, t_paths, t_runs, wall) -> PlanResult:
         status, best, answer = self._answer(runs)
         s, info, run, v = self.scenario, self.problem.model, best.run, answer.validation
         tr = answer.trajectory
@@ -352,7 +343,7 @@ class Planner:
             cost = float(tr.cost[-1])
             energy, end_error = cost - penalty, float(np.linalg.norm(tr.x[-1] - s.goal))
             clearance = problem.penalty.clearance(tr.x[:, :2])
-        return LeapfrogResult(
+        return PlanResult(
             status=status,
             message=self._message(status, best, answer, runs),
             scenario=s.name,
@@ -426,7 +417,7 @@ def _valid(v) -> bool:
     return v is not None and np.isfinite(v.cost) and v.end_state_error <= END_STATE_TOLERANCE
 
 
-def plan(scenario: Scenario | str, *, progress=None, **options) -> LeapfrogResult:
+def plan(scenario: Scenario | str, *, progress=None, **options) -> PlanResult:
     """Plan ``scenario`` (an object, a file or a built-in name) with Leapfrog.
 
     Options: ``method`` (``newton``, ``modified-newton``, ``nleq-err``), ``partitions``,

@@ -178,7 +178,10 @@ def penalty_integral(problem: OptimalControlProblem, tr: Trajectory, samples: in
 
 
 @dataclass(frozen=True)
-class LeapfrogResult:
+class PlanResult:
+    """What :func:`.planner.plan` returns: the status, the trajectory (an extremal, or the best
+    collision-free motion computed), its cost, its checks, the sweeps and the timings."""
+
     status: PlanStatus
     message: str
     scenario: str
@@ -316,3 +319,7 @@ class LeapfrogResult:
                 np.savez(fh, **arrays)
 
         write_atomic(path, write)
+
+
+#: The old name of :class:`PlanResult`, kept for one release.
+LeapfrogResult = PlanResult

@@ -27,7 +27,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from .._atomic import write_atomic as _write_atomic
-from ..planning.results import LeapfrogResult
+from ..planning.results import PlanResult
 from ..planning.scenario import Scenario, load_scenario
 
 __all__ = ["animate_sweeps", "plot_controls", "plot_convergence", "plot_path", "save_figure"]
@@ -66,7 +66,7 @@ def _as_scenario(scenario) -> Scenario:
     return scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
 
 
-def _status(result: LeapfrogResult) -> str:
+def _status(result: PlanResult) -> str:
     return str(getattr(result.status, "value", result.status))
 
 
@@ -74,13 +74,13 @@ def _cost_text(cost: float) -> str:
     return f"{cost:.6g}" if np.isfinite(cost) else "n/a"
 
 
-def _title(result: LeapfrogResult, sc: Scenario) -> str:
+def _title(result: PlanResult, sc: Scenario) -> str:
     if result.trajectory is not None and np.isfinite(result.cost):
         return f"{sc.name} — cost J = {result.cost:.6g} ({result.method})"
     return f"{sc.name} — {_status(result)}: no optimal path ({result.method})"
 
 
-def _junctions(result: LeapfrogResult) -> np.ndarray | None:
+def _junctions(result: PlanResult) -> np.ndarray | None:
     """The initial junction states ``(q + 1, 3)``, or None."""
     ij = result.initial_junctions
     if ij is None or len(ij) < 2 or ij[1] is None:
@@ -89,7 +89,7 @@ def _junctions(result: LeapfrogResult) -> np.ndarray | None:
     return X if X.ndim == 2 and X.shape[0] > 0 and X.shape[1] >= 2 else None
 
 
-def _extent(sc: Scenario, result: LeapfrogResult) -> tuple[float, float, float, float]:
+def _extent(sc: Scenario, result: PlanResult) -> tuple[float, float, float, float]:
     """Bounding box of everything drawn: end points, obstacles, junctions and the path."""
     pts = [sc.start[None, :2], sc.goal[None, :2]]
     if sc.obstacles.shape[0]:
@@ -108,7 +108,7 @@ def _extent(sc: Scenario, result: LeapfrogResult) -> tuple[float, float, float, 
     return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
 
 
-def _arrow_length(sc: Scenario, result: LeapfrogResult, arrows: int = 9) -> float:
+def _arrow_length(sc: Scenario, result: PlanResult, arrows: int = 9) -> float:
     """About 7 % of the plot, but short enough that ``arrows`` arrows along the path stay apart."""
     x0, x1, y0, y1 = _extent(sc, result)
     length = 0.07 * max(x1 - x0, y1 - y0, 1e-9)
@@ -120,7 +120,7 @@ def _arrow_length(sc: Scenario, result: LeapfrogResult, arrows: int = 9) -> floa
     return max(length, 0.02 * max(x1 - x0, y1 - y0, 1e-9))
 
 
-def _path_figsize(sc: Scenario, result: LeapfrogResult, legend_width: float) -> tuple:
+def _path_figsize(sc: Scenario, result: PlanResult, legend_width: float) -> tuple:
     """A figure whose axes roughly follow the data's aspect ratio, plus room for the legend."""
     x0, x1, y0, y1 = _extent(sc, result)
     w, h = max(x1 - x0, 1e-9), max(y1 - y0, 1e-9)
@@ -129,7 +129,7 @@ def _path_figsize(sc: Scenario, result: LeapfrogResult, legend_width: float) -> 
     return (width + legend_width, max(height, 4.0))
 
 
-def _frame(ax: Axes, sc: Scenario, result: LeapfrogResult) -> None:
+def _frame(ax: Axes, sc: Scenario, result: PlanResult) -> None:
     """Equal aspect and limits with room for the arrows at the edges."""
     x0, x1, y0, y1 = _extent(sc, result)
     pad = 0.12 * max(x1 - x0, y1 - y0, 1e-9)
@@ -211,7 +211,7 @@ def _draw_ends(ax: Axes, sc: Scenario, length: float, label: bool = True) -> Non
         )
 
 
-def _draw_initial(ax: Axes, result: LeapfrogResult, label: bool = True) -> None:
+def _draw_initial(ax: Axes, result: PlanResult, label: bool = True) -> None:
     X = _junctions(result)
     if X is None:
         return
@@ -245,7 +245,7 @@ def _no_data(ax: Axes, text: str) -> None:
 
 
 def plot_path(
-    result: LeapfrogResult,
+    result: PlanResult,
     scenario: Scenario | str,
     ax: Axes | None = None,
     *,
@@ -345,7 +345,7 @@ def _sweep_colors(n: int):
     return [cmap(v) for v in np.linspace(0.3, 1.0, n)] if n else []
 
 
-def plot_convergence(result: LeapfrogResult, scenario: Scenario | str, fig=None) -> Figure:
+def plot_convergence(result: PlanResult, scenario: Scenario | str, fig=None) -> Figure:
     """Leapfrog's progress: junctions per sweep (left), cost and costate jump (right).
 
     Left: obstacles, start and goal, the initial junctions (dashed), the junction polyline
@@ -461,7 +461,7 @@ def plot_convergence(result: LeapfrogResult, scenario: Scenario | str, fig=None)
 # --------------------------------------------------------------------------- plot_controls
 
 
-def plot_controls(result: LeapfrogResult, fig=None) -> Figure:
+def plot_controls(result: PlanResult, fig=None) -> Figure:
     """Controls (top), costates (middle) and ``H - H(0)`` (bottom, small) against time.
 
     Lines are labelled with the model's control and state names. Without a trajectory (a
@@ -516,7 +516,7 @@ def plot_controls(result: LeapfrogResult, fig=None) -> Figure:
 # --------------------------------------------------------------------------- animate_sweeps
 
 
-def animate_sweeps(result: LeapfrogResult, scenario: Scenario | str, path, *, fps: int = 4) -> Path:
+def animate_sweeps(result: PlanResult, scenario: Scenario | str, path, *, fps: int = 4) -> Path:
     """Write an animated GIF of the junctions sweep by sweep, then the final path.
 
     Frame 0 shows the initial junctions, frame k the junctions after sweep k (earlier sweeps

@@ -1,0 +1,229 @@
+"""Leapfrog's driver, in the shape of an iterative solve: :func:`init` fits the initial path's
+arcs, :func:`step` sweeps once and decides the level, :func:`terminate` says when ``q = 2`` or
+the sweep budget is reached, :func:`postprocess` runs the final solve (and its retry) and
+returns the :class:`LeapfrogSolution`."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..._blas import blas_single_threaded
+from ...integrate.flow import Flow
+from ...model.problem import OptimalControlProblem
+from ...roots import RootResult
+from ..path_ranking import PathGuide
+from .arcs import Arcs, Junctions
+from .final import FinalSolver
+from .levels import Level, LevelState, next_level
+from .local import LocalSolver
+from .settings import LeapfrogSettings
+from .sweep import SweepRecord, fit_initial_path, sweep
+
+
+@dataclass(frozen=True)
+class LeapfrogSolution:
+    """What the algorithm produced for one initial path (before validation)."""
+
+    success: bool
+    message: str
+    costate0: np.ndarray | None  # lambda(0) of the final extremal
+    # The final extremal as its solver found it: one arc (simple shooting) or the junctions of
+    # multiple shooting, whose re-integration arc by arc checks it where one long shot from
+    # lambda(0) is too ill-conditioned to reach the goal to 1e-8 (long horizons, tight turns).
+    extremal: Arcs | None
+    final_solver: str | None  # "shooting" or "multiple-shooting"
+    initial_cost: float
+    max_costate_jump: float  # at the junctions when the sweeps ended (before the final solve)
+    history: tuple[SweepRecord, ...]
+    newton_iterations: int
+    f_evals: int
+    cost_increases: int  # sweeps whose piecewise cost rose (should stay 0)
+    sweep_time_s: float
+    final_time_s: float
+    final_root: RootResult | None
+    # The last piecewise extremal whose arcs meet at their junctions (the last level with
+    # q > 2, or the initial path's arcs): a feasible motion from start to goal even when the
+    # final solve fails. None when the initial path's segments failed.
+    arcs: Arcs | None = None
+    # How the initial path's segments were solved: segments per strategy ("warm", "path
+    # costate", "weight continuation", "end-state continuation", "affine guess"), "failed"
+    # (every strategy failed) and "split" (segments split in two after failing).
+    fit_strategies: dict[str, int] = field(default_factory=dict)
+
+
+@dataclass
+class State:
+    """A run between sweeps: the current level, the last level with ``q > 2`` (multiple
+    shooting's junctions), the level's state and the record of every sweep."""
+
+    arcs: Junctions
+    last_multi: Junctions
+    level: LevelState
+    initial_cost: float
+    history: list[SweepRecord] = field(default_factory=list)
+    increases: int = 0
+
+    def last_cost(self) -> float:
+        return self.history[-1].cost if self.history else self.initial_cost
+
+
+@blas_single_threaded
+def leapfrog(
+    problem: OptimalControlProblem,
+    t: np.ndarray,
+    X: np.ndarray,
+    *,
+    guide: PathGuide | None = None,
+    settings: LeapfrogSettings | None = None,
+    flow: Flow | None = None,
+    progress: Callable[[SweepRecord], None] | None = None,
+) -> LeapfrogSolution:
+    """Run Leapfrog from the junctions ``(t, X)`` of a feasible path from ``X[0]`` to ``X[-1]``.
+
+    ``guide`` is that path followed in time (:class:`.path_ranking.PathGuide`): its costates
+    start the initial segments' shooting, and its states split a segment whose two-point
+    problem fails. ``flow`` is reused for the stage it was built for (the final solves or the
+    local problems). ``progress`` is called after each sweep.
+    """
+    settings = settings or LeapfrogSettings()
+    t, X = np.asarray(t, dtype=float), np.asarray(X, dtype=float)
+    local, final = _solvers(problem, t, X, guide, settings, flow)
+    t_start = time.perf_counter()
+    state = init(local, t, X)
+    if isinstance(state, str):
+        return _failed(state, local, time.perf_counter() - t_start)
+    while not terminate(state, settings):
+        step(state, local, settings, progress)
+    return postprocess(state, local, final, settings, progress, t_start)
+
+
+def _solvers(problem, t, X, guide, settings, flow) -> tuple[LocalSolver, FinalSolver]:
+    """The local and final solvers of a run, each with its flow (``flow`` reused where its
+    settings fit)."""
+    final_integrator = settings.final_shooting.integrator
+    final_flow = flow if flow is not None and flow.settings == final_integrator else None
+    final_flow = final_flow or Flow(problem, final_integrator)
+    if flow is None or flow.settings != settings.shooting.integrator:
+        flow = Flow(problem, settings.shooting.integrator)
+    local = LocalSolver(problem, flow, settings, guide)
+    start, goal = X[0].copy(), X[-1].copy()
+    return local, FinalSolver(local, final_flow, start, goal, float(t[0]), float(t[-1]))
+
+
+def init(local: LocalSolver, t: np.ndarray, X: np.ndarray) -> State | str:
+    """The initial path's arcs as the first level; a message when a segment failed."""
+    arcs = fit_initial_path(local, t, X)
+    if isinstance(arcs, str):
+        return arcs
+    return State(arcs, arcs, LevelState(), float(arcs.cost.sum()))
+
+
+def terminate(state: State, settings: LeapfrogSettings) -> bool:
+    return state.arcs.q <= 2 or len(state.history) >= settings.max_sweeps
+
+
+def _sweep(state: State, level: Junctions, local: LocalSolver, progress) -> SweepRecord:
+    """One sweep over ``level``, recorded in ``state``."""
+    before = state.last_cost()
+    rec = sweep(level, local, len(state.history) + 1)
+    state.increases += rec.cost > before + 1e-9 * max(1.0, abs(before))
+    state.history.append(rec)
+    if progress is not None:
+        progress(rec)
+    return rec
+
+
+def step(state: State, local: LocalSolver, settings: LeapfrogSettings, progress) -> None:
+    """One sweep of the current level, then the level's next move (:func:`next_level`)."""
+    before = state.last_cost()
+    rec = _sweep(state, state.arcs, local, progress)
+    move, state.level = next_level(rec, before, state.level, settings)
+    if move is Level.REFINE:
+        state.arcs = state.arcs.refined(local.flow)
+    elif move is Level.HALVE:
+        state.last_multi = state.arcs
+        state.arcs = state.arcs.halved()
+
+
+def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSolution:
+    """The final solve; if it fails after the sweeps reached ``q = 2`` from a level left with a
+    large costate jump, that level swept on (at most ``final_retry_sweeps`` more sweeps, until
+    its jump is below ``final_retry_jump`` or a sweep no longer lowers the cost) and the final
+    solve again. (A run that spent ``max_sweeps`` before reaching ``q = 2`` is not retried.)"""
+    sweep_time = time.perf_counter() - t_start
+    arcs, level = state.arcs, state.last_multi
+    final_jump = arcs.max_jump()
+    t_final = time.perf_counter()
+    retry_time, first_failure, swept = 0.0, None, len(state.history)
+    extremal, solver, root = final.solve(arcs.lam0[0], level)
+    if extremal is None and settings.final_retry_sweeps and arcs.q == 2 and level.q > 2:
+        t_more = time.perf_counter()
+        first_failure = root
+        for _ in range(settings.final_retry_sweeps):
+            before = state.last_cost()
+            rec = _sweep(state, level, local, progress)
+            if rec.max_costate_jump < settings.final_retry_jump or not rec.cost < before:
+                break
+        retry_time = time.perf_counter() - t_more
+        final_jump = level.max_jump()
+        extremal, solver, root = final.solve(level.lam0[0], level)
+    final_time = time.perf_counter() - t_final - retry_time
+    more = len(state.history) - swept
+    return LeapfrogSolution(
+        success=extremal is not None,
+        message=_message(extremal, solver, root, first_failure, more, level.q, state),
+        costate0=None if extremal is None else extremal.lam0[0].copy(),
+        extremal=extremal,
+        final_solver=solver,
+        initial_cost=state.initial_cost,
+        max_costate_jump=final_jump,
+        history=tuple(state.history),
+        newton_iterations=local.count.iterations,
+        f_evals=local.count.f_evals,
+        cost_increases=state.increases,
+        sweep_time_s=sweep_time + retry_time,
+        final_time_s=final_time,
+        final_root=root,
+        arcs=(arcs if arcs.q > 2 or arcs is level else level).frozen(),
+        fit_strategies=dict(local.strategies.counts),
+    )
+
+
+def _message(extremal, solver, root, first_failure, more: int, q: int, state: State) -> str:
+    if extremal is None:
+        msg = f"final solve failed ({root.status}: {root.message})" if root else "no final solve"
+        if first_failure is not None:
+            msg += f", also after {more} more sweeps at q = {q}"
+        return msg
+    msg = f"converged by {solver} after {len(state.history)} sweeps"
+    if first_failure is not None:
+        msg += (
+            f" ({more} of them at q = {q} after the final solves had failed:"
+            f" {first_failure.status})"
+        )
+    return msg
+
+
+def _failed(message: str, local: LocalSolver, sweep_time: float) -> LeapfrogSolution:
+    """A run whose initial path's segments could not all be solved."""
+    return LeapfrogSolution(
+        success=False,
+        message=message,
+        costate0=None,
+        extremal=None,
+        final_solver=None,
+        initial_cost=np.inf,
+        max_costate_jump=float("nan"),
+        history=(),
+        newton_iterations=local.count.iterations,
+        f_evals=local.count.f_evals,
+        cost_increases=0,
+        sweep_time_s=sweep_time,
+        final_time_s=0.0,
+        final_root=None,
+        fit_strategies=dict(local.strategies.counts),
+    )

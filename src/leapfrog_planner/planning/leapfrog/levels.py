@@ -1,0 +1,50 @@
+"""When a level ends, and what follows it: the rule for reducing ``q``, as a pure function.
+
+After a sweep, the level ends when the sweep had no failed local problem and lowered the cost by
+less than ``reduce_tol`` (relative) or brought the largest costate jump below ``jump_tol``; when
+two sweeps in a row made no such progress (failures or not); or when ``sweeps_per_level`` sweeps
+were made at this ``q``. A level that ends with a local problem still failing is refined (every
+arc split at its middle: shorter local problems) rather than halved, at most ``max_refinements``
+times per run: halving on would hand the final solve a large costate jump. After ``k``
+refinements a level must lower the cost by less than ``reduce_tol * 0.1**k`` to count as settled.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+from .settings import LeapfrogSettings
+from .sweep import SweepRecord
+
+
+class Level(Enum):
+    STAY = "stay"  # sweep on at this q
+    HALVE = "halve"  # keep every other junction
+    REFINE = "refine"  # split every arc at its middle
+
+
+@dataclass(frozen=True)
+class LevelState:
+    sweeps: int = 0  # sweeps made at this level
+    stalls: int = 0  # sweeps in a row that made no progress
+    refinements: int = 0  # levels refined so far in the run
+
+
+def next_level(
+    rec: SweepRecord, cost_before: float, state: LevelState, settings: LeapfrogSettings
+) -> tuple[Level, LevelState]:
+    """What follows sweep ``rec`` (whose level cost ``cost_before`` before it), and the state
+    of the level after it (reset when the level ends)."""
+    sweeps = state.sweeps + 1
+    decrease = (cost_before - rec.cost) / max(abs(rec.cost), 1e-12)
+    settled = (
+        decrease < settings.reduce_tol * 0.1**state.refinements
+        or rec.max_costate_jump < settings.jump_tol
+    )
+    stalls = state.stalls + 1 if settled else 0
+    if not ((settled and rec.failures == 0) or stalls >= 2 or sweeps >= settings.sweeps_per_level):
+        return Level.STAY, LevelState(sweeps, stalls, state.refinements)
+    if rec.failures and state.refinements < settings.max_refinements:
+        return Level.REFINE, LevelState(0, 0, state.refinements + 1)
+    return Level.HALVE, LevelState(0, 0, state.refinements)
