@@ -37,7 +37,7 @@ TARGET_PAIRS_PER_S, TARGET_OVERHEAD = 20.0, 0.10
 
 
 def serial(scenarios, methods, options):
-    from leapfrog_planner.batch.sweep import _run_shooting
+    from leapfrog_planner.batch.tasks import _run_shooting
 
     Planner(scenarios[0], **options).plan()  # warm-up
     rows = []

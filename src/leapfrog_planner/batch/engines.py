@@ -29,12 +29,13 @@ from collections import deque
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
-from .sweep import (
+from .tasks import (
     PairTask,
     SweepError,
     SweepSettings,
     failure_record,
     init_local_worker,
+    run_chunk,
     run_task,
 )
 
@@ -194,8 +195,6 @@ class DaskEngine:
 
     def run(self, tasks: list[PairTask], on_record) -> None:
         from distributed import as_completed
-
-        from .sweep import run_chunk
 
         live: dict = {}  # key -> (future, chunk)
         seen: dict = {}  # key -> when the scheduler was first seen to have it processing

@@ -11,8 +11,7 @@ from pathlib import Path
 import click
 
 from ..errors import LeapfrogError
-
-EXIT_OK, EXIT_FAILED = 0, 1
+from .common import EXIT_OK, console, err, output_path
 
 
 def _range(kind, name):
@@ -248,9 +247,7 @@ def sweep(
         chunk_size=chunk_size,
         sort=not no_sort,
     )
-    from .main import _output_path  # the check every file-writing command uses
-
-    out_path = _output_path(out, "--out")
+    out_path = output_path(out, "--out")
     scenarios = _load_sources(sources)
     if gen["n"] is not None:
         from ..batch.generate import generate as gen_scenarios
@@ -268,7 +265,6 @@ def sweep(
 
 
 def _with_progress(scenarios, out_path, settings):
-    from rich.console import Console
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -280,7 +276,6 @@ def _with_progress(scenarios, out_path, settings):
 
     from ..batch.sweep import run_sweep
 
-    err = Console(stderr=True)
     columns = [
         TextColumn("sweep"),
         BarColumn(),
@@ -302,10 +297,8 @@ def _with_progress(scenarios, out_path, settings):
 
 
 def _print_summary(s):
-    from rich.console import Console
-
     fails = ", ".join(f"{k} {v}" for k, v in s.failures.items())
-    Console().print(
+    console.print(
         f"{s.path}: {s.total} pairs, {s.skipped} already done, {s.ran} run now "
         f"({s.converged} converged, {s.failed} failed{': ' + fails if fails else ''}) "
         f"in {s.wall_time_s:.1f} s on {s.engine}",

@@ -10,15 +10,12 @@ import os
 from pathlib import Path
 
 import click
-from rich.console import Console
 
-EXIT_OK = 0  # as in cli.py; not imported from there, which imports this module
+from .common import EXIT_OK, console, err
 
 # As bench.SOLVERS (the test checks), without importing the benchmark for --help.
 SOLVER_CHOICES = ["leapfrog-mnm", "leapfrog-mnm-1path", "leapfrog-nm", "leapfrog-nleq-err",
                   "shooting", "bvp", "direct"]  # fmt: skip
-_console = Console()
-_err = Console(stderr=True)
 
 
 def _output_dir(value: str, option: str) -> Path:
@@ -46,7 +43,7 @@ def _progress_bar():
         TextColumn("{task.fields[info]}"),
         TimeElapsedColumn(),
     ]
-    return Progress(*columns, console=_err, transient=True)
+    return Progress(*columns, console=err, transient=True)
 
 
 def _run_with_bar(title: str, run, quiet: bool):
@@ -89,7 +86,7 @@ def paper(out, repeat, cases, quiet):
     write_paper(result, folder)
     if not quiet:
         click.echo(table1_markdown(result))  # plain: rich would re-wrap the Markdown
-        _console.print(f"written to {folder}/", markup=False, highlight=False)
+        console.print(f"written to {folder}/", markup=False, highlight=False)
     return EXIT_OK
 
 
@@ -146,21 +143,21 @@ def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, quiet)
     result = _run_with_bar("bench", lambda cb: run_bench(settings, progress=cb), quiet)
     write_bench(result, folder)
     for note in result.notes:  # e.g. CasADi missing: said even when quiet
-        _err.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
+        err.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
     if not quiet:
         for r in target_ratios(result):
-            _console.print(r.text, markup=False, highlight=False, soft_wrap=True)
+            console.print(r.text, markup=False, highlight=False, soft_wrap=True)
         if result.profile is not None:
             p = result.profile
             parts = ", ".join(
                 f"{k.replace('_', ' ')} {100 * p.fraction(k):.0f}%" for k in p.parts_s
             )
-            _console.print(
+            console.print(
                 f"time split ({p.scenario}, {p.wall_s * 1e3:.0f} ms): {parts}",
                 markup=False,
                 highlight=False,
                 soft_wrap=True,
             )
-        _console.print(f"written to {folder}/ (bench.md, bench.csv, bench.json, bench.png)",
+        console.print(f"written to {folder}/ (bench.md, bench.csv, bench.json, bench.png)",
                        markup=False, highlight=False)  # fmt: skip
     return EXIT_OK

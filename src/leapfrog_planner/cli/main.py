@@ -1,41 +1,19 @@
-"""Command-line interface. Bad input: one line on stderr, exit 2. Solver failure: exit 1."""
+"""The ``leapfrog`` command group and its entry point: bad input gives one line on stderr and
+exit 2, a solver failure exit 1."""
 
 from __future__ import annotations
 
-import json
 import logging
-import math
 import os
 import sys
-from pathlib import Path
 
 import click
-import numpy as np
-from rich.console import Console
-from rich.table import Table
 
-from .._atomic import write_atomic
 from ..errors import LeapfrogError
-
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-
-_console = Console()
-_err = Console(stderr=True)
-
-
-def _output_path(value: str | None, option: str) -> Path | None:
-    """Check an output path before any work is done, so bad input fails fast with exit 2."""
-    if value is None:
-        return None
-    path = Path(value)
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise click.UsageError(f"{option}: folder {str(parent)!r} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise click.UsageError(f"{option}: folder {str(parent)!r} is not writable")
-    if path.is_dir():
-        raise click.UsageError(f"{option}: {value!r} is a folder")
-    return path
+from .batch import generate, report, sweep
+from .common import EXIT_BAD_INPUT, EXIT_OK, err
+from .experiments import bench, paper
+from .solve import derive, scenarios, shoot, solve
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -44,286 +22,8 @@ def cli():
     """Optimal trajectories for mobile robots: Pontryagin's principle, shooting, Leapfrog."""
 
 
-@cli.command()
-@click.argument("model")
-def derive(model):
-    """Print the Hamiltonian, control law and canonical equations derived for MODEL."""
-    from ..model.pmp import derive as derive_system
-
-    click.echo(derive_system(model).describe())
-    return EXIT_OK
-
-
-@cli.command()
-@click.option(
-    "--start",
-    nargs=3,
-    type=float,
-    default=(-1.0, 2.0, float(np.pi / 2)),
-    show_default=True,
-    help="start state x y heading (paper case 1 by default)",
-)
-@click.option(
-    "--goal",
-    nargs=3,
-    type=float,
-    default=(1.0, 2.0, float(np.pi / 2)),
-    show_default=True,
-    help="goal state x y heading",
-)
-@click.option("--horizon", type=float, default=1.0, show_default=True, help="time horizon T")
-@click.option(
-    "--obstacle",
-    "obstacles",
-    nargs=3,
-    type=float,
-    multiple=True,
-    metavar="CX CY R",
-    help="a disc obstacle (repeatable)",
-)
-@click.option("--model", default="unicycle", show_default=True)
-@click.option(
-    "--method",
-    type=click.Choice(["newton", "modified-newton", "nleq-err"]),
-    default="modified-newton",
-    show_default=True,
-)
-@click.option(
-    "--guess",
-    nargs=3,
-    type=float,
-    default=None,
-    help="initial costate (default: affine approximation)",
-)
-@click.option(
-    "--json",
-    "json_path",
-    type=click.Path(dir_okay=False),
-    default=None,
-    help="write the result as JSON",
-)
-def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
-    """Solve one two-point problem by simple shooting (no Leapfrog)."""
-    from ..bvp.shooting import solve_shooting
-    from ..model.problem import OptimalControlProblem
-
-    problem = OptimalControlProblem.create(model, list(obstacles))
-    res = solve_shooting(problem, 0.0, start, horizon, goal, method=method, guess=guess)
-    table = Table(title=f"simple shooting ({method})", show_header=False)
-    for k, v in [
-        ("status", str(res.status)),
-        ("cost", f"{res.cost:.8g}"),
-        ("initial costate", np.array2string(res.costate0, precision=6)),
-        ("end-state error", f"{res.end_state_error:.2e}"),
-        ("max |dH/du|", f"{res.max_dH_du:.2e}"),
-        ("H variation", f"{res.hamiltonian_variation:.2e}"),
-        ("Newton iterations", str(res.root.iterations)),
-        ("F evaluations", str(res.root.f_evals)),
-    ]:
-        table.add_row(k, v)
-    _console.print(table)
-    if json_path:
-        out = {
-            "status": str(res.status),
-            "message": res.message,
-            "cost": res.cost,
-            "costate0": res.costate0.tolist(),
-            "end_state_error": res.end_state_error,
-            "newton_iterations": res.root.iterations,
-            "f_evals": res.root.f_evals,
-        }
-        text = json.dumps(out, indent=2)
-        write_atomic(json_path, lambda tmp: Path(tmp).write_text(text))
-    return EXIT_OK if res.success else EXIT_FAILED
-
-
-@cli.command()
-def scenarios():
-    """List the built-in scenarios."""
-    from ..planning.scenario import builtin_scenarios, load_scenario
-
-    table = Table(title="built-in scenarios")
-    for col in ("name", "start", "goal", "T", "obstacles"):
-        table.add_column(col)
-    for name in builtin_scenarios():
-        sc = load_scenario(name)
-        fmt = lambda v: "[" + ", ".join(f"{x:.4g}" for x in v) + "]"  # noqa: E731
-        table.add_row(name, fmt(sc.start), fmt(sc.goal), f"{sc.horizon:g}", str(len(sc.obstacles)))
-    _console.print(table)
-    return EXIT_OK
-
-
-@cli.command()
-@click.argument("scenario")
-@click.option(
-    "--method",
-    type=click.Choice(["newton", "modified-newton", "nleq-err"]),
-    default=None,
-    help="local Newton method  [default: modified-newton]",
-)
-@click.option(
-    "--partitions", type=click.IntRange(min=2), default=None, help="initial q  [default: 8]"
-)
-@click.option(
-    "--initial-paths",
-    type=click.IntRange(min=1),
-    default=None,
-    help="initial paths tried, in different homotopy classes  [default: 3]",
-)
-@click.option(
-    "--final",
-    type=click.Choice(["auto", "shooting", "multiple-shooting"]),
-    default=None,
-    help="final solve: simple shooting with multiple-shooting fallback (auto)  [default: auto]",
-)
-@click.option("--json", "json_path", default=None, help="write the result as JSON")
-@click.option("--npz", "npz_path", default=None, help="write the trajectory arrays as NPZ")
-@click.option("--plot", "plot_path", default=None, help="write the path figure (PNG, PDF or SVG)")
-@click.option("--quiet", is_flag=True, help="no progress bar and no table")
-def solve(
-    scenario, method, partitions, initial_paths, final, json_path, npz_path, plot_path, quiet
-):
-    """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm."""
-    from ..planning.planner import Planner
-    from ..planning.scenario import load_scenario
-
-    outputs = {
-        "json": _output_path(json_path, "--json"),
-        "npz": _output_path(npz_path, "--npz"),
-        "plot": _output_path(plot_path, "--plot"),
-    }
-    if outputs["plot"] is not None and outputs["plot"].suffix.lower() not in (
-        ".png",
-        ".pdf",
-        ".svg",
-    ):
-        raise click.UsageError("--plot: the file must end in .png, .pdf or .svg")
-    sc = load_scenario(scenario)
-    options = {
-        k: v
-        for k, v in [
-            ("method", method),
-            ("partitions", partitions),
-            ("initial_paths", initial_paths),
-            ("final", final),
-        ]
-        if v is not None
-    }
-    planner = Planner(sc, **options)  # settings errors surface here, before any display
-    result = planner.plan() if quiet else _plan_with_progress(planner)
-    if outputs["json"]:
-        result.save_json(outputs["json"])
-    if outputs["npz"]:
-        result.save_npz(outputs["npz"])
-    if outputs["plot"]:
-        from ..viz.plots import plot_path as draw
-        from ..viz.plots import save_figure
-
-        ax = draw(result, sc)
-        save_figure(ax.figure, outputs["plot"])
-    if not quiet:
-        _console.print(_summary(result))
-    elif not result.success:
-        _err.print(
-            f"{sc.name}: {result.status}: {result.message}",
-            highlight=False,
-            soft_wrap=True,
-            markup=False,
-        )
-    return EXIT_OK if result.success else EXIT_FAILED
-
-
-def _plan_with_progress(planner):
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    if not _err.is_terminal:  # no bar (and no stray blank line) when stderr is a file or pipe
-        return planner.plan()
-    sc = planner.scenario
-    columns = [
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.fields[info]}"),
-        TimeElapsedColumn(),
-    ]
-    with Progress(*columns, console=_err, transient=True) as bar:
-        task = bar.add_task(sc.name, total=planner.settings.initial_paths, info="initial paths")
-
-        def on_event(ev):
-            if ev.stage == "path":
-                bar.update(
-                    task,
-                    total=ev.paths,
-                    completed=ev.path_index,
-                    info=f"path {ev.path_index + 1}/{ev.paths} ({ev.label})",
-                )
-            elif ev.stage == "sweep":
-                r = ev.sweep
-                bar.update(
-                    task,
-                    info=f"path {ev.path_index + 1}/{ev.paths}: sweep {r.sweep}, q={r.q}, "
-                    f"cost {r.cost:.6g}",
-                )
-            else:
-                bar.update(task, completed=ev.paths, info="validating")
-
-        planner.progress = on_event
-        return planner.plan()
-
-
-def _summary(r) -> Table:
-    table = Table(title=f"{r.scenario}: Leapfrog ({r.method})", show_header=False)
-    clearance = "n/a (no obstacles)" if r.min_clearance is None else f"{r.min_clearance:.4g}"
-    cost = f"{r.cost:.8g}  (energy {r.energy:.6g} + penalty {r.penalty:.6g})"
-    what = r.message.split("; returned: ")[0]  # the returned trajectory has its own row
-    rows = [("status", str(r.status) + ("" if r.success else f": {what}"))]
-    if r.optimal:
-        rows += [
-            ("cost", cost),
-            ("min clearance", clearance),
-            ("end-state error", f"{r.end_state_error:.2e}"),
-            ("final solve", f"{r.final_solver} from initial path {r.initial_path}"),
-        ]
-        if "raised" in r.message:
-            rows.append(("obstacle weight", r.message.split("; ", 1)[1]))
-    else:
-        rows += [
-            ("returned", f"the {r.trajectory_source} (from initial path {r.initial_path})"),
-            ("its cost", cost),
-            ("its clearance", clearance),
-        ]
-    rows += [
-        ("sweeps", str(r.sweeps)),
-        ("Newton iterations", f"{r.newton_iterations}  ({r.f_evals} F evaluations)"),
-        (
-            "time",
-            f"{r.wall_time_s * 1e3:.0f} ms  (paths {r.time_initial_path_s * 1e3:.0f}, sweeps "
-            f"{r.time_sweeps_s * 1e3:.0f}, final {r.time_final_s * 1e3:.0f}, check "
-            f"{r.time_validation_s * 1e3:.0f})",
-        ),
-    ]
-    for a in r.alternatives:
-        what = f"{a.status}, cost {a.cost:.8g}" if math.isfinite(a.cost) else f"{a.status}"
-        if a.weight != r.weight:
-            what += f" (obstacle weight {a.weight:g})"
-        rows.append((f"other path {a.label}", what))
-    for k, v in rows:
-        table.add_row(k, v)
-    return table
-
-
-# Commands defined in their own modules (one add_command line each).
-from .experiments import bench as _bench  # noqa: E402
-from .experiments import paper as _paper  # noqa: E402
-
-cli.add_command(_paper)
-cli.add_command(_bench)
-from .batch import generate as _generate  # noqa: E402
-from .batch import report as _report  # noqa: E402
-from .batch import sweep as _sweep  # noqa: E402
-
-cli.add_command(_generate)
-cli.add_command(_sweep)
-cli.add_command(_report)
+for command in (solve, shoot, derive, scenarios, paper, bench, generate, sweep, report):
+    cli.add_command(command)
 
 
 def main(argv=None) -> None:
@@ -331,16 +31,16 @@ def main(argv=None) -> None:
     try:
         code = cli.main(args=argv, prog_name="leapfrog", standalone_mode=False)
     except click.exceptions.Abort:
-        _err.print("aborted", markup=False)
+        err.print("aborted", markup=False)
         sys.exit(130)
     except click.UsageError as e:
-        _err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True, markup=False)
+        err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
     except click.ClickException as e:
-        _err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True, markup=False)
+        err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
     except LeapfrogError as e:
-        _err.print(f"error: {e}", highlight=False, soft_wrap=True, markup=False)
+        err.print(f"error: {e}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
     sys.exit(code if isinstance(code, int) else EXIT_OK)
 

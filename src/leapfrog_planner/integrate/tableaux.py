@@ -14,7 +14,9 @@ from functools import cache, lru_cache
 import numpy as np
 import scipy
 
+from .._atomic import write_atomic
 from ..errors import SettingsError
+from ..model.kernels import cache_dir
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,9 +72,6 @@ def _from_scipy() -> dict[str, np.ndarray]:
 
 @lru_cache(maxsize=1)
 def _coefficients() -> dict[str, np.ndarray]:
-    from .._atomic import write_atomic
-    from ..model.kernels import cache_dir
-
     path = cache_dir() / f"tableaux-scipy-{scipy.__version__}.npz"
     try:
         with np.load(path) as f:

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SettingsError, require_integer
-from . import messages
 from .linear import newton_correction
 from .linear import solve as linear_solve
+from .messages import converged, diverged, max_iterations, non_finite, singular, stalled
 from .result import RootResult, RootStatus
 from .steps import _Evaluator, get_strategy, vnorm
 
@@ -69,25 +69,25 @@ def solve_root(
         )
 
     if F is None:
-        return done(RootStatus.NON_FINITE, messages.non_finite(0))
+        return done(RootStatus.NON_FINITE, non_finite(0))
     for it in range(settings.max_iterations + 1):
         norms.append(vnorm(F))
         if norms[-1] <= settings.tol:
-            return done(RootStatus.CONVERGED, messages.converged(norms[-1], settings.tol, it))
+            return done(RootStatus.CONVERGED, converged(norms[-1], settings.tol, it))
         if it == settings.max_iterations:
             break
         w = settings.stall_window
         # Against the largest of the last w norms, so that classical Newton's excursions (|F|
         # up, then quadratically down) are not taken for creeping.
         if w and it >= w and norms[-1] > settings.stall_factor * max(norms[-1 - w : -1]):
-            return done(RootStatus.STALLED, messages.stalled(norms[-1], settings.stall_factor, w))
+            return done(RootStatus.STALLED, stalled(norms[-1], settings.stall_factor, w))
         if J is None:
             F, J = evaluate(x, jacobian=True)
             if F is None:  # cannot happen for a deterministic F, kept for safety
                 return done(RootStatus.NON_FINITE, "F is not finite")
         d, cond = newton_correction(J, F, settings.max_cond)
         if not cond <= settings.max_cond:
-            return done(RootStatus.SINGULAR_JACOBIAN, messages.singular(cond, settings.max_cond))
+            return done(RootStatus.SINGULAR_JACOBIAN, singular(cond, settings.max_cond))
         # The systems are tiny (3x3 for shooting): a compiled solve is a few microseconds, where
         # SciPy's lu_factor/lu_solve wrappers cost tens; so "reusing the factorisation" for
         # further right-hand sides (NLEQ-ERR's simplified corrections) is reusing J itself.
@@ -98,11 +98,9 @@ def solve_root(
         lams.append(step.lam)
         if not np.isfinite(x).all() or vnorm(x) > bound:
             F = F if F is not None else np.full(x.shape, np.nan)
-            return done(RootStatus.DIVERGED, messages.diverged(vnorm(x), bound))
+            return done(RootStatus.DIVERGED, diverged(vnorm(x), bound))
         if F is None:
             F, J = evaluate(x, jacobian=True)
             if F is None:
-                return done(RootStatus.NON_FINITE, messages.non_finite(it + 1))
-    return done(
-        RootStatus.MAX_ITERATIONS, messages.max_iterations(norms[-1], settings.max_iterations)
-    )
+                return done(RootStatus.NON_FINITE, non_finite(it + 1))
+    return done(RootStatus.MAX_ITERATIONS, max_iterations(norms[-1], settings.max_iterations))
