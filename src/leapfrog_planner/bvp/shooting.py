@@ -8,7 +8,6 @@ Jacobian ``DF = dx(t1)/dlambda(t0)`` comes from the variational equations (the c
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import expm, solve
@@ -31,6 +30,7 @@ from ..roots import (
     solve_root,
 )
 from ..roots.steps import vnorm
+from .abi import Accuracy, Dynamics, NewtonOutcome, RootParams, StepParams, SweepOutcome
 
 
 @dataclass(frozen=True)
@@ -262,44 +262,30 @@ def solve_shooting(
     return shooting_result(flow, t0, x0, t1, x1, root, settings.samples, last)
 
 
-class SweepOutcome(NamedTuple):
-    """What the compiled warm sweep returns: why it stopped (the kernels' ``SWEEP_DONE``,
-    ``SWEEP_WARM_FAILED`` or ``SWEEP_PYTHON``), at which junction, and its counts."""
-
-    code: int
-    junction: int
-    iterations: int
-    f_evals: int
-    rejected: int
-    steps: int  # accepted integrator steps
-    integrations: int
-    jacobians: int  # integrations with the variational equations
-
-
 _FUSED = (NewtonStep, ModifiedNewtonStep, NleqErrStep)  # codes 0, 1, 2 of shoot_newton
 _CODES = tuple(RootStatus)  # the compiled loop's status codes, in RootStatus order
 
 
 def _loop_arguments(
     flow: Flow, strategy, settings: RootSettings, inexact: bool, predict: bool = False
-) -> tuple:
-    """``shoot_newton``'s arguments after the ends and the guess: (method, root, step,
-    accuracy, kin), which depend only on the flow, the strategy and the settings. ``predict``:
-    skip the Jacobian where convergence is predicted (see the loop)."""
+) -> tuple[int, RootParams, StepParams, Accuracy, Dynamics]:
+    """``shoot_newton``'s arguments after the ends and the guess: the method's code and the
+    records (:mod:`.abi`), which depend only on the flow, the strategy and the settings.
+    ``predict``: skip the Jacobian where convergence is predicted (see the loop)."""
     tab, fs = flow.tableau, flow.settings
     return (
         _FUSED.index(type(strategy)),
-        (
+        RootParams(
             settings.tol, settings.max_iterations, settings.max_cond, settings.divergence,
             settings.stall_window, settings.stall_factor, predict,
         ),
-        (
+        StepParams(
             getattr(strategy, "max_halvings", 0), getattr(strategy, "initial_damping", 1.0),
             getattr(strategy, "min_damping", 0.0), getattr(strategy, "xtol", 0.0),
             getattr(strategy, "max_trials", 0),
         ),
-        (fs.rtol, fs.atol, fs.max_steps, inexact and tab.adaptive, flow.nx),
-        (
+        Accuracy(fs.rtol, fs.atol, fs.max_steps, inexact and tab.adaptive, flow.nx),
+        Dynamics(
             tab.A, tab.b, tab.e, flow._e3, tab.error_order, flow._p, flow._obs, flow._w,
             flow._n, flow._no_T, flow._no_Z,
         ),
@@ -366,11 +352,10 @@ class LocalShooter:
             return LocalSolution(
                 True, r.costate0, r.costate1, r.cost, r.root.iterations, r.root.f_evals
             )
-        code, x, _, its, evals, _, _, (last_s, Y, last_ok), _, _ = self._loop(
-            (x0, x1, np.array([t0, t1], dtype=float)), s0
-        )
+        out = self._loop((x0, x1, np.array([t0, t1], dtype=float)), s0)
+        x, its, evals, (last_s, Y, last_ok) = out.x, out.iterations, out.f_evals, out.last
         nx = self._nx
-        if code != _CONVERGED:
+        if out.code != _CONVERGED:
             return self._failed(x, its, evals)
         if not (last_ok and (last_s == x).all()):  # as shooting_result: the end of x itself
             r = self.flow(t0, np.concatenate([x0, x]), t1)
@@ -388,13 +373,13 @@ class LocalShooter:
         """Leapfrog's sweep from junction ``i`` over the arcs ``(T, X, L0, L1, C)`` (in place),
         as long as each local problem converges from its warm guess: the model kernels'
         ``sweep_warm``."""
-        return SweepOutcome(
-            *self.flow.kernels.sweep_warm(T, X, L0, L1, C, i, *self._args, self._norms, self._lams)
+        return self.flow.kernels.sweep_warm(
+            T, X, L0, L1, C, i, *self._args, self._norms, self._lams
         )
 
-    def _loop(self, ends, s0) -> tuple:
-        """The compiled loop's raw outputs (a method of its own so that the profiler can time
-        it: see :mod:`.profiling`)."""
+    def _loop(self, ends, s0) -> NewtonOutcome:
+        """The compiled loop (a method of its own so that the profiler can time it: see
+        :mod:`.profiling`)."""
         return self.flow.kernels.shoot_newton(ends, s0, *self._args, self._norms, self._lams)
 
     def _failed(self, x, its, evals) -> LocalSolution:
@@ -426,16 +411,12 @@ def compiled_newton(
     m = settings.max_iterations
     norms, lams = np.empty(m + 1), np.empty(m)
     s0 = np.array(s0, dtype=float).reshape(-1)
-    code, x, F, its, evals, n, cond, (last_s, last_Y, last_ok), steps, jacobians = (
-        flow.kernels.shoot_newton(
-            system.ends,
-            s0,
-            *_loop_arguments(flow, strategy, settings, system.inexact),
-            norms,
-            lams,
-        )
+    out = flow.kernels.shoot_newton(
+        system.ends, s0, *_loop_arguments(flow, strategy, settings, system.inexact), norms, lams
     )
-    status = _CODES[code]
+    x, F, its, evals, n, cond = out.x, out.F, out.iterations, out.f_evals, out.n_norms, out.cond
+    last_s, last_Y, last_ok = out.last
+    status = _CODES[out.code]
     norms = norms[:n].copy()
     if status is RootStatus.CONVERGED:
         msg = messages.converged(norms[-1], settings.tol, its)
@@ -454,7 +435,7 @@ def compiled_newton(
         msg = messages.non_finite(its)
     root = RootResult(
         x=x, F=F, status=status, message=msg, iterations=int(its), f_evals=int(evals),
-        jac_evals=int(jacobians), residual_norms=norms, step_sizes=lams[:its].copy(),
+        jac_evals=int(out.jacobians), residual_norms=norms, step_sizes=lams[:its].copy(),
     )  # fmt: skip
     last = None
     if last_ok:
@@ -466,7 +447,7 @@ def compiled_newton(
             sensitivity=None, steps=0, rejected=0,  # not counted by the compiled loop
         )  # fmt: skip
         last = (last_s, r)
-    return root, last, int(steps)
+    return root, last, int(out.steps)
 
 
 def shooting_result(

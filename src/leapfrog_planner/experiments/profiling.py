@@ -122,17 +122,18 @@ class _Clock:
 
         return counted
 
-    def counted_outputs(self, steps: int, integrations: int, jacobians: int):
-        """A wrapper for a compiled call that returns its raw outputs (``LocalShooter._loop``,
-        ``LocalShooter.warm_sweep``) and also counts, from the outputs at these positions."""
+    def counted_outcome(self, integrations: str):
+        """A wrapper for a compiled call that returns a kernel record with ``steps`` and
+        ``jacobians`` (``LocalShooter._loop``, ``LocalShooter.warm_sweep``) and also counts
+        them, with its field ``integrations``."""
 
         def wrapper(run):
             def counted(*args, **kwargs):
                 out = run(*args, **kwargs)
                 with self._lock:
-                    self.steps += int(out[steps])
-                    self.integrations += int(out[integrations])
-                    self.jacobian_calls += int(out[jacobians])
+                    self.steps += int(out.steps)
+                    self.integrations += int(getattr(out, integrations))
+                    self.jacobian_calls += int(out.jacobians)
                 return out
 
             return counted
@@ -180,10 +181,10 @@ def _patched(clock: _Clock):
     counters = {  # the wrapped functions that also count integrator work
         "_run": clock.counted_run,
         "compiled_newton": clock.counted_newton,
-        # the compiled loop: steps, evaluations, evaluations with J (F alone where convergence
-        # is predicted); the warm sweep: steps, integrations, integrations with J
-        "_loop": clock.counted_outputs(8, 4, 9),
-        "warm_sweep": clock.counted_outputs(5, 6, 7),
+        # the compiled loop integrates once per evaluation (F alone where convergence is
+        # predicted); the warm sweep counts its integrations
+        "_loop": clock.counted_outcome("f_evals"),
+        "warm_sweep": clock.counted_outcome("integrations"),
     }
     with ExitStack() as stack:
         for owner, name, category in targets:

@@ -9,20 +9,13 @@ equations ``Sdot = DG(z) S`` for the columns of ``S`` that the caller needs: the
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import IntEnum
 
 import numpy as np
 
 from ..errors import SettingsError, require_integer
 from ..model.problem import OptimalControlProblem
+from .status import FlowStatus
 from .tableaux import TABLEAUX, get_tableau
-
-
-class FlowStatus(IntEnum):
-    OK = 0
-    NON_FINITE = 1
-    MAX_STEPS = 2
-    STEP_TOO_SMALL = 3
 
 
 @dataclass(frozen=True)

@@ -11,11 +11,9 @@
 # (A, b, c, and for embedded pairs the error weights e, e3 over s + 1 stages, the last being
 # f(y_new)); the step-size controller follows Hairer, Norsett and Wanner (and SciPy's solve_ivp).
 
-# Integrator status codes (mirrored by leapfrog_planner.integrate.flow.FlowStatus).
-OK = 0
-NON_FINITE = 1
-MAX_STEPS = 2
-STEP_TOO_SMALL = 3
+# The status codes (OK, ..., CONVERGED, ..., SWEEP_DONE, ...) and the records the kernels
+# return (NewtonOutcome, SweepOutcome) come with the generated header, from
+# leapfrog_planner.bvp.abi, where they are declared once.
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
@@ -323,14 +321,7 @@ def hermite_dense(T, Z, dZ, t, out):
 # ModifiedNewtonStep, NleqErrStep} + shooting.ShootingSystem (inexact evaluations included), for
 # the local problems of Leapfrog, where the Python layers cost as much as the integration
 # (measured: ~50 us per iteration against 10-100 us of flow). Same iterates bit for bit, same
-# statuses, same counts; the tests compare the two. Status codes follow roots.result.RootStatus.
-CONVERGED = 0
-MAX_ITERATIONS = 1
-SINGULAR_JACOBIAN = 2
-LINE_SEARCH_FAILED = 3
-NON_FINITE_F = 4
-DIVERGED = 5
-STALLED = 6
+# statuses and iterations; the tests compare the two. Status codes follow RootStatus's order.
 
 
 @njit(cache=True, error_model="numpy")
@@ -475,6 +466,12 @@ def _converges(norms, n, tol):
     return f * f * f / (norms[n - 2] * norms[n - 2]) * PREDICT_MARGIN <= tol
 
 
+@njit(cache=True, error_model="numpy")
+def _out(code, x, F, iterations, evals, n, cond, last, steps, fonly):
+    """shoot_newton's NewtonOutcome (``fonly`` of the ``evals`` evaluations were of F alone)."""
+    return NewtonOutcome(code, x, F, iterations, evals, n, cond, last, steps, evals - fonly)
+
+
 @njit(cache=True, error_model="numpy", nogil=True)
 def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     """Simple shooting from ``s0`` by Newton (``method`` 0), MNM (1) or NLEQ-ERR (2).
@@ -485,10 +482,10 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     the histories. With ``predict``, NM and MNM (its full step) evaluate F alone where
     :func:`_converges` predicts convergence, and again with J if it does not come: the same
     iterates, with one evaluation more per wrong prediction (evaluations count both kinds).
-    Returns (status, x, F, iterations, evaluations, n_norms, cond, last, steps, jacobians): the
-    final iterate and its residual, ``last = (s, Y, ok)`` the latest evaluation (for the result's
-    cost and end costate), the accepted integrator steps of all evaluations and the number of
-    evaluations that carried the variational equations.
+    Returns a NewtonOutcome: the status code, the final iterate and its residual, the counts,
+    ``last = (s, Y, ok)`` the latest evaluation (for the result's cost and end costate), the
+    accepted integrator steps of all evaluations and the number of evaluations that carried the
+    variational equations.
     """
     tol, max_iterations, max_cond, divergence, stall_window, stall_factor, predict = root
     max_halvings, initial_damping, min_damping, xtol, max_trials = step
@@ -510,12 +507,12 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
     it_done = 0
     cond = 0.0
     if not ok:
-        return NON_FINITE_F, x, F, 0, evals, n, cond, last, steps, evals - fonly
+        return _out(NON_FINITE_F, x, F, 0, evals, n, cond, last, steps, fonly)
     for it in range(max_iterations + 1):
         norms[n] = math.sqrt(dot(F, F))
         n += 1
         if norms[n - 1] <= tol:
-            return CONVERGED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+            return _out(CONVERGED, x, F, it_done, evals, n, cond, last, steps, fonly)
         if it == max_iterations:
             break
         if stall_window > 0 and it >= stall_window:
@@ -523,11 +520,11 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
             for j in range(n - 1 - stall_window, n - 1):
                 big = max(big, norms[j])
             if norms[n - 1] > stall_factor * big:
-                return STALLED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+                return _out(STALLED, x, F, it_done, evals, n, cond, last, steps, fonly)
         sv = np.linalg.svd(J)[1]
         cond = sv[0] / sv[-1] if sv[-1] > 0.0 else np.inf
         if not cond <= max_cond:
-            return SINGULAR_JACOBIAN, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+            return _out(SINGULAR_JACOBIAN, x, F, it_done, evals, n, cond, last, steps, fonly)
         d = np.linalg.solve(J, F)
         have_F = False
         if method == 0:
@@ -586,7 +583,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                     x_new, F_new, J_new = xt, Ft, Jt
                     break
             if not found:
-                return LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+                return _out(LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps, fonly)
             have_F = True
             F, J = F_new, J_new
         else:
@@ -620,7 +617,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                     found = True
                     break
             if not found:
-                return LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+                return _out(LINE_SEARCH_FAILED, x, F, it_done, evals, n, cond, last, steps, fonly)
             have_F = True  # the accepted trial passed the test, so its h is finite
             F, J = F_new, J_new
         x = x_new
@@ -630,7 +627,7 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
         if not (_finite(xx) and math.sqrt(xx) <= bound):
             if not have_F:
                 F = np.full(x.size, np.nan)
-            return DIVERGED, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+            return _out(DIVERGED, x, F, it_done, evals, n, cond, last, steps, fonly)
         if not have_F:
             jac = not (predict and _converges(norms, n, tol))
             before = best_norm
@@ -645,8 +642,8 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
                 evals += 1
                 steps += st
             if not ok:
-                return NON_FINITE_F, x, F, it_done, evals, n, cond, last, steps, evals - fonly
-    return MAX_ITERATIONS, x, F, it_done, evals, n, cond, last, steps, evals - fonly
+                return _out(NON_FINITE_F, x, F, it_done, evals, n, cond, last, steps, fonly)
+    return _out(MAX_ITERATIONS, x, F, it_done, evals, n, cond, last, steps, fonly)
 
 
 # --------------------------------------------------------------------------------------------
@@ -660,18 +657,14 @@ def shoot_newton(ends, s0, method, root, step, accuracy, kin, norms, lams):
 # warm attempt fails (or whose answer needs the Python path) is handed back; Python runs its
 # fallbacks and calls again from the next junction. Same arithmetic as the Python sweep, bit for
 # bit (tested).
-SWEEP_DONE = 0
-SWEEP_WARM_FAILED = 1  # the warm attempt at junction i failed; its counts are included
-SWEEP_PYTHON = 2  # junction i needs the Python path; nothing of it is counted
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
 def sweep_warm(T, X, L0, L1, C, i, method, root, step, accuracy, kin, norms, lams):
     """Junctions ``i, i+1, ..., q-1`` of a Gauss-Seidel sweep over the arcs ``(T, X, L0, L1, C)``
     (updated in place), each from its warm guess ``L0[i-1]`` by :func:`shoot_newton` (the
-    shooter's arguments). Returns (code, junction where it stopped, Newton iterations, F
-    evaluations, rejected extremals, accepted integrator steps, integrations, integrations with
-    the variational equations)."""
+    shooter's arguments). Returns a SweepOutcome: why and at which junction it stopped, and
+    its counts."""
     q = T.size - 1
     A, b, e, e3, order, p, obs, weight, exponent, no_T, no_Z = kin
     rtol, atol, max_steps = accuracy[0], accuracy[1], accuracy[2]
@@ -687,13 +680,15 @@ def sweep_warm(T, X, L0, L1, C, i, method, root, step, accuracy, kin, norms, lam
             ends, L0[i - 1].copy(), method, root, step, accuracy, kin, norms, lams
         )
         if code != CONVERGED:
-            return (
+            return SweepOutcome(
                 SWEEP_WARM_FAILED, i, iterations + its, evals + ev, rejected, steps + st,
                 integrations + ev, jacobians + jac,
             )  # fmt: skip
         last_s, Y, last_ok = last
         if not (last_ok and (last_s == x).all()):
-            return SWEEP_PYTHON, i, iterations, evals, rejected, steps, integrations, jacobians
+            return SweepOutcome(
+                SWEEP_PYTHON, i, iterations, evals, rejected, steps, integrations, jacobians
+            )
         iterations += its
         evals += ev
         steps += st
@@ -728,4 +723,4 @@ def sweep_warm(T, X, L0, L1, C, i, method, root, step, accuracy, kin, norms, lam
         C[i - 1] = H[NZ]
         C[i] = cost - H[NZ]
         i += 1
-    return SWEEP_DONE, q, iterations, evals, rejected, steps, integrations, jacobians
+    return SweepOutcome(SWEEP_DONE, q, iterations, evals, rejected, steps, integrations, jacobians)

@@ -12,6 +12,7 @@ from pathlib import Path
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
+from ..bvp.abi import kernel_constants
 from .base import VehicleModel
 
 CODEGEN_VERSION = "1"
@@ -107,8 +108,10 @@ def model_source(model: VehicleModel) -> str:
             "import math\n",
             "import numpy as np",
             "from numba import njit\n",
+            "from leapfrog_planner.bvp.abi import NewtonOutcome, SweepOutcome",
             "from leapfrog_planner.model.penalty import penalty_terms",
             "from leapfrog_planner.roots.linear import dot, transpose_times\n",
+            *kernel_constants(),
             f"NX = {nx}",
             f"NZ = {nz}",
             f"NU = {model.nu}",

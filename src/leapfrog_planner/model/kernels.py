@@ -34,6 +34,9 @@ _GENERATOR_FILES = (
     "model/base.py",
     "model/penalty.py",
     "roots/linear.py",
+    "bvp/abi.py",
+    "integrate/status.py",
+    "roots/result.py",
 )
 
 

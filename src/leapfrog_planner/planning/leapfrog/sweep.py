@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...bvp.abi import SweepCode
 from .arcs import Junctions
 from .local import LocalSolver
 
@@ -74,10 +75,10 @@ def sweep(arcs: Junctions, local: LocalSolver, number: int) -> SweepRecord:
             count.f_evals += out.f_evals
             rejected += out.rejected
             i = out.junction
-            if out.code == flow.kernels.SWEEP_DONE:
+            if out.code == SweepCode.DONE:
                 break
-            # otherwise SWEEP_WARM_FAILED, or SWEEP_PYTHON: junction i from the start
-            warm_failed = out.code == flow.kernels.SWEEP_WARM_FAILED
+            # otherwise WARM_FAILED, or PYTHON: junction i from the start
+            warm_failed = out.code == SweepCode.WARM_FAILED
         ta, tb = arcs.t[i - 1], arcs.t[i + 1]
         xa, xb = arcs.X[i - 1], arcs.X[i + 1]
         mid = (arcs.t[i], arcs.X[i], arcs.lam0[i])
