@@ -16,7 +16,11 @@ from ..bvp.abi import kernel_constants
 from .base import VehicleModel
 
 CODEGEN_VERSION = "1"
-TEMPLATE = Path(__file__).parent.parent / "integrate" / "flow_template.py"
+#: The compiled integrator and shooting loops, appended to each model's generated code.
+TEMPLATES = (
+    Path(__file__).parent.parent / "integrate" / "flow_template.py",
+    Path(__file__).parent.parent / "bvp" / "newton_template.py",
+)
 
 
 class _Printer(PythonCodePrinter):
@@ -211,4 +215,4 @@ def _augmented_function(rhs, cost, jac, nonzero, nz, names):
 
 
 def module_text(model: VehicleModel) -> str:
-    return model_source(model) + "\n\n" + TEMPLATE.read_text()
+    return "\n\n".join([model_source(model), *(t.read_text() for t in TEMPLATES)])

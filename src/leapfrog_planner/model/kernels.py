@@ -31,6 +31,7 @@ _GENERATOR_FILES = (
     "model/codegen.py",
     "model/pmp.py",
     "integrate/flow_template.py",
+    "bvp/newton_template.py",
     "model/base.py",
     "model/penalty.py",
     "roots/linear.py",
