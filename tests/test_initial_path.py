@@ -390,20 +390,20 @@ def test_paths_are_immutable():
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"start": [0.05, 0.0, 0.0]}, r"start: \[0.05, 0.0\] is inside obstacles\[0\]"),
-        ({"goal": [1.0, 1.0, 0.0]}, r"goal: \[1.0, 1.0\] is inside obstacles\[1\]"),
-        ({"start": [0.0, float("nan"), 0.0]}, "start: must be finite"),
+        ({"start": [0.05, 0.0, 0.0]}, r"start: \(0.05, 0.0\) is inside obstacles\[0\]"),
+        ({"goal": [1.0, 1.0, 0.0]}, r"goal: \(1.0, 1.0\) is inside obstacles\[1\]"),
+        ({"start": [0.0, float("nan"), 0.0]}, r"start\[1\]: must be finite"),
         ({"goal": [1.0, 0.0]}, "goal: expected 3 numbers"),
-        ({"obstacles": [[0.0, 0.0, float("inf")]]}, r"obstacles\[0\]: must be finite"),
-        ({"obstacles": [[0.0, 0.0, -1.0]]}, r"obstacles\[0\]: radius must be > 0"),
-        ({"obstacles": [[0.0, 0.0]]}, "obstacles: expected rows"),
+        ({"obstacles": [[0.0, 0.0, float("inf")]]}, r"obstacles\[0\]\[2\]: must be finite"),
+        ({"obstacles": [[0.0, 0.0, -1.0]]}, r"obstacles\[0\]\.radius: must be > 0"),
+        ({"obstacles": [[0.0, 0.0]]}, r"obstacles\[0\]: expected 3 numbers, got 2"),
         ({"k": 0}, "k: expected an integer >= 1"),
         ({"k": 2.0}, "k: expected an integer >= 1"),
         ({"k": True}, "k: expected an integer >= 1"),
         ({"margin": -0.1}, "margin: must be >= 0"),
         ({"margin": float("nan")}, "margin: must be finite"),
-        ({"waypoints": [[0.5, float("inf")]]}, r"waypoints\[0\]: must be finite"),
-        ({"waypoints": [[1.0, 1.0]]}, r"waypoints\[0\]: \[1.0, 1.0\] is inside obstacles\[1\]"),
+        ({"waypoints": [[0.5, float("inf")]]}, r"waypoints\[0\]\[1\]: must be finite"),
+        ({"waypoints": [[1.0, 1.0]]}, r"waypoints\[0\]: \(1.0, 1.0\) is inside obstacles\[1\]"),
     ],
 )
 def test_errors(kwargs, message):

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import checks
 from ..errors import ModelError, ScenarioError, SettingsError
 
 __all__ = [
@@ -85,74 +86,33 @@ class DirectResult:
 # --------------------------------------------------------------------------- validation
 
 
-def _array(value: Any, name: str, error: type[ValueError] = ScenarioError) -> np.ndarray:
-    """``value`` as a float array, with a one-line message instead of NumPy's if it is not one."""
-    try:
-        return np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise error(f"{name} must be an array of numbers, got {value!r}") from None
-
-
 def _state(value: Any, name: str) -> np.ndarray:
-    arr = _array(value, name)
-    if arr.shape != (3,):
-        raise ScenarioError(f"{name} must have shape (3,) [x, y, heading], got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ScenarioError(f"{name} must be finite, got {arr.tolist()}")
-    return arr
+    return checks.vector(value, 3, name, " [x, y, heading]")
 
 
 def _horizon(value: Any) -> float:
-    try:
-        horizon = float(value)
-    except (TypeError, ValueError):
-        raise ScenarioError(f"horizon must be a number, got {value!r}") from None
-    if not math.isfinite(horizon) or horizon <= 0.0:
-        raise ScenarioError(f"horizon must be finite and > 0, got {horizon}")
-    return horizon
+    return checks.real(value, "horizon", gt=0)
 
 
 def _obstacles(value: Any) -> np.ndarray:
-    arr = _array(value, "obstacles")
-    if arr.size == 0:
-        return np.zeros((0, 3))
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ScenarioError(f"obstacles must have shape (m, 3) rows [cx, cy, r], got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ScenarioError("obstacles must be finite")
-    if np.any(arr[:, 2] <= 0.0):
-        raise ScenarioError("obstacle radii must be > 0")
-    return arr
+    return checks.obstacles(value)
 
 
 def _positive(
     value: Any, name: str, *, allow_zero: bool = False, error: type[ValueError] = ScenarioError
 ) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise error(f"{name} must be a number, got {value!r}") from None
-    ok = number >= 0.0 if allow_zero else number > 0.0
-    if not math.isfinite(number) or not ok:
-        bound = ">= 0" if allow_zero else "> 0"
-        raise error(f"{name} must be finite and {bound}, got {number}")
-    return number
+    bound = {"ge": 0.0} if allow_zero else {"gt": 0.0}
+    return checks.real(value, name, error=error, **bound)
 
 
 def _count(value: Any, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise SettingsError(f"{name} must be an integer, got {value!r}")
-    if value < minimum:
-        raise SettingsError(f"{name} must be >= {minimum}, got {value}")
-    return int(value)
+    return checks.integer(value, name, minimum=minimum, error=SettingsError)
 
 
 def _guess(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
-    arr = _array(value, name, SettingsError)
+    arr = checks.rows(value, shape[1], name, ", ".join(["v"] * shape[1]), error=SettingsError)
     if arr.shape != shape:
-        raise SettingsError(f"{name} must have shape {shape}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise SettingsError(f"{name} must be finite")
+        raise SettingsError(f"{name}: expected {shape[0]} rows, got {arr.shape[0]}")
     return arr
 
 

@@ -10,9 +10,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import checks
 from ..errors import ScenarioError
 from .kernels import ModelInfo, model_info
-from .penalty import as_obstacle_array, clearance
+from .penalty import clearance
 
 
 @dataclass(frozen=True, eq=False)
@@ -24,19 +25,16 @@ class ObstaclePenalty:
     exponent: int = 2
 
     def __post_init__(self):
-        obs = as_obstacle_array(self.obstacles)
-        if not np.all(np.isfinite(obs)):
-            raise ScenarioError("obstacles: values must be finite")
-        if obs.shape[0] and np.any(obs[:, 2] <= 0):
-            raise ScenarioError("obstacles: radius must be > 0")
-        if not (np.isfinite(self.weight) and self.weight >= 0):
-            raise ScenarioError(f"penalty.weight must be a finite number >= 0, got {self.weight}")
-        if int(self.exponent) != self.exponent or self.exponent < 1:
-            raise ScenarioError(f"penalty.exponent must be an integer >= 1, got {self.exponent}")
+        obs = self.obstacles
+        if isinstance(obs, np.ndarray) and obs.ndim == 1 and obs.size % 3 == 0:
+            obs = obs.reshape(-1, 3)  # a flat array of discs [cx, cy, r, cx, cy, r, ...]
+        obs = np.ascontiguousarray(checks.obstacles(obs))
         obs.setflags(write=False)
         object.__setattr__(self, "obstacles", obs)
-        object.__setattr__(self, "weight", float(self.weight))
-        object.__setattr__(self, "exponent", int(self.exponent))
+        object.__setattr__(self, "weight", checks.real(self.weight, "penalty.weight", ge=0))
+        object.__setattr__(
+            self, "exponent", checks.integer(self.exponent, "penalty.exponent", minimum=1)
+        )
 
     def __call__(self, xy) -> np.ndarray:
         """Penalty values at points ``xy`` of shape ``(..., 2)``."""

@@ -83,7 +83,6 @@ from __future__ import annotations
 
 import difflib
 import math
-import numbers
 import re
 import tomllib
 from collections.abc import Mapping
@@ -94,6 +93,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from .. import checks
 from ..errors import ScenarioError
 from ..model import MODELS
 from ..model.kernels import model_info
@@ -144,41 +144,10 @@ _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 # --------------------------------------------------------------------------- validation helpers
 
 
-def _short(text: str, limit: int = 40) -> str:
-    r = repr(text)
-    return r if len(r) <= limit else r[: limit - 4] + "...'"
-
-
-def _describe(value: Any) -> str:
-    """A short, one-line description of a (wrong) value for error messages."""
-    if isinstance(value, bool | np.bool_):
-        return f"boolean {str(bool(value)).lower()}"
-    if isinstance(value, str):
-        return f"string {_short(value)}"
-    if isinstance(value, numbers.Integral):
-        digits = str(int(value))
-        return f"integer {digits if len(digits) <= 30 else digits[:27] + '...'}"
-    if isinstance(value, numbers.Real):
-        return f"number {float(value)!r}"
-    if isinstance(value, Mapping):
-        return "a table"
-    if isinstance(value, list | tuple):
-        return f"an array of {len(value)}"
-    if isinstance(value, np.ndarray):
-        return f"an array of shape {value.shape}"
-    if value is None:
-        return "nothing (None)"
-    return f"{type(value).__name__} {_short(str(value))}"
-
-
 def _key_path(prefix: str, key: Any) -> str:
     key = str(key)
-    name = key if _BARE_KEY.fullmatch(key) else _short(key)
+    name = key if _BARE_KEY.fullmatch(key) else checks.short(key)
     return f"{prefix}.{name}" if prefix else name
-
-
-def _fmt_point(p) -> str:
-    return "(" + ", ".join(repr(float(v)) for v in p) + ")"
 
 
 class _Check:
@@ -191,45 +160,34 @@ class _Check:
         text = f"{self.source}: {key}: {message}" if key else f"{self.source}: {message}"
         raise ScenarioError(" ".join(text.splitlines()))
 
-    def number(self, value: Any, key: str, *, gt: float | None = None, ge: float | None = None):
-        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-            self.fail(key, f"expected a number, got {_describe(value)}")
+    def _named(self, check, *args, **kw):
+        """``check`` (of :mod:`..checks`) with this file's name in front of its message."""
         try:
-            x = float(value)
-        except OverflowError:
-            self.fail(key, f"must be finite, got {_describe(value)} (too large)")
-        if not math.isfinite(x):
-            self.fail(key, f"must be finite, got {x!r}")
-        if gt is not None and not x > gt:
-            self.fail(key, f"must be > {gt:g}, got {x!r}")
-        if ge is not None and not x >= ge:
-            self.fail(key, f"must be >= {ge:g}, got {x!r}")
-        return x
+            return check(*args, **kw)
+        except ScenarioError as e:
+            self.fail("", str(e))
+
+    def number(self, value: Any, key: str, *, gt: float | None = None, ge: float | None = None):
+        return self._named(checks.real, value, key, gt=gt, ge=ge)
 
     def integer(self, value: Any, key: str, *, minimum: int | None = None) -> int:
-        bound = "" if minimum is None else f" >= {minimum}"
-        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
-            self.fail(key, f"expected an integer{bound}, got {_describe(value)}")
-        n = int(value)
-        if minimum is not None and n < minimum:
-            self.fail(key, f"must be an integer{bound}, got {n}")
-        return n
+        return self._named(checks.integer, value, key, minimum=minimum)
 
     def string(self, value: Any, key: str) -> str:
         if not isinstance(value, str):
-            self.fail(key, f"expected a string, got {_describe(value)}")
+            self.fail(key, f"expected a string, got {checks.describe(value)}")
         try:
             value.encode("utf-8")
         except UnicodeEncodeError:
-            self.fail(key, f"not valid Unicode text: {_short(value)}")
+            self.fail(key, f"not valid Unicode text: {checks.short(value)}")
         return str(value)
 
     def table(self, value: Any, key: str) -> Mapping:
         if not isinstance(value, Mapping):
-            self.fail(key, f"expected a table, got {_describe(value)}")
+            self.fail(key, f"expected a table, got {checks.describe(value)}")
         for k in value:
             if not isinstance(k, str):
-                self.fail(key, f"keys must be strings, got {_describe(k)}")
+                self.fail(key, f"keys must be strings, got {checks.describe(k)}")
         return value
 
     def known_keys(self, table: Mapping, allowed, prefix: str, what: str = "") -> None:
@@ -243,33 +201,17 @@ class _Check:
                 )
 
     def vector(self, value: Any, n: int, key: str, what: str = "") -> np.ndarray:
-        expected = f"{n} numbers"
-        if isinstance(value, np.ndarray) and value.ndim == 1:
-            items = list(value)
-        elif isinstance(value, list | tuple):
-            items = list(value)
-        else:
-            self.fail(key, f"expected an array of {expected}{what}, got {_describe(value)}")
-        if len(items) != n:
-            self.fail(key, f"expected {expected}, got {len(items)}")
-        return np.array([self.number(v, f"{key}[{i}]") for i, v in enumerate(items)], dtype=float)
+        return self._named(checks.vector, value, n, key, what)
 
     def rows(self, value: Any, n: int, key: str, what: str = "") -> np.ndarray:
         """An array of ``n``-vectors as a ``(k, n)`` float array (``k`` may be 0)."""
-        if isinstance(value, np.ndarray):
-            if value.size == 0:
-                return np.zeros((0, n))
-            if value.ndim != 2:
-                self.fail(key, f"expected an array of [{what}] rows, got shape {value.shape}")
-            items = list(value)
-        elif isinstance(value, list | tuple):
-            items = list(value)
-        else:
-            self.fail(key, f"expected an array of [{what}] rows, got {_describe(value)}")
-        out = np.zeros((len(items), n))
-        for i, item in enumerate(items):
-            out[i] = self.vector(item, n, f"{key}[{i}]", f" [{what}]")
-        return out
+        return self._named(checks.rows, value, n, key, what)
+
+    def obstacles(self, value) -> np.ndarray:
+        return self._named(checks.obstacles, value)
+
+    def outside(self, point, key: str, obstacles: np.ndarray) -> None:
+        self._named(checks.outside, point, key, obstacles)
 
 
 def _fresh_readonly(arr: np.ndarray) -> np.ndarray:
@@ -320,9 +262,7 @@ class Scenario:
         horizon = c.number(self.horizon, "horizon", gt=0)
         start = c.vector(self.start, 3, "start", " [x, y, heading]")
         goal = c.vector(self.goal, 3, "goal", " [x, y, heading]")
-        obstacles = c.rows(self.obstacles, 3, "obstacles", "cx, cy, r")
-        for j, r in enumerate(obstacles[:, 2]):
-            c.number(r, f"obstacles[{j}].radius", gt=0)
+        obstacles = c.obstacles(self.obstacles)
         model, parameters = self._check_model(c)
         weight = c.number(self.weight, "penalty.weight", ge=0)
         exponent = c.integer(self.exponent, "penalty.exponent", minimum=1)
@@ -337,14 +277,7 @@ class Scenario:
         if waypoints is not None:
             points += [(f"waypoints[{i}]", w) for i, w in enumerate(waypoints)]
         for key, p in points:
-            px, py = float(p[0]), float(p[1])
-            for j, (cx, cy, r) in enumerate(obstacles.tolist()):
-                if math.hypot(px - cx, py - cy) < r:  # Python floats: overflow gives inf
-                    c.fail(
-                        key,
-                        f"{_fmt_point(p)} is inside obstacles[{j}]"
-                        f" (center {_fmt_point((cx, cy))}, radius {float(r)!r})",
-                    )
+            c.outside(p, key, obstacles)
 
         values = {
             "name": name,
@@ -388,7 +321,7 @@ class Scenario:
             expected = SOLVER_KEYS[k]
             if expected is bool:
                 if not isinstance(v, bool | np.bool_):
-                    c.fail(key, f"expected a boolean, got {_describe(v)}")
+                    c.fail(key, f"expected a boolean, got {checks.describe(v)}")
                 out[k] = bool(v)
             elif expected is int:
                 out[k] = c.integer(v, key)
@@ -528,7 +461,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
     source = str(source)
     c = _Check(source)
     if not isinstance(data, Mapping):
-        c.fail("", f"expected a table of scenario keys, got {_describe(data)}")
+        c.fail("", f"expected a table of scenario keys, got {checks.describe(data)}")
     c.table(data, "(top level)")
     c.known_keys(data, TOP_LEVEL_KEYS, "")
     for key in REQUIRED_KEYS:
@@ -544,12 +477,14 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
 
     raw = data.get("obstacles", [])
     if not isinstance(raw, list | tuple):
-        c.fail("obstacles", f"expected an array of tables ([[obstacles]]), got {_describe(raw)}")
+        c.fail(
+            "obstacles", f"expected an array of tables ([[obstacles]]), got {checks.describe(raw)}"
+        )
     obstacles = np.zeros((len(raw), 3))
     for j, ob in enumerate(raw):
         key = f"obstacles[{j}]"
         if not isinstance(ob, Mapping):
-            c.fail(key, f"expected a table with center and radius, got {_describe(ob)}")
+            c.fail(key, f"expected a table with center and radius, got {checks.describe(ob)}")
         c.table(ob, key)
         c.known_keys(ob, OBSTACLE_KEYS, key)
         for k in OBSTACLE_KEYS:
@@ -635,6 +570,6 @@ def load_scenario(path_or_name: str | Path) -> Scenario:
         source = _BUILTIN_PREFIX + path_or_name
         return load_scenario_text(_decode(raw, source), source)
     raise ScenarioError(
-        f"no scenario file or built-in named {_short(text_name, 80)}"
+        f"no scenario file or built-in named {checks.short(text_name, 80)}"
         f" (built-ins: {', '.join(names) or 'none'})"
     )

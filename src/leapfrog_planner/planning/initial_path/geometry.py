@@ -4,11 +4,11 @@ signatures."""
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 from numba import njit
 
+from ... import checks
 from ...errors import ScenarioError
 from .curve import _TWO_PI
 
@@ -20,60 +20,23 @@ def _fmt(p) -> str:
 
 
 def _real(value, key: str, error=ScenarioError) -> float:
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        raise error(f"{key}: expected a number, got {type(value).__name__}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise error(f"{key}: must be finite, got {x!r}")
-    return x
-
-
-def _as_float_array(value, key: str, what: str) -> np.ndarray:
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        raise ScenarioError(f"{key}: expected {what}, got {type(value).__name__}") from None
-    return arr
+    return checks.real(value, key, error=error)
 
 
 def _state(value, key: str) -> np.ndarray:
-    arr = _as_float_array(value, key, "3 numbers [x, y, heading]")
-    if arr.shape != (3,):
-        raise ScenarioError(f"{key}: expected 3 numbers [x, y, heading], got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ScenarioError(f"{key}: must be finite, got {_fmt(arr)}")
-    return arr
+    return checks.vector(value, 3, key, " [x, y, heading]")
 
 
 def _rows(value, n: int, key: str, what: str) -> np.ndarray:
-    arr = _as_float_array(value, key, f"rows [{what}]")
-    if arr.size == 0:
-        return np.zeros((0, n))
-    if arr.ndim != 2 or arr.shape[1] != n:
-        raise ScenarioError(f"{key}: expected rows [{what}], got shape {arr.shape}")
-    bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-    if bad.size:
-        raise ScenarioError(f"{key}[{bad[0]}]: must be finite, got {_fmt(arr[bad[0]])}")
-    return arr
+    return checks.rows(value, n, key, what)
 
 
 def _obstacles(value) -> np.ndarray:
-    if value is None:
-        return np.zeros((0, 3))
-    obs = _rows(value, 3, "obstacles", "cx, cy, r")
-    bad = np.flatnonzero(~(obs[:, 2] > 0.0))
-    if bad.size:
-        raise ScenarioError(f"obstacles[{bad[0]}]: radius must be > 0, got {obs[bad[0], 2]!r}")
-    return obs
+    return checks.obstacles(value)
 
 
 def _check_outside(p: np.ndarray, key: str, obs: np.ndarray) -> None:
-    for j, (cx, cy, r) in enumerate(obs.tolist()):
-        if math.hypot(p[0] - cx, p[1] - cy) < r:
-            raise ScenarioError(
-                f"{key}: {_fmt(p[:2])} is inside obstacles[{j}]"
-                f" (center {_fmt((cx, cy))}, radius {r!r})"
-            )
+    checks.outside(p, key, obs)
 
 
 def _tolerance(S: np.ndarray, G: np.ndarray, obs: np.ndarray) -> float:

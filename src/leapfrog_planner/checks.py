@@ -1,0 +1,135 @@
+"""Input checks shared by every entry point (scenario files, the problem, initial paths, the
+direct method): one function per kind of value, one message per fault, ``<key>: <problem>``.
+
+Each check raises the error class it is given (:class:`.errors.ScenarioError` by default) and
+returns the value converted (floats, float arrays). A scenario file's messages add the file's
+name in front (see :mod:`.planning.scenario`).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from .errors import ScenarioError
+
+
+def short(text: str, limit: int = 40) -> str:
+    r = repr(text)
+    return r if len(r) <= limit else r[: limit - 4] + "...'"
+
+
+def describe(value: Any) -> str:
+    """A short, one-line description of a (wrong) value for error messages."""
+    if isinstance(value, bool | np.bool_):
+        return f"boolean {str(bool(value)).lower()}"
+    if isinstance(value, str):
+        return f"string {short(value)}"
+    if isinstance(value, numbers.Integral):
+        digits = str(int(value))
+        return f"integer {digits if len(digits) <= 30 else digits[:27] + '...'}"
+    if isinstance(value, numbers.Real):
+        return f"number {float(value)!r}"
+    if isinstance(value, Mapping):
+        return "a table"
+    if isinstance(value, list | tuple):
+        return f"an array of {len(value)}"
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}"
+    if value is None:
+        return "nothing (None)"
+    return f"{type(value).__name__} {short(str(value))}"
+
+
+def fmt_point(p) -> str:
+    return "(" + ", ".join(repr(float(v)) for v in p) + ")"
+
+
+def real(value: Any, key: str, *, gt=None, ge=None, error=ScenarioError) -> float:
+    """A finite real number (integers accepted, booleans not), ``> gt`` / ``>= ge`` if given."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise error(f"{key}: expected a number, got {describe(value)}")
+    try:
+        x = float(value)
+    except OverflowError:
+        raise error(f"{key}: must be finite, got {describe(value)} (too large)") from None
+    if not math.isfinite(x):
+        raise error(f"{key}: must be finite, got {x!r}")
+    if gt is not None and not x > gt:
+        raise error(f"{key}: must be > {gt:g}, got {x!r}")
+    if ge is not None and not x >= ge:
+        raise error(f"{key}: must be >= {ge:g}, got {x!r}")
+    return x
+
+
+def integer(value: Any, key: str, *, minimum=None, error=ScenarioError) -> int:
+    """An integer (booleans and floats refused), ``>= minimum`` if given."""
+    bound = "" if minimum is None else f" >= {minimum}"
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
+        raise error(f"{key}: expected an integer{bound}, got {describe(value)}")
+    n = int(value)
+    if minimum is not None and n < minimum:
+        raise error(f"{key}: must be an integer{bound}, got {n}")
+    return n
+
+
+def vector(value: Any, n: int, key: str, what: str = "", *, error=ScenarioError) -> np.ndarray:
+    """``n`` finite numbers (``what`` names them in messages, e.g. ``" [x, y, heading]"``)."""
+    expected = f"{n} numbers"
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        if value.size == n and value.dtype.kind == "f" and np.isfinite(value).all():
+            return value.astype(float, copy=True)  # the common case, checked at once
+        items = list(value)
+    elif isinstance(value, list | tuple):
+        items = list(value)
+    else:
+        raise error(f"{key}: expected an array of {expected}{what}, got {describe(value)}")
+    if len(items) != n:
+        raise error(f"{key}: expected {expected}, got {len(items)}")
+    return np.array([real(v, f"{key}[{i}]", error=error) for i, v in enumerate(items)])
+
+
+def rows(value: Any, n: int, key: str, what: str, *, error=ScenarioError) -> np.ndarray:
+    """An array of ``n``-vectors as a ``(k, n)`` float array (``k`` may be 0; ``what`` names
+    a row's entries, e.g. ``"cx, cy, r"``)."""
+    if isinstance(value, np.ndarray):
+        if value.size == 0:
+            return np.zeros((0, n))
+        if value.ndim != 2:
+            raise error(f"{key}: expected an array of [{what}] rows, got shape {value.shape}")
+        if value.shape[1] == n and value.dtype.kind == "f" and np.isfinite(value).all():
+            return value.astype(float, copy=True)
+        items = list(value)
+    elif isinstance(value, list | tuple):
+        items = list(value)
+    else:
+        raise error(f"{key}: expected an array of [{what}] rows, got {describe(value)}")
+    out = np.zeros((len(items), n))
+    for i, item in enumerate(items):
+        out[i] = vector(item, n, f"{key}[{i}]", f" [{what}]", error=error)
+    return out
+
+
+def obstacles(value: Any, key: str = "obstacles", *, error=ScenarioError) -> np.ndarray:
+    """Disc obstacles as rows ``[cx, cy, r]`` with ``r > 0`` (None: no obstacles)."""
+    if value is None:
+        return np.zeros((0, 3))
+    obs = rows(value, 3, key, "cx, cy, r", error=error)
+    for j, r in enumerate(obs[:, 2]):
+        real(r, f"{key}[{j}].radius", gt=0, error=error)
+    return obs
+
+
+def outside(point, key: str, obs: np.ndarray, *, error=ScenarioError) -> None:
+    """Refuse a point strictly inside an obstacle (on the edge is allowed)."""
+    px, py = float(point[0]), float(point[1])
+    for j, (cx, cy, r) in enumerate(obs.tolist()):
+        if math.hypot(px - cx, py - cy) < r:  # Python floats: overflow gives inf
+            raise error(
+                f"{key}: {fmt_point((px, py))} is inside obstacles[{j}]"
+                f" (center {fmt_point((cx, cy))}, radius {float(r)!r})"
+            )
