@@ -1,0 +1,229 @@
+"""What the figures share: colours, artist ids, and helpers that draw obstacles, ends,
+headings and frames."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle
+
+from ..planning.results import PlanResult
+from ..planning.scenario import Scenario, load_scenario
+
+#: File formats :func:`save_figure` writes, by (lower-case) extension.
+FIGURE_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
+
+PATH_COLOR = "C0"
+ARROW_COLOR = "0.1"
+START_COLOR = "tab:green"
+GOAL_COLOR = "tab:red"
+INITIAL_COLOR = "0.45"
+OBSTACLE_FACE = "0.72"
+OBSTACLE_EDGE = "0.35"
+SWEEP_CMAP = "Blues"
+
+# gid values of the artists the functions draw, for callers (and tests) that look them up.
+GID_PATH = "optimal-path"
+GID_HEADING = "heading"
+GID_END_HEADING = "end-heading"
+GID_OBSTACLE = "obstacle"
+GID_INITIAL = "initial-junctions"
+GID_SWEEP = "sweep"
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def new_figure(layout: str | None = "constrained", **kw) -> Figure:
+    fig = Figure(layout=layout, **kw)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def as_scenario(scenario) -> Scenario:
+    return scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+
+
+def status_text(result: PlanResult) -> str:
+    return str(getattr(result.status, "value", result.status))
+
+
+def cost_text(cost: float) -> str:
+    return f"{cost:.6g}" if np.isfinite(cost) else "n/a"
+
+
+def path_title(result: PlanResult, sc: Scenario) -> str:
+    if result.trajectory is not None and np.isfinite(result.cost):
+        return f"{sc.name} — cost J = {result.cost:.6g} ({result.method})"
+    return f"{sc.name} — {status_text(result)}: no optimal path ({result.method})"
+
+
+def initial_junctions(result: PlanResult) -> np.ndarray | None:
+    """The initial junction states ``(q + 1, 3)``, or None."""
+    ij = result.initial_junctions
+    if ij is None or len(ij) < 2 or ij[1] is None:
+        return None
+    X = np.asarray(ij[1], dtype=float)
+    return X if X.ndim == 2 and X.shape[0] > 0 and X.shape[1] >= 2 else None
+
+
+def view_extent(sc: Scenario, result: PlanResult) -> tuple[float, float, float, float]:
+    """Bounding box of everything drawn: end points, obstacles, junctions and the path."""
+    pts = [sc.start[None, :2], sc.goal[None, :2]]
+    if sc.obstacles.shape[0]:
+        c, r = sc.obstacles[:, :2], sc.obstacles[:, 2:3]
+        pts += [c - r, c + r]
+    X = initial_junctions(result)
+    if X is not None:
+        pts.append(X[:, :2])
+    for h in result.history:
+        pts.append(np.asarray(h.X, dtype=float)[:, :2])
+    if result.trajectory is not None:
+        pts.append(result.trajectory.x[:, :2])
+    p = np.concatenate(pts)
+    p = p[np.all(np.isfinite(p), axis=1)]
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
+
+
+def arrow_length(sc: Scenario, result: PlanResult, arrows: int = 9) -> float:
+    """About 7 % of the plot, but short enough that ``arrows`` arrows along the path stay apart."""
+    x0, x1, y0, y1 = view_extent(sc, result)
+    length = 0.07 * max(x1 - x0, y1 - y0, 1e-9)
+    tr = result.trajectory
+    if tr is not None and arrows > 0:
+        arc = float(np.sum(np.hypot(*np.diff(tr.x[:, :2], axis=0).T)))
+        if np.isfinite(arc) and arc > 0:
+            length = min(length, 0.5 * arc / (arrows + 1))
+    return max(length, 0.02 * max(x1 - x0, y1 - y0, 1e-9))
+
+
+def path_figsize(sc: Scenario, result: PlanResult, legend_width: float) -> tuple:
+    """A figure whose axes roughly follow the data's aspect ratio, plus room for the legend."""
+    x0, x1, y0, y1 = view_extent(sc, result)
+    w, h = max(x1 - x0, 1e-9), max(y1 - y0, 1e-9)
+    width = 6.0
+    height = float(np.clip(width * h / w, 3.0, 7.5)) + 1.0
+    return (width + legend_width, max(height, 4.0))
+
+
+def frame_axes(ax: Axes, sc: Scenario, result: PlanResult) -> None:
+    """Equal aspect and limits with room for the arrows at the edges."""
+    x0, x1, y0, y1 = view_extent(sc, result)
+    pad = 0.12 * max(x1 - x0, y1 - y0, 1e-9)
+    ax.set_xlim(x0 - pad, x1 + pad)
+    ax.set_ylim(y0 - pad, y1 + pad)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+
+
+def draw_obstacles(ax: Axes, sc: Scenario, label: bool = True) -> None:
+    for j, (cx, cy, r) in enumerate(sc.obstacles.tolist()):
+        ax.add_patch(
+            Circle(
+                (cx, cy),
+                r,
+                facecolor=OBSTACLE_FACE,
+                edgecolor=OBSTACLE_EDGE,
+                lw=1.0,
+                zorder=1,
+                gid=GID_OBSTACLE,
+                label="obstacles" if (label and j == 0) else None,
+            )
+        )
+
+
+def draw_arrows(ax: Axes, xy, theta, length: float, *, gid: str, color, pivot="mid", width=0.005):
+    xy = np.atleast_2d(np.asarray(xy, dtype=float))
+    theta = np.atleast_1d(np.asarray(theta, dtype=float))
+    return ax.quiver(
+        xy[:, 0],
+        xy[:, 1],
+        length * np.cos(theta),
+        length * np.sin(theta),
+        angles="xy",
+        scale_units="xy",
+        scale=1.0,
+        pivot=pivot,
+        color=color,
+        width=width,
+        headwidth=4.0,
+        headlength=5.0,
+        headaxislength=4.5,
+        zorder=4,
+        gid=gid,
+    )
+
+
+def draw_ends(ax: Axes, sc: Scenario, length: float, label: bool = True) -> None:
+    """Start (circle) and goal (star) with their headings as arrows from the point."""
+    for name, state, color, marker in (
+        ("start", sc.start, START_COLOR, "o"),
+        ("goal", sc.goal, GOAL_COLOR, "*"),
+    ):
+        x, y, th = (float(v) for v in state[:3])
+        text = f"{name} ({x:.3g}, {y:.3g}, {th:.3g} rad)"
+        ax.plot(
+            [x],
+            [y],
+            ls="none",
+            marker=marker,
+            ms=9 if marker == "o" else 14,
+            mfc=color,
+            mec="black",
+            mew=0.8,
+            zorder=6,
+            gid=name,
+            label=text if label else None,
+        )
+        draw_arrows(
+            ax,
+            [x, y],
+            th,
+            1.3 * length,
+            gid=GID_END_HEADING,
+            color=color,
+            pivot="tail",
+            width=0.007,
+        )
+
+
+def draw_initial(ax: Axes, result: PlanResult, label: bool = True) -> None:
+    X = initial_junctions(result)
+    if X is None:
+        return
+    q = X.shape[0] - 1
+    text = f"initial path junctions (q = {q}, J = {cost_text(result.initial_cost)})"
+    ax.plot(
+        X[:, 0],
+        X[:, 1],
+        ls="--",
+        lw=1.0,
+        color=INITIAL_COLOR,
+        marker="o",
+        ms=3.5,
+        mfc="white",
+        alpha=0.8,
+        zorder=2,
+        gid=GID_INITIAL,
+        label=text if label else None,
+    )
+
+
+def heading_proxy(label: str) -> Line2D:
+    return Line2D([], [], ls="none", marker=r"$\rightarrow$", ms=12, color=ARROW_COLOR, label=label)
+
+
+def no_data(ax: Axes, text: str) -> None:
+    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
+
+
+def sweep_colors(n: int):
+    from matplotlib import colormaps
+
+    cmap = colormaps[SWEEP_CMAP]
+    return [cmap(v) for v in np.linspace(0.3, 1.0, n)] if n else []
