@@ -126,10 +126,19 @@ def paper(out, repeat, cases, quiet):
     help="direct-method intervals (repeatable)  [default: 100 and 200]",
 )
 @click.option("--no-profile", is_flag=True, help="skip the profile of one Leapfrog solve")
+@click.option(
+    "--work-precision",
+    is_flag=True,
+    help="time against accuracy instead: Leapfrog, IPOPT over meshes of 25 to 3200 intervals"
+    " and solve_bvp over tolerances, on the paper cases and --random general scenarios",
+)
 @click.option("--quiet", is_flag=True, help="no progress bar and no summary")
-def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, quiet):
+def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, work_precision, quiet):
     """Benchmark Leapfrog against plain shooting, solve_bvp and CasADi/IPOPT."""
     from ..experiments.bench import BenchSettings, run_bench, target_ratios, write_bench
+
+    if work_precision:
+        return _work_precision(out, repeat, cases, random_, seed, meshes, quiet)
 
     options = {"cases": cases, "solvers": solvers, "meshes": meshes}
     settings = BenchSettings(
@@ -160,4 +169,32 @@ def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, quiet)
             )
         console.print(f"written to {folder}/ (bench.md, bench.csv, bench.json, bench.png)",
                        markup=False, highlight=False)  # fmt: skip
+    return EXIT_OK
+
+
+def _work_precision(out, repeat, cases, general, seed, meshes, quiet):
+    from ..experiments.work_precision import (
+        WorkPrecisionSettings,
+        ratios,
+        run_work_precision,
+        write_work_precision,
+    )
+
+    options = {"cases": cases, "meshes": meshes}
+    settings = WorkPrecisionSettings(
+        repeat=repeat, general=general, seed=seed, **{k: v for k, v in options.items() if v}
+    )
+    folder = _output_dir(out, "--out")
+    result = _run_with_bar(
+        "work-precision", lambda cb: run_work_precision(settings, progress=cb), quiet
+    )
+    write_work_precision(result, folder)
+    for note in result.notes:
+        err.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
+    if not quiet:
+        for r in ratios(result):
+            console.print(r.text, markup=False, highlight=False, soft_wrap=True)
+        console.print(
+            f"written to {folder}/ (work_precision.md, .csv, .png)", markup=False, highlight=False
+        )
     return EXIT_OK

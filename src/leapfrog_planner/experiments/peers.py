@@ -238,8 +238,9 @@ def _line_guess(sc: Scenario, t: np.ndarray) -> np.ndarray:
     return np.column_stack([sc.start + s * (sc.goal - sc.start), np.zeros((t.size, 3))])
 
 
-def bvp_peer(sc: Scenario, start_from: str) -> Peer:
-    """``scipy.integrate.solve_bvp`` from ``"line"`` or ``"path"``; the cost is a 7th ODE."""
+def bvp_peer(sc: Scenario, start_from: str, tol: float = BVP_TOL) -> Peer:
+    """``scipy.integrate.solve_bvp`` from ``"line"`` or ``"path"`` to ``tol``; the cost is a
+    7th ODE."""
     from scipy.integrate import solve_bvp
 
     problem = sc.problem()
@@ -267,7 +268,7 @@ def bvp_peer(sc: Scenario, start_from: str) -> Peer:
         # Quiet: diverging iterates overflow inside scipy, and the library never prints.
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore", RuntimeWarning)
-            return solve_bvp(fun, bc, t, y0, tol=BVP_TOL, max_nodes=BVP_MAX_NODES)
+            return solve_bvp(fun, bc, t, y0, tol=tol, max_nodes=BVP_MAX_NODES)
 
     def judge(sol, times):
         msg = f"status {sol.status}: {sol.message} ({sol.x.size} nodes)"

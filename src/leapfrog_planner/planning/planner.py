@@ -17,8 +17,9 @@ import numpy as np
 
 from .._blas import held_by_parent, single_threaded_blas
 from ..errors import ScenarioError, SettingsError, require_integer
-from ..integrate.flow import Flow, Trajectory
+from ..integrate.flow import Flow, IntegratorSettings, Trajectory
 from ..model.problem import OptimalControlProblem
+from ..roots import RootSettings
 from .initial_path import InitialPath, initial_paths
 from .leapfrog import LeapfrogSettings, LeapfrogSolution, SweepRecord, leapfrog
 from .path_ranking import PathGuide, rank_paths
@@ -35,8 +36,12 @@ from .scenario import Scenario, load_scenario
 
 log = logging.getLogger(__name__)
 
-# A result whose re-integrated end state misses the goal by more than this is not converged.
-END_STATE_TOLERANCE = 1e-8
+# A result whose re-integrated end state misses the goal by more than this (times the final
+# solve's |F| tolerance) is not converged: 1e-8 by default. The re-integration runs at the final
+# solve's tolerances (DOP853 at rtol 1e-12 by default), so that the final settings set the
+# answer's accuracy in one place.
+END_STATE_FACTOR = 100.0
+END_STATE_TOLERANCE = END_STATE_FACTOR * RootSettings().tol
 
 
 @dataclass(frozen=True)
@@ -113,11 +118,12 @@ class PathRun:
     weight: float
     raises: int  # how often the weight was raised from the scenario's for this run
     validation_time_s: float
+    end_tolerance: float = END_STATE_TOLERANCE
 
     @property
     def extremal(self) -> bool:
         """A validated extremal (through an obstacle or not)."""
-        return _valid(self.validation)
+        return _valid(self.validation, self.end_tolerance)
 
     @property
     def collides(self) -> bool:
@@ -196,6 +202,11 @@ class Planner:
         self.flow = Flow(self.problem, self.settings.leapfrog.final_shooting.integrator)
         self.progress = progress
         self._progress_lock = threading.Lock()
+        final = self.settings.leapfrog.final_shooting
+        self._validation = IntegratorSettings(
+            "dop853", rtol=final.integrator.rtol, atol=final.integrator.atol
+        )
+        self._end_tolerance = END_STATE_FACTOR * final.root.tol
         self._weights_lock = threading.Lock()
         self._weighted = {float(self.scenario.weight): (self.problem, self.flow)}
 
@@ -250,9 +261,11 @@ class Planner:
             # Validated here, in the path's own thread: the re-integration overlaps the other
             # paths' sweeps.
             t0 = time.perf_counter()
-            v = validate_arcs(problem, run.extremal, st.samples) if run.success else None
+            v = None
+            if run.success:
+                v = validate_arcs(problem, run.extremal, st.samples, self._validation)
             t_val = time.perf_counter() - t0
-        return PathRun(path, guide, run, (t, X), v, weight, raises, t_val)
+        return PathRun(path, guide, run, (t, X), v, weight, raises, t_val, self._end_tolerance)
 
     def _run_paths(self, paths: list[InitialPath], raises: int) -> list[PathRun]:
         """:meth:`_run_path` for each path, in parallel threads (see ``threads``)."""
@@ -412,9 +425,9 @@ def _best_of(runs: list[PathRun]) -> PathRun:
     )
 
 
-def _valid(v) -> bool:
+def _valid(v, end_tolerance: float = END_STATE_TOLERANCE) -> bool:
     """A validated extremal: re-integrated without failure, reaching the goal."""
-    return v is not None and np.isfinite(v.cost) and v.end_state_error <= END_STATE_TOLERANCE
+    return v is not None and np.isfinite(v.cost) and v.end_state_error <= end_tolerance
 
 
 def plan(scenario: Scenario | str, *, progress=None, **options) -> PlanResult:

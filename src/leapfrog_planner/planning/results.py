@@ -81,21 +81,35 @@ class Validation:
 
 
 def validate(
-    problem: OptimalControlProblem, t0, x0, t1, x1, costate0, samples: int = 1001
+    problem: OptimalControlProblem,
+    t0,
+    x0,
+    t1,
+    x1,
+    costate0,
+    samples: int = 1001,
+    integrator: IntegratorSettings = VALIDATION,
 ) -> Validation:
-    """Re-integrate at rtol 1e-12 and check the end state and Pontryagin's conditions."""
+    """Re-integrate (at rtol 1e-12 by default) and check the end state and Pontryagin's
+    conditions."""
     one = Arcs(np.array([t0, t1], dtype=float), np.array([x0, x1], dtype=float), costate0[None])
-    return validate_arcs(problem, one, samples)
+    return validate_arcs(problem, one, samples, integrator)
 
 
-def validate_arcs(problem: OptimalControlProblem, arcs: Arcs, samples: int = 1001) -> Validation:
-    """Re-integrate an extremal arc by arc from its junctions at rtol 1e-12 and check it.
+def validate_arcs(
+    problem: OptimalControlProblem,
+    arcs: Arcs,
+    samples: int = 1001,
+    integrator: IntegratorSettings = VALIDATION,
+) -> Validation:
+    """Re-integrate an extremal arc by arc from its junctions (at rtol 1e-12 by default) and
+    check it.
 
     ``end_state_error`` is the largest jump of the state or the costate where one arc meets the
     next, or of the state from the goal ``arcs.X[-1]`` at the end: with one arc, the end-state
     error of simple shooting. The cost and the conditions are those of the joined arcs."""
     nan = float("nan")
-    flow = Flow(problem, VALIDATION)
+    flow = Flow(problem, integrator)
     q = arcs.t.size - 1
     T = arcs.t[-1] - arcs.t[0]
     parts, cost, penalty, error = [], 0.0, 0.0, 0.0
