@@ -406,16 +406,23 @@ def test_failed_final_solves_are_retried_after_more_sweeps_at_the_last_level():
     costate jump of 0.05, and simple and multiple shooting over the whole horizon both diverged
     from there (measured). Sweeping q = 4 on brings the jump down, and simple shooting converges."""
     sc = generate_one(GeneratorSpec(n=500, seed=1, obstacles=(3, 10)), 250)
-    without = plan(sc, method=NM, initial_paths=1, threads=1, final_retry_sweeps=0)
+    planner = Planner(sc, method=NM, initial_paths=1, threads=1)
+    path = planner.initial_paths()[0]
+    t, X = path.junctions(planner.settings.leapfrog.partitions, sc.horizon)
+    guide = PathGuide(planner.problem, path, sc.horizon)
+    settings = replace(planner.settings.leapfrog, final_retry_sweeps=0)
+    # the path alone (a plan would go on to paths at a wider margin, and converge)
+    without = leapfrog(planner.problem, t, X, guide=guide, settings=settings, flow=planner.flow)
     assert not without.success and "final solve failed" in without.message
     r = plan(sc, method=NM, initial_paths=1, threads=1)
+    assert r.initial_path == path.label
     assert r.success, r.message
     assert r.final_solver == "shooting" and "after the final solves had failed" in r.message
-    retry = r.history[without.sweeps :]
+    retry = r.history[len(without.history) :]
     assert 0 < len(retry) <= LeapfrogSettings().final_retry_sweeps
     assert all(h.q == 4 for h in retry)
     # the same sweeps up to the first final solves
-    assert [h.cost for h in r.history[: without.sweeps]] == [h.cost for h in without.history]
+    assert [h.cost for h in r.history[: len(without.history)]] == [h.cost for h in without.history]
     costs = np.array([r.initial_cost] + [h.cost for h in r.history])
     assert np.all(np.diff(costs) <= 1e-12 * costs[:-1]) and r.cost_increases == 0
     assert r.end_state_error <= 1e-8

@@ -100,9 +100,9 @@ class PlannerSettings:
 
 #: When no extremal clears the obstacles and some passed through one, those initial paths are
 #: planned again with the obstacle weight raised by this factor, at most ``WEIGHT_RAISES`` times
-#: (16 W in all; see docs/tuning.md).
+#: (64 W in all; see docs/tuning.md).
 WEIGHT_FACTOR = 4.0
-WEIGHT_RAISES = 2
+WEIGHT_RAISES = 3
 
 
 @dataclass(frozen=True)
@@ -210,15 +210,16 @@ class Planner:
         self._weights_lock = threading.Lock()
         self._weighted = {float(self.scenario.weight): (self.problem, self.flow)}
 
-    def initial_paths(self) -> list[InitialPath]:
-        """The ``initial_paths`` candidates of least estimated cost, cheapest first."""
+    def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
+        """The ``initial_paths`` candidates of least estimated cost, cheapest first, keeping
+        ``margin`` (default: the settings') from the obstacles."""
         s, st = self.scenario, self.settings
         candidates = initial_paths(
             s.start,
             s.goal,
             s.obstacles,
             k=max(st.initial_paths, st.candidate_paths),
-            margin=st.margin,
+            margin=st.margin if margin is None else margin,
             waypoints=s.waypoints,
         )
         if len(candidates) < 2:  # nothing to rank: the estimate took 0.6 ms of paper case 1's 9
@@ -282,6 +283,15 @@ class Planner:
         paths = self.initial_paths()
         t_paths = time.perf_counter() - t_begin
         runs = self._run_paths(paths, 0)
+        wide = penalty_margin(self.scenario)
+        if not any(r.extremal for r in runs) and wide > self.settings.margin:
+            # No extremal at all: the paths pass where the penalty dwarfs the control energy (a
+            # long horizon or a heavy weight). Paths that keep the penalty's own distance.
+            log.info("no extremal: initial paths again with margin %.3g", wide)
+            t0 = time.perf_counter()
+            paths = self._wider_paths(wide, paths)
+            t_paths += time.perf_counter() - t0
+            runs += self._run_paths(paths, 0)
         # No path clears at the scenario's weight, and some extremal passed through an obstacle:
         # those paths again with the weight raised, until one clears (also where the run at the
         # last raise failed: a higher weight may still clear).
@@ -295,6 +305,18 @@ class Planner:
         t_runs = time.perf_counter() - t_begin - t_paths
         self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
         return self._result(runs, t_paths, t_runs, time.perf_counter() - t_begin)
+
+    def _wider_paths(self, margin: float, paths: list[InitialPath]) -> list[InitialPath]:
+        """Initial paths at ``margin``, relabelled; none when every gap closes at it."""
+        try:
+            wide = self.initial_paths(margin)
+        except ScenarioError:
+            return []
+        known = {p.label for p in paths}
+        return [
+            replace(p, label=f"{p.label}, margin {margin:.3g}") if p.label in known else p
+            for p in wide
+        ]
 
     def _emit(self, event: PlanEvent):
         if self.progress is not None:
@@ -416,6 +438,32 @@ class Planner:
             what = "; ".join(f"path {r.path.label}: {r.run.message}" for r in runs if r.raises == 0)
             what = f"no initial path led to an extremal ({what})"
         return f"{what}; returned: the {answer.source}"
+
+
+#: The penalty-aware margin keeps the initial path where the penalty is at most this multiple of
+#: the running energy of driving the straight line at constant speed over the horizon.
+PENALTY_TO_ENERGY = 1.0
+
+
+def penalty_margin(scenario: Scenario) -> float:
+    """How far from an obstacle of mean radius ``r`` the penalty falls to the running energy.
+
+    ``W exp(-(d / r)^(2n)) = c e`` at ``d = r ln(W / (c e))^(1/2n)`` with ``e = (L / T)^2 / 2``
+    (``L`` the start-goal distance, at least the mean radius); the margin is ``d - r`` (0 when
+    the penalty never exceeds ``c e``). Units of time enter the problem only through ``W T^2``
+    (for control-affine models with a quadratic control cost, time scaling maps ``(T, W)`` to
+    ``(1, W T^2)``), and so they do here.
+    """
+    obs = scenario.obstacles
+    if obs.shape[0] == 0 or not scenario.weight > 0.0:
+        return 0.0
+    r = float(np.mean(obs[:, 2]))
+    length = max(float(np.hypot(*(scenario.goal[:2] - scenario.start[:2]))), r)
+    energy = 0.5 * (length / scenario.horizon) ** 2
+    ratio = scenario.weight / (PENALTY_TO_ENERGY * energy)
+    if not ratio > np.e:
+        return 0.0
+    return r * (np.log(ratio) ** (1.0 / (2 * scenario.exponent)) - 1.0)
 
 
 def _best_of(runs: list[PathRun]) -> PathRun:
