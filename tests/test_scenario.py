@@ -14,6 +14,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from conftest import CASES
+from leapfrog_planner import checks
 from leapfrog_planner.errors import ScenarioError
 from leapfrog_planner.model.problem import OptimalControlProblem
 from leapfrog_planner.planning.scenario import (
@@ -235,8 +236,10 @@ def test_tricky_name_round_trip():
     assert load_scenario_text(s.to_toml()).name == name
 
 
-finite = st.floats(allow_nan=False, allow_infinity=False)
-positive = st.floats(min_value=0.0, exclude_min=True, allow_infinity=False)
+# Anything within the documented bounds (checks.py) round-trips.
+finite = st.floats(-checks.COORDINATE_MAX, checks.COORDINATE_MAX)
+heading = st.floats(-checks.HEADING_MAX, checks.HEADING_MAX)
+positive = st.floats(*checks.PARAMETER_RANGE)
 point = st.tuples(finite, finite)
 
 
@@ -247,10 +250,10 @@ def _inside(p, obstacles):
 @st.composite
 def scenarios(draw):
     obstacles = draw(
-        st.lists(st.tuples(finite, finite, st.floats(1e-300, 10.0)), max_size=4),
+        st.lists(st.tuples(finite, finite, st.floats(checks.RADIUS_RANGE[0], 10.0)), max_size=4),
     )
-    start = draw(st.tuples(finite, finite, finite))
-    goal = draw(st.tuples(finite, finite, finite))
+    start = draw(st.tuples(finite, finite, heading))
+    goal = draw(st.tuples(finite, finite, heading))
     waypoints = draw(st.none() | st.lists(point, min_size=1, max_size=3))
     for p in [start, goal, *(waypoints or [])]:
         assume(not _inside(p, obstacles))
@@ -268,14 +271,14 @@ def scenarios(draw):
     )
     return Scenario(
         name=draw(st.text(st.characters(blacklist_categories=("Cs",)), min_size=1, max_size=20)),
-        horizon=draw(positive),
+        horizon=draw(st.floats(*checks.HORIZON_RANGE)),
         start=start,
         goal=goal,
         obstacles=obstacles,
         model=model,
         model_parameters=params,
-        weight=draw(st.floats(min_value=0.0, allow_infinity=False)),
-        exponent=draw(st.integers(1, 2**62)),
+        weight=draw(st.floats(0.0, checks.WEIGHT_MAX)),
+        exponent=draw(st.integers(1, checks.EXPONENT_MAX)),
         waypoints=waypoints,
         solver=solver,
     )

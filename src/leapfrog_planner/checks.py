@@ -17,6 +17,18 @@ import numpy as np
 
 from .errors import ScenarioError
 
+# Bounds beyond which a value makes no physical sense for a mobile robot, in any consistent
+# units, and would only overflow the arithmetic. The scenario file format documents them.
+COORDINATE_MAX = 1e6  # |x|, |y| of start, goal, waypoints and obstacle centres
+HEADING_MAX = 1e3  # |heading| in radians (about 160 turns)
+HORIZON_RANGE = (1e-3, 1e4)  # the time horizon T
+RADIUS_RANGE = (1e-6, 1e6)  # an obstacle's radius
+PARAMETER_RANGE = (1e-6, 1e6)  # a positive model parameter (wheel radius, axle length)
+WEIGHT_MAX = 1e12  # the obstacle weight W
+EXPONENT_MAX = 16  # the penalty exponent n (the penalty is a wall well before that)
+OBSTACLES_MAX = 10_000
+WAYPOINTS_MAX = 1_000
+
 
 def short(text: str, limit: int = 40) -> str:
     r = repr(text)
@@ -66,14 +78,30 @@ def real(value: Any, key: str, *, gt=None, ge=None, error=ScenarioError) -> floa
     return x
 
 
-def integer(value: Any, key: str, *, minimum=None, error=ScenarioError) -> int:
-    """An integer (booleans and floats refused), ``>= minimum`` if given."""
+def in_range(x: float, key: str, low: float, high: float, *, error=ScenarioError) -> float:
+    """``x`` unless it lies outside ``[low, high]``."""
+    if not low <= x <= high:
+        raise error(f"{key}: must be between {low:g} and {high:g}, got {x!r}")
+    return x
+
+
+def magnitude(values, key: str, limit: float, *, error=ScenarioError) -> None:
+    """Refuse an entry of ``values`` (``key[i]`` in messages) larger than ``limit`` in size."""
+    for i, x in enumerate(np.asarray(values, dtype=float).ravel().tolist()):
+        if not abs(x) <= limit:
+            raise error(f"{key}[{i}]: must be at most {limit:g} in size, got {x!r}")
+
+
+def integer(value: Any, key: str, *, minimum=None, maximum=None, error=ScenarioError) -> int:
+    """An integer (booleans and floats refused), ``>= minimum`` and ``<= maximum`` if given."""
     bound = "" if minimum is None else f" >= {minimum}"
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
         raise error(f"{key}: expected an integer{bound}, got {describe(value)}")
     n = int(value)
     if minimum is not None and n < minimum:
-        raise error(f"{key}: must be an integer{bound}, got {n}")
+        raise error(f"{key}: must be an integer{bound}, got {describe(n)[8:]}")
+    if maximum is not None and n > maximum:
+        raise error(f"{key}: must be at most {maximum}, got {describe(n)[8:]}")
     return n
 
 
@@ -119,8 +147,12 @@ def obstacles(value: Any, key: str = "obstacles", *, error=ScenarioError) -> np.
     if value is None:
         return np.zeros((0, 3))
     obs = rows(value, 3, key, "cx, cy, r", error=error)
-    for j, r in enumerate(obs[:, 2]):
+    if obs.shape[0] > OBSTACLES_MAX:
+        raise error(f"{key}: at most {OBSTACLES_MAX} obstacles, got {obs.shape[0]}")
+    for j, (cx, cy, r) in enumerate(obs.tolist()):
+        magnitude((cx, cy), f"{key}[{j}].center", COORDINATE_MAX, error=error)
         real(r, f"{key}[{j}].radius", gt=0, error=error)
+        in_range(r, f"{key}[{j}].radius", *RADIUS_RANGE, error=error)
     return obs
 
 

@@ -17,8 +17,15 @@ class SettingsError(LeapfrogError, ValueError):
     """An unknown option, or an option with a value outside its range."""
 
 
-def require_integer(name: str, value, minimum: int = 1) -> None:
-    """Raise :class:`SettingsError`, naming ``name``, unless ``value`` is an integer >= minimum."""
-    if int(value) != value or value < minimum:
-        what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
-        raise SettingsError(f"{name} must be {what}, got {value}")
+def require_integer(name: str, value, minimum: int = 1, maximum: int | None = None) -> None:
+    """Raise :class:`SettingsError`, naming ``name``, unless ``value`` is an integer in
+    ``[minimum, maximum]`` (booleans and floats with a fraction are refused)."""
+    what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
+    try:
+        ok = not isinstance(value, bool) and int(value) == value and value >= minimum
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise SettingsError(f"{name} must be {what}, got {value!r}")
+    if maximum is not None and value > maximum:
+        raise SettingsError(f"{name} must be at most {maximum}, got {value!r}")

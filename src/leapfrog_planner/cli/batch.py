@@ -11,7 +11,15 @@ from pathlib import Path
 import click
 
 from ..errors import LeapfrogError
-from .common import EXIT_OK, console, err, output_path
+from .common import (
+    EXIT_OK,
+    console,
+    err,
+    output_folder,
+    output_path,
+    refuse_inputs_in,
+    write_output,
+)
 
 
 def _range(kind, name):
@@ -119,7 +127,7 @@ def _spec(n, seed, preset, prefix=None, **given):
 
 @click.command()
 @_generator_options
-@click.option("--out", required=True, type=click.Path(file_okay=False), help="folder for the files")
+@click.option("--out", required=True, help="folder for the files")
 @click.option("--overwrite", is_flag=True, help="replace existing files with other content")
 def generate(out, overwrite, **gen):
     """Write seeded random scenarios as TOML files (scenario i depends only on seed and i)."""
@@ -128,6 +136,7 @@ def generate(out, overwrite, **gen):
     if gen["n"] is None:
         raise click.UsageError("--n is required")
     spec = _spec(**gen)
+    output_folder(out, "--out")
     paths = write_scenarios(spec, out, overwrite=overwrite)
     click.echo(f"{len(paths)} scenarios in {out}")
     return EXIT_OK
@@ -247,8 +256,8 @@ def sweep(
         chunk_size=chunk_size,
         sort=not no_sort,
     )
-    out_path = output_path(out, "--out")
     scenarios = _load_sources(sources)
+    out_path = output_path(out, "--out", [s.source for s in scenarios if s.source])
     if gen["n"] is not None:
         from ..batch.generate import generate as gen_scenarios
 
@@ -312,7 +321,6 @@ def _print_summary(s):
 @click.option(
     "--out",
     default=None,
-    type=click.Path(file_okay=False),
     help="folder for report.md and the figures",
 )
 def report(results, out):
@@ -322,8 +330,11 @@ def report(results, out):
 
     if not Path(results).is_file():
         raise click.UsageError(f"{results!r}: no such file")
+    if out is not None:
+        folder = output_folder(out, "--out", [results])
+        refuse_inputs_in(folder, ["report.md"], [results], "--out")
     rep = build_report(read_records(results))
     if out is not None:
-        save_report(rep, out)
+        write_output(lambda f: save_report(rep, f), folder, "--out")
     click.echo(rep.to_markdown(), nl=False)
     return EXIT_OK

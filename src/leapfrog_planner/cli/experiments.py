@@ -6,12 +6,11 @@ written: a solver failure is a result of the experiment, shown in its tables, no
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import click
 
-from .common import EXIT_OK, console, err
+from .common import EXIT_OK, console, err, output_folder, write_output
 
 # As bench.SOLVERS (the test checks), without importing the benchmark for --help.
 SOLVER_CHOICES = ["leapfrog-mnm", "leapfrog-mnm-1path", "leapfrog-nm", "leapfrog-nleq-err",
@@ -20,17 +19,7 @@ SOLVER_CHOICES = ["leapfrog-mnm", "leapfrog-mnm-1path", "leapfrog-nm", "leapfrog
 
 def _output_dir(value: str, option: str) -> Path:
     """The output folder, created if needed; checked before any work (bad input exits 2)."""
-    path = Path(value)
-    if path.exists() and not path.is_dir():
-        raise click.UsageError(f"{option}: {value!r} exists and is not a folder")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not path.exists() and not parent.is_dir():
-        raise click.UsageError(f"{option}: folder {str(parent)!r} does not exist")
-    target = path if path.exists() else parent
-    if not os.access(target, os.W_OK):
-        raise click.UsageError(f"{option}: folder {str(target)!r} is not writable")
-    path.mkdir(exist_ok=True)
-    return path
+    return output_folder(value, option)
 
 
 def _progress_bar():
@@ -83,7 +72,7 @@ def paper(out, repeat, cases, quiet):
     settings = PaperSettings(repeat=repeat, **({"cases": cases} if cases else {}))
     folder = _output_dir(out, "--out")
     result = _run_with_bar("paper", lambda cb: run_paper(settings, progress=cb), quiet)
-    write_paper(result, folder)
+    write_output(lambda f: write_paper(result, f), folder, "--out")
     if not quiet:
         click.echo(table1_markdown(result))  # plain: rich would re-wrap the Markdown
         console.print(f"written to {folder}/", markup=False, highlight=False)
@@ -150,7 +139,7 @@ def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, work_p
     )
     folder = _output_dir(out, "--out")
     result = _run_with_bar("bench", lambda cb: run_bench(settings, progress=cb), quiet)
-    write_bench(result, folder)
+    write_output(lambda f: write_bench(result, f), folder, "--out")
     for note in result.notes:  # e.g. CasADi missing: said even when quiet
         err.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
     if not quiet:
@@ -188,7 +177,7 @@ def _work_precision(out, repeat, cases, general, seed, meshes, quiet):
     result = _run_with_bar(
         "work-precision", lambda cb: run_work_precision(settings, progress=cb), quiet
     )
-    write_work_precision(result, folder)
+    write_output(lambda f: write_work_precision(result, f), folder, "--out")
     for note in result.notes:
         err.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
     if not quiet:

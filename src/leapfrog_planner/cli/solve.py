@@ -12,7 +12,15 @@ import numpy as np
 from rich.table import Table
 
 from .._atomic import write_atomic
-from .common import EXIT_FAILED, EXIT_OK, console, err, output_path
+from .common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    console,
+    distinct_outputs,
+    err,
+    output_path,
+    write_output,
+)
 
 
 @click.command()
@@ -69,17 +77,32 @@ def derive(model):
 @click.option(
     "--json",
     "json_path",
-    type=click.Path(dir_okay=False),
     default=None,
     help="write the result as JSON",
 )
 def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
     """Solve one two-point problem by simple shooting (no Leapfrog)."""
+    from .. import checks
     from ..bvp.shooting import solve_shooting
-    from ..model.problem import OptimalControlProblem
+    from ..errors import ScenarioError
+    from ..planning.scenario import Scenario
 
-    problem = OptimalControlProblem.create(model, list(obstacles))
-    res = solve_shooting(problem, 0.0, start, horizon, goal, method=method, guess=guess)
+    json_out = output_path(json_path, "--json")
+    # The same checks as a scenario file's (bounds, a start inside an obstacle).
+    sc = Scenario(
+        name="shoot",
+        horizon=horizon,
+        start=start,
+        goal=goal,
+        obstacles=np.array(obstacles, dtype=float).reshape(-1, 3),
+        model=model,
+        source="options",
+    )
+    if guess is not None:
+        guess = checks.vector(guess, 3, "options: --guess", error=ScenarioError)
+    res = solve_shooting(
+        sc.problem(), 0.0, sc.start, sc.horizon, sc.goal, method=method, guess=guess
+    )
     table = Table(title=f"simple shooting ({method})", show_header=False)
     for k, v in [
         ("status", str(res.status)),
@@ -93,7 +116,7 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
     ]:
         table.add_row(k, v)
     console.print(table)
-    if json_path:
+    if json_out:
         out = {
             "status": str(res.status),
             "message": res.message,
@@ -104,7 +127,9 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
             "f_evals": res.root.f_evals,
         }
         text = json.dumps(out, indent=2)
-        write_atomic(json_path, lambda tmp: Path(tmp).write_text(text))
+        write_output(
+            lambda p: write_atomic(p, lambda tmp: Path(tmp).write_text(text)), json_out, "--json"
+        )
     return EXIT_OK if res.success else EXIT_FAILED
 
 
@@ -133,7 +158,10 @@ def scenarios():
     help="local Newton method  [default: modified-newton]",
 )
 @click.option(
-    "--partitions", type=click.IntRange(min=2), default=None, help="initial q  [default: 8]"
+    "--partitions",
+    type=click.IntRange(min=2, max=1024),
+    default=None,
+    help="initial q, 2 to 1024  [default: 8]",
 )
 @click.option(
     "--initial-paths",
@@ -158,17 +186,15 @@ def solve(
     from ..planning.planner import Planner
     from ..planning.scenario import load_scenario
 
-    outputs = {
-        "json": output_path(json_path, "--json"),
-        "npz": output_path(npz_path, "--npz"),
-        "plot": output_path(plot_path, "--plot"),
-    }
-    if outputs["plot"] is not None and outputs["plot"].suffix.lower() not in (
-        ".png",
-        ".pdf",
-        ".svg",
-    ):
+    if plot_path is not None and Path(plot_path).suffix.lower() not in (".png", ".pdf", ".svg"):
         raise click.UsageError("--plot: the file must end in .png, .pdf or .svg")
+    inputs = [scenario]
+    outputs = {
+        "--json": output_path(json_path, "--json", inputs),
+        "--npz": output_path(npz_path, "--npz", inputs),
+        "--plot": output_path(plot_path, "--plot", inputs),
+    }
+    distinct_outputs(outputs)
     sc = load_scenario(scenario)
     options = {
         k: v
@@ -182,16 +208,16 @@ def solve(
     }
     planner = Planner(sc, **options)  # settings errors surface here, before any display
     result = planner.plan() if quiet else _plan_with_progress(planner)
-    if outputs["json"]:
-        result.save_json(outputs["json"])
-    if outputs["npz"]:
-        result.save_npz(outputs["npz"])
-    if outputs["plot"]:
+    if outputs["--json"]:
+        write_output(result.save_json, outputs["--json"], "--json")
+    if outputs["--npz"]:
+        write_output(result.save_npz, outputs["--npz"], "--npz")
+    if outputs["--plot"]:
         from ..viz.plots import plot_path as draw
         from ..viz.plots import save_figure
 
         ax = draw(result, sc)
-        save_figure(ax.figure, outputs["plot"])
+        write_output(lambda p: save_figure(ax.figure, p), outputs["--plot"], "--plot")
     if not quiet:
         console.print(_summary(result))
     elif not result.success:

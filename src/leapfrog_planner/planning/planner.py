@@ -69,12 +69,12 @@ class PlannerSettings:
     leapfrog: LeapfrogSettings = LeapfrogSettings()
 
     def __post_init__(self):
-        require_integer("initial_paths", self.initial_paths)
-        require_integer("candidate_paths", self.candidate_paths)
-        require_integer("threads", self.threads, 0)
-        if not self.margin >= 0:
-            raise SettingsError(f"margin must be >= 0, got {self.margin}")
-        require_integer("samples", self.samples, 2)
+        require_integer("initial_paths", self.initial_paths, 1, 32)
+        require_integer("candidate_paths", self.candidate_paths, 1, 64)
+        require_integer("threads", self.threads, 0, 256)
+        if not 0 <= self.margin <= 1e6:
+            raise SettingsError(f"margin must be between 0 and 1e6, got {self.margin!r}")
+        require_integer("samples", self.samples, 2, 1_000_000)
 
     @classmethod
     def from_options(cls, base: PlannerSettings | None = None, **options) -> PlannerSettings:

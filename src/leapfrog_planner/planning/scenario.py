@@ -73,6 +73,11 @@ Optional additions beyond the spec's contract:
     (integer), ``tolerance`` (number), ``max_sweeps`` (integer). Unknown keys and wrong types are
     errors.
 
+Bounds (``checks.py``), beyond which a value makes no physical sense in any consistent units:
+coordinates at most ``1e6`` in size, headings at most ``1e3``, ``1e-3 <= horizon <= 1e4``, radii
+and positive model parameters in ``[1e-6, 1e6]``, ``weight <= 1e12``, ``exponent <= 16``, at
+most 10,000 obstacles and 1,000 waypoints; a file of at most 16 MB.
+
 Every problem raises :class:`~leapfrog_planner.errors.ScenarioError` (a ``ValueError``) with a
 one-line message of the form ``<source>: <key>: <problem>``, for example
 ``room.toml: start: expected 3 numbers, got 2`` or
@@ -82,8 +87,9 @@ one-line message of the form ``<source>: <key>: <problem>``, for example
 from __future__ import annotations
 
 import difflib
-import math
+import os
 import re
+import stat
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -98,6 +104,7 @@ from ..errors import ScenarioError
 from ..model import MODELS
 from ..model.kernels import model_info
 from ..model.problem import OptimalControlProblem
+from .scenario_toml import BARE_KEY, toml_key, toml_state, toml_value
 
 __all__ = [
     "SOLVER_KEYS",
@@ -138,7 +145,6 @@ DEFAULT_WEIGHT = 100.0
 DEFAULT_EXPONENT = 2
 
 _BUILTIN_PREFIX = "builtin:"
-_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
 # --------------------------------------------------------------------------- validation helpers
@@ -146,7 +152,7 @@ _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 def _key_path(prefix: str, key: Any) -> str:
     key = str(key)
-    name = key if _BARE_KEY.fullmatch(key) else checks.short(key)
+    name = key if BARE_KEY.fullmatch(key) else checks.short(key)
     return f"{prefix}.{name}" if prefix else name
 
 
@@ -170,8 +176,22 @@ class _Check:
     def number(self, value: Any, key: str, *, gt: float | None = None, ge: float | None = None):
         return self._named(checks.real, value, key, gt=gt, ge=ge)
 
-    def integer(self, value: Any, key: str, *, minimum: int | None = None) -> int:
-        return self._named(checks.integer, value, key, minimum=minimum)
+    def integer(self, value: Any, key: str, *, minimum: int | None = None, maximum=None) -> int:
+        return self._named(checks.integer, value, key, minimum=minimum, maximum=maximum)
+
+    def in_range(self, x: float, key: str, bounds: tuple[float, float]) -> float:
+        return self._named(checks.in_range, x, key, *bounds)
+
+    def magnitude(self, values, key: str, limit: float) -> None:
+        self._named(checks.magnitude, values, key, limit)
+
+    def pose(self, value: Any, key: str) -> np.ndarray:
+        """``[x, y, heading]`` within the coordinate and heading bounds."""
+        p = self.vector(value, 3, key, " [x, y, heading]")
+        self.magnitude(p[:2], key, checks.COORDINATE_MAX)
+        if not abs(p[2]) <= checks.HEADING_MAX:
+            self.fail(f"{key}[2]", f"must be at most {checks.HEADING_MAX:g} in size, got {p[2]!r}")
+        return p
 
     def string(self, value: Any, key: str) -> str:
         if not isinstance(value, str):
@@ -260,15 +280,23 @@ class Scenario:
         if not name:
             c.fail("name", "expected a non-empty string")
         horizon = c.number(self.horizon, "horizon", gt=0)
-        start = c.vector(self.start, 3, "start", " [x, y, heading]")
-        goal = c.vector(self.goal, 3, "goal", " [x, y, heading]")
+        c.in_range(horizon, "horizon", checks.HORIZON_RANGE)
+        start = c.pose(self.start, "start")
+        goal = c.pose(self.goal, "goal")
         obstacles = c.obstacles(self.obstacles)
         model, parameters = self._check_model(c)
         weight = c.number(self.weight, "penalty.weight", ge=0)
-        exponent = c.integer(self.exponent, "penalty.exponent", minimum=1)
+        c.in_range(weight, "penalty.weight", (0.0, checks.WEIGHT_MAX))
+        exponent = c.integer(
+            self.exponent, "penalty.exponent", minimum=1, maximum=checks.EXPONENT_MAX
+        )
         waypoints = None
         if self.waypoints is not None:
             waypoints = c.rows(self.waypoints, 2, "waypoints", "x, y")
+            if waypoints.shape[0] > checks.WAYPOINTS_MAX:
+                c.fail("waypoints", f"at most {checks.WAYPOINTS_MAX}, got {waypoints.shape[0]}")
+            for i, w in enumerate(waypoints):
+                c.magnitude(w, f"waypoints[{i}]", checks.COORDINATE_MAX)
             if waypoints.shape[0] == 0:
                 waypoints = None
         solver = self._check_solver(c)
@@ -309,6 +337,8 @@ class Scenario:
             if k == "model":  # only reachable by direct construction
                 c.fail("robot.model", "give the model as Scenario.model, not a parameter")
             checked[k] = c.number(v, _key_path("robot", k), gt=0 if positive[k] else None)
+            if positive[k]:
+                c.in_range(checked[k], _key_path("robot", k), checks.PARAMETER_RANGE)
         values = info.parameter_values(checked)
         return model, dict(zip(info.parameters, values, strict=True))
 
@@ -382,75 +412,21 @@ class Scenario:
         """The scenario as a TOML file; :func:`load_scenario_text` reads it back exactly."""
         d = self.to_dict()
         lines = [
-            f"name = {_toml_value(d['name'])}",
-            f"horizon = {_toml_value(d['horizon'])}",
-            _toml_state("start", d["start"]),
-            _toml_state("goal", d["goal"]),
+            f"name = {toml_value(d['name'])}",
+            f"horizon = {toml_value(d['horizon'])}",
+            toml_state("start", d["start"]),
+            toml_state("goal", d["goal"]),
         ]
         if "waypoints" in d:
-            lines.append(f"waypoints = {_toml_value(d['waypoints'])}")
+            lines.append(f"waypoints = {toml_value(d['waypoints'])}")
         for table in ("robot", "penalty", "solver"):
             if table in d:
                 lines += ["", f"[{table}]"]
-                lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in d[table].items()]
+                lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in d[table].items()]
         for ob in d["obstacles"]:
             lines += ["", "[[obstacles]]"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in ob.items()]
+            lines += [f"{k} = {toml_value(v)}" for k, v in ob.items()]
         return "\n".join(lines) + "\n"
-
-
-# --------------------------------------------------------------------------- TOML writing
-
-
-def _toml_string(s: str) -> str:
-    short = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f"}
-    short["\r"] = "\\r"
-    out = []
-    for ch in s:
-        if ch in short:
-            out.append(short[ch])
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
-
-
-def _toml_key(k: str) -> str:
-    return k if _BARE_KEY.fullmatch(k) else _toml_string(k)
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        return repr(v)  # shortest text that reads back to the same double
-    if isinstance(v, str):
-        return _toml_string(v)
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {type(v).__name__} as TOML")  # pragma: no cover
-
-
-def _pi_fraction(theta: float) -> str | None:
-    """``"pi/2"``, ``"-3pi/4"``... when ``theta`` is exactly that double, else ``None``."""
-    if theta == 0.0 or not abs(theta) <= 8 * math.pi:
-        return None
-    for q in (1, 2, 3, 4, 6, 8, 12):
-        p = round(theta * q / math.pi)
-        if p and math.gcd(p, q) == 1 and abs(p) <= 8 * q and p * math.pi / q == theta:
-            sign = "-" if p < 0 else ""
-            num = "" if abs(p) == 1 else str(abs(p))
-            return f"{sign}{num}pi" + ("" if q == 1 else f"/{q}")
-    return None
-
-
-def _toml_state(key: str, state: list[float]) -> str:
-    line = f"{key} = {_toml_value(state)}"
-    frac = _pi_fraction(state[2])
-    return line + f"  # {frac}" if frac else line
 
 
 # --------------------------------------------------------------------------- reading
@@ -480,6 +456,8 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
         c.fail(
             "obstacles", f"expected an array of tables ([[obstacles]]), got {checks.describe(raw)}"
         )
+    if len(raw) > checks.OBSTACLES_MAX:
+        c.fail("obstacles", f"at most {checks.OBSTACLES_MAX} obstacles, got {len(raw)}")
     obstacles = np.zeros((len(raw), 3))
     for j, ob in enumerate(raw):
         key = f"obstacles[{j}]"
@@ -516,6 +494,8 @@ def load_scenario_text(text: str | bytes, source: str = "<string>") -> Scenario:
         text = _decode(bytes(text), source)
     try:
         data = tomllib.loads(text)
+    except RecursionError:
+        _Check(source).fail("", "invalid TOML: values nested too deeply")
     except tomllib.TOMLDecodeError as exc:
         message = str(exc)
         if "(at end of document)" in message:  # tomllib gives no line number here
@@ -552,17 +532,49 @@ def builtin_scenarios() -> list[str]:
     return sorted(names, key=_natural_key)
 
 
+#: A scenario file larger than this is refused (10,000 obstacles take about 600 kB).
+MAX_FILE_BYTES = 16 * 2**20
+
+
+def _read_file(path: Path, name: str) -> bytes:
+    """The bytes of a scenario file, at most :data:`MAX_FILE_BYTES`. A FIFO without a writer
+    reads as empty instead of blocking; a device that never ends (``/dev/zero``) hits the cap."""
+    c = _Check(name)
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except OSError as exc:
+        c.fail("", f"cannot read file: {exc.strerror or exc}")
+    chunks, size = [], 0
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            c.fail("", "is a directory, not a scenario file")
+        os.set_blocking(fd, True)
+        while size <= MAX_FILE_BYTES and (chunk := os.read(fd, 1 << 20)):
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as exc:
+        c.fail("", f"cannot read file: {exc.strerror or exc}")
+    finally:
+        os.close(fd)
+    if size > MAX_FILE_BYTES:
+        c.fail("", f"larger than {MAX_FILE_BYTES // 2**20} MB, not a scenario file")
+    return b"".join(chunks)
+
+
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists() or path.is_symlink()
+    except OSError:  # e.g. a name too long for the file system: not a file we can read
+        return False
+
+
 def load_scenario(path_or_name: str | Path) -> Scenario:
     """A scenario from a file path or, when no such file exists, a built-in name."""
     text_name = str(path_or_name)
     path = Path(path_or_name)
-    if text_name and path.exists():
-        if path.is_dir():
-            _Check(text_name).fail("", "is a directory, not a scenario file")
-        try:
-            raw = path.read_bytes()
-        except OSError as exc:
-            _Check(text_name).fail("", f"cannot read file: {exc.strerror or exc}")
+    if text_name and "\0" not in text_name and _exists(path):
+        raw = _read_file(path, text_name)
         return load_scenario_text(_decode(raw, text_name), text_name)
     names = builtin_scenarios()
     if isinstance(path_or_name, str) and path_or_name in names:
