@@ -331,7 +331,7 @@ def saved(planned, tmp_path_factory):
 def test_json_has_the_stable_keys_with_the_right_types(saved):
     r, folder = saved
     d = json.loads((folder / "result.json").read_text())
-    assert d["schema"] == 1
+    assert d["schema"] == 2
     assert d["status"] == "converged"
     for k in NUMBER_KEYS:
         assert isinstance(d[k], float) and math.isfinite(d[k]), k
@@ -393,7 +393,7 @@ def test_npz_round_trip(saved):
     with np.load(folder / "result.npz") as z:
         data = {k: z[k] for k in z.files}
     cols = r.trajectory_columns()
-    assert set(data) == set(cols) | {"history_cost", "history_jump", "clearance"}
+    assert set(data) == set(cols) | {"history_cost", "history_jump", "clearance", "result_json"}
     for k, v in cols.items():
         np.testing.assert_array_equal(data[k], v)
     np.testing.assert_array_equal(data["history_cost"], [h.cost for h in r.history])

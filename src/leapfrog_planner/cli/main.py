@@ -13,6 +13,7 @@ from ..errors import LeapfrogError
 from .batch import generate, report, sweep
 from .common import EXIT_BAD_INPUT, EXIT_OK, err
 from .experiments import bench, paper
+from .results import export, plot
 from .solve import derive, scenarios, shoot, solve
 
 
@@ -22,7 +23,19 @@ def cli():
     """Optimal trajectories for mobile robots: Pontryagin's principle, shooting, Leapfrog."""
 
 
-for command in (solve, shoot, derive, scenarios, paper, bench, generate, sweep, report):
+for command in (
+    solve,
+    shoot,
+    derive,
+    scenarios,
+    plot,
+    export,
+    paper,
+    bench,
+    generate,
+    sweep,
+    report,
+):
     cli.add_command(command)
 
 

@@ -23,6 +23,7 @@ from ..roots import RootSettings
 from .initial_path import InitialPath, initial_paths
 from .leapfrog import LeapfrogSettings, LeapfrogSolution, SweepRecord, leapfrog
 from .path_ranking import PathGuide, rank_paths
+from .result_files import plain
 from .results import (
     PathOutcome,
     PlanResult,
@@ -146,6 +147,7 @@ class PathRun:
             sweeps=len(self.run.history),
             message=self.run.message,
             weight=self.weight,
+            trajectory=v.trajectory if self.extremal else None,
         )
 
 
@@ -413,6 +415,8 @@ class Planner:
             weight=best.weight,
             optimal=v is not None,
             trajectory_source=answer.source,
+            task=s,
+            settings=plain(self.settings),
         )
 
     def _message(self, status, best: PathRun, answer: Answer, runs) -> str:

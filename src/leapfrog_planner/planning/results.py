@@ -1,6 +1,9 @@
 """Leapfrog results: validated against Pontryagin's conditions, saved as JSON and NPZ.
 
-JSON schema (``schema`` = 1). These top-level keys are a stable contract for other tools:
+JSON schema (``schema`` = 2). A file stands alone: it holds the scenario planned
+(``scenario_file``, the keys of a scenario file) and the planner's settings (``settings``), and
+``PlanResult.load(path)`` reads it back (see :mod:`.result_files`). These top-level keys are a
+stable contract for other tools:
 
 - ``status``: ``"converged"`` on success (a collision-free extremal that meets Pontryagin's
   conditions), ``"collides"`` when every extremal found passes through an obstacle, ``"failed"``
@@ -18,52 +21,35 @@ JSON schema (``schema`` = 1). These top-level keys are a stable contract for oth
   ``max_costate_jump`` (at the junctions after the last sweep, relative), ``wall_time_s``.
 - ``method`` (local Newton method), ``sweeps``, ``newton_iterations``.
 - ``trajectory``: equal-length arrays ``t``, the states (``x``, ``y``, ``theta``), the controls
-  (``v``, ``omega`` for the unicycle; the model's names otherwise) and ``lambda_1`` ...
+  (``v``, ``omega`` for the unicycle; the model's names otherwise, listed in ``state_names`` and
+  ``control_names``), ``lambda_1`` ..., ``running_cost`` and ``hamiltonian``. Rows are the
+  integrator's steps and a uniform grid merged (not uniform): ``leapfrog export`` resamples.
 
 Further keys: ``schema``, ``scenario``, ``model``, ``final_solver`` (``"shooting"`` or
 ``"multiple-shooting"``), ``initial_path``, ``costate0``, ``clearance`` (per obstacle),
 ``max_dH_du``, ``hamiltonian_variation``, ``f_evals``, ``timing`` (``initial_path_s``,
 ``sweeps_s``, ``final_s``, ``validation_s``), ``history`` (one object per sweep: ``q``, ``cost``,
-``max_costate_jump``, ``newton_iterations``, ``f_evals``, ``failures``, ``rejected``, ``time_s``)
-and ``alternatives`` (the other initial paths: ``label``, ``status``, ``cost``, ``sweeps``,
-``weight``, ``message``).
+``max_costate_jump``, ``newton_iterations``, ``f_evals``, ``failures``, ``rejected``, ``time_s``,
+and the junctions ``junction_t``, ``junction_X``), ``initial_junctions`` (``t``, ``X``) and
+``alternatives`` (the other initial paths: ``label``, ``status``, ``cost``, ``sweeps``,
+``weight``, ``message`` and their extremal's ``trajectory``, empty when they found none).
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, fields, replace
-from enum import StrEnum
-from pathlib import Path
 
 import numpy as np
 
-from .._atomic import write_atomic
 from ..integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
 from ..model.problem import OptimalControlProblem
+from .export import interpolate_columns, resample_columns, result_html
 from .leapfrog import Arcs, SweepRecord
+from .result_files import load_result, result_to_dict, save_json, save_npz, trajectory_columns
+from .scenario import Scenario
+from .status import PathOutcome, PlanStatus
 
-SCHEMA = 1
 VALIDATION = IntegratorSettings(method="dop853", rtol=1e-12, atol=1e-12)
-
-
-class PlanStatus(StrEnum):
-    CONVERGED = "converged"  # a collision-free extremal that meets Pontryagin's conditions
-    COLLIDES = "collides"  # every extremal found passes through an obstacle
-    FAILED = "failed"  # no extremal found
-
-
-@dataclass(frozen=True)
-class PathOutcome:
-    """Summary of Leapfrog from one initial path."""
-
-    label: str
-    status: PlanStatus
-    cost: float
-    initial_cost: float
-    sweeps: int
-    message: str
-    weight: float  # the obstacle weight of its last run
 
 
 @dataclass(frozen=True)
@@ -230,6 +216,33 @@ class PlanResult:
     weight: float  # the obstacle weight of the problem the trajectory solves
     optimal: bool  # the trajectory is a validated extremal (always when converged)
     trajectory_source: str  # "extremal", "Leapfrog iterate (q = 4), not optimal", ...
+    task: Scenario | None = None  # the scenario planned (end states, obstacles, robot, penalty)
+    settings: dict | None = None  # the planner's settings, as JSON values
+
+    @classmethod
+    def load(cls, path) -> PlanResult:
+        """A result saved with :meth:`save_json` or :meth:`save_npz`: it needs nothing else to
+        be drawn or exported (its ``task`` is the scenario planned)."""
+        return cls(**load_result(path))
+
+    def __repr__(self) -> str:
+        cost = "nan" if not np.isfinite(self.cost) else f"{self.cost:.8g}"
+        return (
+            f"PlanResult(status={str(self.status)!r}, cost={cost}, scenario={self.scenario!r}, "
+            f"method={self.method!r}, sweeps={self.sweeps}, wall_time={self.wall_time_s:.3g} s)"
+        )
+
+    def _repr_html_(self) -> str:
+        return result_html(self)
+
+    def at(self, t) -> dict[str, np.ndarray]:
+        """The trajectory's columns at times ``t`` (scalar or array), within the horizon: a cubic
+        spline through the rows of an extremal, PCHIP through those of a non-optimal motion."""
+        return interpolate_columns(self.trajectory_columns(), t, self.optimal)
+
+    def resample(self, dt: float) -> dict[str, np.ndarray]:
+        """The trajectory's columns on a uniform grid of step ``dt`` (the end time included)."""
+        return resample_columns(self.trajectory_columns(), dt, self.optimal)
 
     @property
     def success(self) -> bool:
@@ -244,95 +257,18 @@ class PlanResult:
         return float(self.clearance.min()) if self.clearance.size else None
 
     def trajectory_columns(self) -> dict[str, np.ndarray]:
-        """The dense trajectory as named columns of equal length."""
-        tr = self.trajectory
-        if tr is None:
-            return {}
-        cols = {"t": tr.t}
-        cols.update({n: tr.x[:, i] for i, n in enumerate(self.state_names)})
-        cols.update({n: tr.u[:, i] for i, n in enumerate(self.control_names)})
-        cols.update({f"lambda_{i + 1}": tr.lam[:, i] for i in range(tr.lam.shape[1])})
-        return cols
+        """The dense trajectory as named columns of equal length (``t``, states, controls,
+        costates ``lambda_1``..., ``running_cost``, ``hamiltonian``)."""
+        return trajectory_columns(self.trajectory, self.state_names, self.control_names)
 
     def to_dict(self) -> dict:
-        def num(v):
-            return None if v is None or not np.isfinite(v) else float(v)
-
-        return {
-            "schema": SCHEMA,
-            "status": str(self.status),
-            "message": self.message,
-            "scenario": self.scenario,
-            "model": self.model,
-            "method": self.method,
-            "final_solver": self.final_solver,
-            "initial_path": self.initial_path,
-            "optimal": self.optimal,
-            "trajectory_source": self.trajectory_source,
-            "weight": self.weight,
-            "cost": num(self.cost),
-            "energy": num(self.energy),
-            "penalty": num(self.penalty),
-            "min_clearance": num(self.min_clearance),
-            "clearance": [num(c) for c in self.clearance],
-            "end_state_error": num(self.end_state_error),
-            "max_costate_jump": num(self.max_costate_jump),
-            "max_dH_du": num(self.max_dH_du),
-            "hamiltonian_variation": num(self.hamiltonian_variation),
-            "costate0": None if self.costate0 is None else self.costate0.tolist(),
-            "wall_time_s": self.wall_time_s,
-            "sweeps": self.sweeps,
-            "newton_iterations": self.newton_iterations,
-            "f_evals": self.f_evals,
-            "timing": {
-                "initial_path_s": self.time_initial_path_s,
-                "sweeps_s": self.time_sweeps_s,
-                "final_s": self.time_final_s,
-                "validation_s": self.time_validation_s,
-            },
-            "history": [
-                {
-                    "sweep": h.sweep,
-                    "q": h.q,
-                    "cost": h.cost,
-                    "max_costate_jump": h.max_costate_jump,
-                    "newton_iterations": h.newton_iterations,
-                    "f_evals": h.f_evals,
-                    "failures": h.failures,
-                    "rejected": h.rejected,
-                    "time_s": h.time_s,
-                }
-                for h in self.history
-            ],
-            "alternatives": [
-                {
-                    "label": a.label,
-                    "status": str(a.status),
-                    "cost": num(a.cost),
-                    "sweeps": a.sweeps,
-                    "weight": a.weight,
-                    "message": a.message,
-                }
-                for a in self.alternatives
-            ],
-            "trajectory": {k: v.tolist() for k, v in self.trajectory_columns().items()},
-        }
+        return result_to_dict(self)
 
     def save_json(self, path) -> None:
-        text = json.dumps(self.to_dict(), indent=1, allow_nan=False)
-        write_atomic(path, lambda tmp: Path(tmp).write_text(text))
+        save_json(self, path)
 
     def save_npz(self, path) -> None:
-        arrays = {k: np.asarray(v) for k, v in self.trajectory_columns().items()}
-        arrays["history_cost"] = np.array([h.cost for h in self.history])
-        arrays["history_jump"] = np.array([h.max_costate_jump for h in self.history])
-        arrays["clearance"] = self.clearance
-
-        def write(tmp):
-            with open(tmp, "wb") as fh:  # a handle: np.savez would append .npz to a file name
-                np.savez(fh, **arrays)
-
-        write_atomic(path, write)
+        save_npz(self, path)
 
 
 #: The old name of :class:`PlanResult`, kept for one release.

@@ -1,0 +1,113 @@
+"""Commands on a saved result: ``plot`` (its figures) and ``export`` (CSV or a ROS path). A
+result file carries its scenario, so nothing else is needed."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from .common import EXIT_OK, console, distinct_outputs, output_path, write_output
+
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def _load(path: str):
+    from ..planning.results import PlanResult
+
+    if not Path(path).is_file():
+        raise click.UsageError(f"{path!r}: no such file")
+    result = PlanResult.load(path)
+    if result.task is None:  # pragma: no cover - every schema-2 file has one
+        raise click.UsageError(f"{path!r}: the result does not hold its scenario")
+    return result
+
+
+def _figure_option(value: str | None, option: str, inputs) -> Path | None:
+    if value is not None and Path(value).suffix.lower() not in FIGURE_SUFFIXES:
+        raise click.UsageError(f"{option}: the file must end in .png, .pdf or .svg")
+    return output_path(value, option, inputs)
+
+
+@click.command()
+@click.argument("result")
+@click.option(
+    "--out", default=None, help="the path figure (PNG, PDF or SVG)  [default: RESULT.png]"
+)
+@click.option("--controls", default=None, help="also the controls and costates against time")
+@click.option("--convergence", default=None, help="also the junctions and cost sweep by sweep")
+@click.option("--animate", default=None, help="also an animated GIF of the sweeps")
+def plot(result, out, controls, convergence, animate):
+    """Draw the figures of a RESULT file written by `solve --json` or `--npz`."""
+    inputs = [result]
+    out = out if out is not None else str(Path(result).with_suffix(".png"))
+    if animate is not None and Path(animate).suffix.lower() != ".gif":
+        raise click.UsageError("--animate: the file must end in .gif")
+    outputs = {
+        "--out": _figure_option(out, "--out", inputs),
+        "--controls": _figure_option(controls, "--controls", inputs),
+        "--convergence": _figure_option(convergence, "--convergence", inputs),
+        "--animate": output_path(animate, "--animate", inputs),
+    }
+    distinct_outputs(outputs)
+    res = _load(result)
+    from ..viz.animation import animate_sweeps
+    from ..viz.plots import plot_controls, plot_convergence, plot_path, save_figure
+
+    sc = res.task
+    draw = {
+        "--out": lambda p: save_figure(plot_path(res, sc).figure, p),
+        "--controls": lambda p: save_figure(plot_controls(res), p),
+        "--convergence": lambda p: save_figure(plot_convergence(res, sc), p),
+        "--animate": lambda p: animate_sweeps(res, sc, p),
+    }
+    for option, path in outputs.items():
+        if path is not None:
+            write_output(draw[option], path, option)
+            console.print(f"wrote {path}", markup=False, highlight=False)
+    return EXIT_OK
+
+
+@click.command()
+@click.argument("result")
+@click.option("--csv", "csv_path", default=None, help="t, states and controls every --dt, as CSV")
+@click.option(
+    "--ros-path",
+    "ros_path",
+    default=None,
+    help="a nav_msgs/Path (YAML for .yaml/.yml, JSON otherwise), one pose every --dt",
+)
+@click.option(
+    "--dt",
+    type=click.FloatRange(min=0, min_open=True),
+    default=0.01,
+    show_default=True,
+    help="time step of the uniform resampling",
+)
+@click.option("--frame", default="map", show_default=True, help="frame_id of the ROS path")
+def export(result, csv_path, ros_path, dt, frame):
+    """Resample the trajectory of a RESULT file uniformly and write it for other tools."""
+    from ..planning.export import ExportError, write_csv, write_ros_path
+
+    if csv_path is None and ros_path is None:
+        raise click.UsageError("nothing to export: give --csv FILE and/or --ros-path FILE")
+    inputs = [result]
+    outputs = {
+        "--csv": output_path(csv_path, "--csv", inputs),
+        "--ros-path": output_path(ros_path, "--ros-path", inputs),
+    }
+    distinct_outputs(outputs)
+    res = _load(result)
+    try:
+        if outputs["--csv"] is not None:
+            write_output(lambda p: write_csv(res, p, dt), outputs["--csv"], "--csv")
+        if outputs["--ros-path"] is not None:
+            write_output(
+                lambda p: write_ros_path(res, p, dt, frame), outputs["--ros-path"], "--ros-path"
+            )
+    except ExportError as e:
+        raise click.UsageError(str(e)) from None
+    for path in outputs.values():
+        if path is not None:
+            console.print(f"wrote {path}", markup=False, highlight=False)
+    return EXIT_OK

@@ -1,0 +1,305 @@
+"""Result files: a plan saved with everything needed to read it alone, loaded back, resampled.
+
+A JSON or NPZ file holds the result, the scenario planned and the planner's settings, so that
+``PlanResult.load(path)`` gives back a result whose figures and exports need nothing else. The
+JSON keys are documented in :mod:`.results`; an NPZ file holds the same JSON (without the
+trajectory) in its ``result_json`` entry and the trajectory columns as arrays.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import zipfile
+from dataclasses import asdict, fields, is_dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._atomic import write_atomic
+from ..errors import LeapfrogError
+from ..integrate.flow import Trajectory
+from .leapfrog import SweepRecord
+from .scenario import scenario_from_dict
+from .status import PathOutcome, PlanStatus
+
+SCHEMA = 2
+_EXTRA = ("running_cost", "hamiltonian")  # trajectory columns besides t, states, controls, costates
+
+
+class ResultFileError(LeapfrogError, ValueError):
+    """A result file that cannot be read (not one of ours, a newer schema, damaged)."""
+
+
+def _num(v) -> float | None:
+    return None if v is None or not math.isfinite(v) else float(v)
+
+
+def plain(value: Any) -> Any:
+    """Settings as JSON values: dataclasses as tables, anything else JSON cannot hold as text."""
+    if is_dataclass(value) and not isinstance(value, type):
+        return {k: plain(v) for k, v in asdict(value).items()}
+    if isinstance(value, dict):
+        return {str(k): plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [plain(v) for v in value]
+    if value is None or isinstance(value, bool | int | str):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else repr(value)
+    return repr(value)
+
+
+# --------------------------------------------------------------------------- trajectories
+
+
+def trajectory_columns(tr: Trajectory | None, states, controls) -> dict[str, np.ndarray]:
+    """A trajectory as named columns of equal length: ``t``, the states, the controls, the
+    costates ``lambda_1``..., ``running_cost`` (accumulated from ``t[0]``) and ``hamiltonian``."""
+    if tr is None:
+        return {}
+    cols = {"t": tr.t}
+    cols.update({n: tr.x[:, i] for i, n in enumerate(states)})
+    cols.update({n: tr.u[:, i] for i, n in enumerate(controls)})
+    cols.update({f"lambda_{i + 1}": tr.lam[:, i] for i in range(tr.lam.shape[1])})
+    cols["running_cost"] = tr.cost
+    cols["hamiltonian"] = tr.hamiltonian
+    return cols
+
+
+def trajectory_from_columns(cols: dict, states, controls) -> Trajectory | None:
+    if not cols:
+        return None
+    t = np.asarray(cols["t"], dtype=float)
+    nx = len(states)
+    x = np.column_stack([np.asarray(cols[n], dtype=float) for n in states])
+    u = np.column_stack([np.asarray(cols[n], dtype=float) for n in controls])
+    lam = np.column_stack([np.asarray(cols[f"lambda_{i + 1}"], dtype=float) for i in range(nx)])
+    nan = np.full(t.size, np.nan)
+    return Trajectory(
+        t=t,
+        x=x,
+        lam=lam,
+        u=u,
+        cost=np.asarray(cols.get("running_cost", nan), dtype=float),
+        hamiltonian=np.asarray(cols.get("hamiltonian", nan), dtype=float),
+        dH_du=np.full_like(u, np.nan),  # not saved: max_dH_du holds its check
+        at_step=np.zeros(t.size, dtype=bool),
+    )
+
+
+def _columns_json(cols: dict[str, np.ndarray]) -> dict[str, list]:
+    return {k: [_num(v) for v in np.asarray(a, dtype=float).tolist()] for k, a in cols.items()}
+
+
+# --------------------------------------------------------------------------- to and from a dict
+
+
+def result_to_dict(r) -> dict:
+    """Every field of ``r`` as JSON values (non-finite numbers as null)."""
+    names = (r.state_names, r.control_names)
+    t0, X0 = r.initial_junctions
+    return {
+        "schema": SCHEMA,
+        "status": str(r.status),
+        "message": r.message,
+        "scenario": r.scenario,
+        "model": r.model,
+        "state_names": list(r.state_names),
+        "control_names": list(r.control_names),
+        "method": r.method,
+        "final_solver": r.final_solver,
+        "initial_path": r.initial_path,
+        "optimal": r.optimal,
+        "trajectory_source": r.trajectory_source,
+        "weight": r.weight,
+        "cost": _num(r.cost),
+        "energy": _num(r.energy),
+        "penalty": _num(r.penalty),
+        "initial_cost": _num(r.initial_cost),
+        "min_clearance": _num(r.min_clearance),
+        "clearance": [_num(c) for c in r.clearance],
+        "end_state_error": _num(r.end_state_error),
+        "max_costate_jump": _num(r.max_costate_jump),
+        "max_dH_du": _num(r.max_dH_du),
+        "hamiltonian_variation": _num(r.hamiltonian_variation),
+        "costate0": None if r.costate0 is None else r.costate0.tolist(),
+        "wall_time_s": r.wall_time_s,
+        "sweeps": r.sweeps,
+        "newton_iterations": r.newton_iterations,
+        "f_evals": r.f_evals,
+        "cost_increases": r.cost_increases,
+        "timing": {
+            "initial_path_s": r.time_initial_path_s,
+            "sweeps_s": r.time_sweeps_s,
+            "final_s": r.time_final_s,
+            "validation_s": r.time_validation_s,
+        },
+        "history": [
+            {
+                **{
+                    f.name: getattr(h, f.name)
+                    for f in fields(SweepRecord)
+                    if f.name not in ("t", "X")
+                },
+                "cost": _num(h.cost),
+                "max_costate_jump": _num(h.max_costate_jump),
+                "junction_t": np.asarray(h.t).tolist(),
+                "junction_X": np.asarray(h.X).tolist(),
+            }
+            for h in r.history
+        ],
+        "initial_junctions": {"t": np.asarray(t0).tolist(), "X": np.asarray(X0).tolist()},
+        "alternatives": [
+            {
+                "label": a.label,
+                "status": str(a.status),
+                "cost": _num(a.cost),
+                "initial_cost": _num(a.initial_cost),
+                "sweeps": a.sweeps,
+                "weight": a.weight,
+                "message": a.message,
+                "trajectory": _columns_json(trajectory_columns(a.trajectory, *names)),
+            }
+            for a in r.alternatives
+        ],
+        "scenario_file": None if r.task is None else r.task.to_dict(),
+        "settings": r.settings,
+        "trajectory": _columns_json(r.trajectory_columns()),
+    }
+
+
+def _float(v) -> float:
+    return float("nan") if v is None else float(v)
+
+
+def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
+    """The fields of the result :func:`result_to_dict` wrote (``PlanResult(**fields)``)."""
+    if not isinstance(d, dict) or "schema" not in d or "status" not in d:
+        raise ResultFileError(f"{source}: not a leapfrog result file")
+    if d["schema"] != SCHEMA:
+        raise ResultFileError(
+            f"{source}: result schema {d['schema']!r}; this version reads schema {SCHEMA} (plan "
+            "the scenario again to get a file it can read)"
+        )
+    try:
+        names = (tuple(d["state_names"]), tuple(d["control_names"]))
+        history = tuple(
+            SweepRecord(
+                **{k: v for k, v in h.items() if not k.startswith("junction_")},
+                t=np.array(h["junction_t"], dtype=float),
+                X=np.array(h["junction_X"], dtype=float),
+            )
+            for h in d["history"]
+        )
+        alternatives = tuple(
+            PathOutcome(
+                label=a["label"],
+                status=PlanStatus(a["status"]),
+                cost=_float(a["cost"]),
+                initial_cost=_float(a["initial_cost"]),
+                sweeps=a["sweeps"],
+                message=a["message"],
+                weight=a["weight"],
+                trajectory=trajectory_from_columns(a["trajectory"], *names),
+            )
+            for a in d["alternatives"]
+        )
+        task = d["scenario_file"]
+        timing = d["timing"]
+        ij = d["initial_junctions"]
+        return dict(
+            status=PlanStatus(d["status"]),
+            message=d["message"],
+            scenario=d["scenario"],
+            model=d["model"],
+            state_names=names[0],
+            control_names=names[1],
+            method=d["method"],
+            final_solver=d["final_solver"],
+            initial_path=d["initial_path"],
+            costate0=None if d["costate0"] is None else np.array(d["costate0"], dtype=float),
+            trajectory=trajectory_from_columns(d["trajectory"], *names),
+            cost=_float(d["cost"]),
+            energy=_float(d["energy"]),
+            penalty=_float(d["penalty"]),
+            clearance=np.array([_float(c) for c in d["clearance"]]),
+            end_state_error=_float(d["end_state_error"]),
+            max_costate_jump=_float(d["max_costate_jump"]),
+            max_dH_du=_float(d["max_dH_du"]),
+            hamiltonian_variation=_float(d["hamiltonian_variation"]),
+            initial_cost=_float(d["initial_cost"]),
+            history=history,
+            initial_junctions=(np.array(ij["t"], dtype=float), np.array(ij["X"], dtype=float)),
+            newton_iterations=d["newton_iterations"],
+            f_evals=d["f_evals"],
+            cost_increases=d["cost_increases"],
+            time_initial_path_s=timing["initial_path_s"],
+            time_sweeps_s=timing["sweeps_s"],
+            time_final_s=timing["final_s"],
+            time_validation_s=timing["validation_s"],
+            wall_time_s=d["wall_time_s"],
+            alternatives=alternatives,
+            weight=d["weight"],
+            optimal=d["optimal"],
+            trajectory_source=d["trajectory_source"],
+            task=None if task is None else scenario_from_dict(task, source),
+            settings=d["settings"],
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, LeapfrogError):
+            raise
+        raise ResultFileError(
+            f"{source}: damaged result file ({type(exc).__name__}: {exc})"
+        ) from None
+
+
+# --------------------------------------------------------------------------- files
+
+
+def save_json(r, path) -> None:
+    text = json.dumps(result_to_dict(r), indent=1, allow_nan=False)
+    write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def save_npz(r, path) -> None:
+    d = result_to_dict(r)
+    d.pop("trajectory")
+    arrays = {k: np.asarray(v) for k, v in r.trajectory_columns().items()}
+    arrays["history_cost"] = np.array([h.cost for h in r.history])
+    arrays["history_jump"] = np.array([h.max_costate_jump for h in r.history])
+    arrays["clearance"] = r.clearance
+    arrays["result_json"] = np.array(json.dumps(d, allow_nan=False))
+
+    def write(tmp):
+        with open(tmp, "wb") as fh:  # a handle: np.savez would append .npz to a file name
+            np.savez(fh, **arrays)
+
+    write_atomic(path, write)
+
+
+def load_result(path) -> dict[str, Any]:
+    """The fields of a result saved by ``save_json`` or ``save_npz`` (told apart by the file's
+    first bytes)."""
+    path = Path(path)
+    name = str(path)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4)
+        if head.startswith(b"PK"):  # a zip: NPZ
+            with np.load(path, allow_pickle=False) as z:
+                if "result_json" not in z.files:
+                    raise ResultFileError(f"{name}: not a leapfrog result file")
+                d = json.loads(str(z["result_json"]))
+                names = (d.get("state_names", []), d.get("control_names", []))
+                skip = {"result_json", "history_cost", "history_jump", "clearance"}
+                cols = {k: z[k] for k in z.files if k not in skip}
+                d["trajectory"] = cols if names[0] else {}
+        else:
+            d = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ResultFileError(f"{name}: cannot read file: {exc.strerror or exc}") from None
+    except (ValueError, UnicodeDecodeError, zipfile.BadZipFile) as exc:  # JSON, zip, arrays
+        raise ResultFileError(f"{name}: not a leapfrog result file ({exc})") from None
+    return result_fields(d, name)

@@ -1,0 +1,173 @@
+"""Result files stand alone: saved with their scenario and settings, loaded back field for field,
+drawn and exported with nothing else; the trajectory at any time and on a uniform grid."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import subprocess
+import sys
+from dataclasses import fields
+
+import numpy as np
+import pytest
+from tests.test_cli import cli_env
+
+from leapfrog_planner.planning.export import ExportError, ros_path
+from leapfrog_planner.planning.planner import plan
+from leapfrog_planner.planning.result_files import ResultFileError
+from leapfrog_planner.planning.results import PlanResult
+from leapfrog_planner.planning.scenario import load_scenario
+
+
+@pytest.fixture(scope="module")
+def case4():
+    return plan("paper-case-4", threads=1)
+
+
+@pytest.fixture(scope="module")
+def saved(case4, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("results")
+    case4.save_json(folder / "r.json")
+    case4.save_npz(folder / "r.npz")
+    return folder
+
+
+def _same(a, b):
+    if isinstance(a, np.ndarray):
+        np.testing.assert_array_equal(a, b)
+    elif isinstance(a, tuple) and a and isinstance(a[0], np.ndarray):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x, y)
+    elif isinstance(a, float) and math.isnan(a):
+        assert math.isnan(b)
+    else:
+        assert a == b
+
+
+@pytest.mark.parametrize("name", ["r.json", "r.npz"])
+def test_a_saved_result_loads_back_field_for_field(case4, saved, name):
+    r = PlanResult.load(saved / name)
+    for f in fields(PlanResult):
+        a, b = getattr(case4, f.name), getattr(r, f.name)
+        if f.name == "trajectory":
+            for g in ("t", "x", "u", "lam", "cost", "hamiltonian"):
+                np.testing.assert_array_equal(getattr(a, g), getattr(b, g))
+        elif f.name == "history":
+            assert len(a) == len(b)
+            for h, k in zip(a, b, strict=True):
+                assert (h.q, h.cost, h.f_evals) == (k.q, k.cost, k.f_evals)
+                np.testing.assert_array_equal(h.X, k.X)
+        elif f.name == "alternatives":
+            assert [x.label for x in a] == [x.label for x in b]
+            for x, y in zip(a, b, strict=True):
+                assert x.cost == y.cost and x.status == y.status
+                np.testing.assert_array_equal(x.trajectory.x, y.trajectory.x)
+        else:
+            _same(a, b)
+    assert r.task == load_scenario("paper-case-4")
+    assert r.settings["leapfrog"]["method"] == "modified-newton"
+
+
+def test_the_other_optima_are_kept_as_trajectories(case4):
+    assert case4.alternatives
+    for alt in case4.alternatives:
+        if math.isfinite(alt.cost):
+            assert alt.trajectory is not None
+            assert alt.trajectory.x[-1] == pytest.approx(case4.task.goal, abs=1e-6)
+
+
+def test_the_trajectory_at_any_time_matches_a_denser_solve(case4):
+    """PCHIP through 1001 rows against the same extremal sampled at 4001 rows."""
+    dense = plan("paper-case-4", threads=1, samples=4001)
+    t = dense.trajectory.t
+    mid = t[1:-1:7]
+    got = case4.at(mid)
+    for i, name in enumerate(case4.state_names):
+        np.testing.assert_allclose(got[name], dense.trajectory.x[1:-1:7, i], rtol=0, atol=1e-8)
+    at_rows = case4.at(case4.trajectory.t[::50])
+    np.testing.assert_array_equal(at_rows["x"], case4.trajectory.x[::50, 0])
+    with pytest.raises(ExportError, match="times must lie in"):
+        case4.at(1.5)
+
+
+def test_resampling_is_uniform_and_ends_at_the_horizon(case4):
+    cols = case4.resample(0.03)
+    t = cols["t"]
+    assert t[0] == 0.0 and t[-1] == 1.0
+    assert np.allclose(np.diff(t[:-1]), 0.03)
+    assert set(cols) >= {"x", "y", "theta", "v", "omega"}
+    for bad in (0.0, -1.0, 2.0, float("nan")):
+        with pytest.raises(ExportError):
+            case4.resample(bad)
+
+
+def test_a_ros_path_has_unit_quaternions_and_stamps_from_the_start(case4):
+    msg = ros_path(case4, 0.25, "odom")
+    assert msg["header"]["frame_id"] == "odom" and len(msg["poses"]) == 5
+    for k, pose in enumerate(msg["poses"]):
+        stamp = pose["header"]["stamp"]
+        assert stamp["sec"] + stamp["nanosec"] * 1e-9 == pytest.approx(0.25 * k)
+        q = pose["pose"]["orientation"]
+        assert q["z"] ** 2 + q["w"] ** 2 == pytest.approx(1.0)
+    last = msg["poses"][-1]["pose"]
+    assert last["position"]["x"] == pytest.approx(2.0, abs=1e-8)
+
+
+def _cli(args, cwd):
+    return subprocess.run(
+        [sys.executable, "-m", "leapfrog_planner.cli", *args],
+        cwd=cwd,
+        env=cli_env(),
+        capture_output=True,
+        encoding="utf-8",
+        timeout=300,
+    )
+
+
+def test_a_result_file_alone_gives_its_figures_and_exports(saved, tmp_path):
+    """In a folder holding only the JSON file: plot and export need nothing else."""
+    (tmp_path / "r.json").write_bytes((saved / "r.json").read_bytes())
+    p = _cli(["plot", "r.json", "--controls", "c.png", "--animate", "a.gif"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    for name in ("r.png", "c.png", "a.gif"):
+        assert (tmp_path / name).stat().st_size > 1000
+    p = _cli(
+        ["export", "r.json", "--csv", "r.csv", "--ros-path", "r.yaml", "--dt", "0.1"], tmp_path
+    )
+    assert p.returncode == 0, p.stderr
+    rows = list(csv.DictReader((tmp_path / "r.csv").open()))
+    assert list(rows[0]) == ["t", "x", "y", "theta", "v", "omega"] and len(rows) == 11
+    assert float(rows[-1]["x"]) == pytest.approx(2.0, abs=1e-8)
+    yaml = pytest.importorskip("yaml")
+    msg = yaml.safe_load((tmp_path / "r.yaml").read_text())
+    assert msg == json.loads(json.dumps(ros_path(PlanResult.load(tmp_path / "r.json"), 0.1)))
+
+
+@pytest.mark.parametrize(
+    "content, says",
+    [
+        ('{"schema": 2, "status": "conv', "not a leapfrog result file"),
+        ('{"schema": 1, "status": "converged"}', "schema 1"),
+        ('{"schema": 2, "status": "converged"}', "damaged result file"),
+        ("[1, 2]", "not a leapfrog result file"),
+        (b"PK\x03\x04garbage", "not a leapfrog result file"),
+    ],
+)
+def test_a_bad_result_file_is_one_line_and_exit_2(tmp_path, content, says):
+    path = tmp_path / "bad.json"
+    path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    with pytest.raises(ResultFileError, match=says):
+        PlanResult.load(path)
+    p = _cli(["export", "bad.json", "--csv", "x.csv"], tmp_path)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert says in p.stderr and not (tmp_path / "x.csv").exists()
+
+
+def test_repr_is_short_and_the_notebook_view_shows_table_and_path(case4):
+    text = repr(case4)
+    assert len(text) < 200 and "converged" in text and "4.5852479" in text
+    page = case4._repr_html_()
+    assert "<table>" in page and "<svg" in page and "<polyline" in page
+    assert page.count("<circle") == case4.task.obstacles.shape[0]
