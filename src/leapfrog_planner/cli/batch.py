@@ -20,6 +20,7 @@ from .common import (
     refuse_inputs_in,
     write_output,
 )
+from .warmup import ensure_compiled
 
 
 def _range(kind, name):
@@ -264,6 +265,8 @@ def sweep(
         scenarios += list(gen_scenarios(_spec(**gen)))
     if not scenarios:
         raise click.UsageError("no scenarios: give folders or files, or --n for random ones")
+    if scheduler is None:  # one compile, shared by the workers through the disk cache
+        ensure_compiled([s.model for s in scenarios], show=not quiet)
     if quiet:
         summary = run_sweep(scenarios, out_path, settings)
     else:

@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from .common import EXIT_OK, console, err, output_folder, write_output
+from .warmup import ensure_compiled
 
 # As bench.SOLVERS (the test checks), without importing the benchmark for --help.
 SOLVER_CHOICES = ["leapfrog-mnm", "leapfrog-mnm-1path", "leapfrog-nm", "leapfrog-nleq-err",
@@ -23,12 +24,12 @@ def _output_dir(value: str, option: str) -> Path:
 
 
 def _progress_bar():
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     columns = [
         TextColumn("{task.description}"),
         BarColumn(),
-        TextColumn("{task.completed}/{task.total}"),
+        MofNCompleteColumn(),  # "0/?" until the total is known
         TextColumn("{task.fields[info]}"),
         TimeElapsedColumn(),
     ]
@@ -71,6 +72,7 @@ def paper(out, repeat, cases, quiet):
 
     settings = PaperSettings(repeat=repeat, **({"cases": cases} if cases else {}))
     folder = _output_dir(out, "--out")
+    ensure_compiled(["unicycle"], show=not quiet)
     result = _run_with_bar("paper", lambda cb: run_paper(settings, progress=cb), quiet)
     write_output(lambda f: write_paper(result, f), folder, "--out")
     if not quiet:
@@ -121,10 +123,13 @@ def paper(out, repeat, cases, quiet):
     help="time against accuracy instead: Leapfrog, IPOPT over meshes of 25 to 3200 intervals"
     " and solve_bvp over tolerances, on the paper cases and --random general scenarios",
 )
+@click.option("--targets", is_flag=True, help="also print each speed ratio and its target")
 @click.option("--quiet", is_flag=True, help="no progress bar and no summary")
-def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, work_precision, quiet):
+def bench(
+    out, repeat, cases, random_, seed, solvers, meshes, no_profile, work_precision, targets, quiet
+):
     """Benchmark Leapfrog against plain shooting, solve_bvp and CasADi/IPOPT."""
-    from ..experiments.bench import BenchSettings, run_bench, target_ratios, write_bench
+    from ..experiments.bench import BenchSettings, run_bench, write_bench
 
     if work_precision:
         return _work_precision(out, repeat, cases, random_, seed, meshes, quiet)
@@ -138,13 +143,13 @@ def bench(out, repeat, cases, random_, seed, solvers, meshes, no_profile, work_p
         **{k: v for k, v in options.items() if v},
     )
     folder = _output_dir(out, "--out")
+    ensure_compiled(["unicycle"], show=not quiet)
     result = _run_with_bar("bench", lambda cb: run_bench(settings, progress=cb), quiet)
     write_output(lambda f: write_bench(result, f), folder, "--out")
     for note in result.notes:  # e.g. CasADi missing: said even when quiet
         err.print(f"note: {note}", markup=False, highlight=False, soft_wrap=True)
     if not quiet:
-        for r in target_ratios(result):
-            console.print(r.text, markup=False, highlight=False, soft_wrap=True)
+        _bench_summary(result, targets)
         if result.profile is not None:
             p = result.profile
             parts = ", ".join(
@@ -187,3 +192,29 @@ def _work_precision(out, repeat, cases, general, seed, meshes, quiet):
             f"written to {folder}/ (work_precision.md, .csv, .png)", markup=False, highlight=False
         )
     return EXIT_OK
+
+
+def _bench_summary(result, targets: bool) -> None:
+    """Per solver: successes, best optima found and median time; the targets in one line (each
+    with ``--targets``; all of them are in bench.md)."""
+    from rich.table import Table
+
+    from ..experiments.bench import summary_rows, target_ratios
+
+    table = Table(title="peer benchmark")
+    for col in ("solver", "succeeded", "best optimum found", "median time"):
+        table.add_column(col, justify="left" if col == "solver" else "right")
+    for solver, ok, at_best, n, t in summary_rows(result):
+        table.add_row(solver, f"{ok}/{n}", f"{at_best}/{n}", f"{t * 1e3:.1f} ms")
+    console.print(table)
+    ratios = target_ratios(result)
+    if targets:
+        for r in ratios:
+            console.print(r.text, markup=False, highlight=False, soft_wrap=True)
+    elif ratios:
+        met = sum(r.passed for r in ratios)
+        console.print(
+            f"speed targets met: {met} of {len(ratios)} (each one: --targets, or bench.md)",
+            markup=False,
+            highlight=False,
+        )

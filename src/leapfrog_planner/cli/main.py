@@ -15,6 +15,7 @@ from .common import EXIT_BAD_INPUT, EXIT_OK, err
 from .experiments import bench, paper
 from .results import export, plot
 from .solve import derive, scenarios, shoot, solve
+from .warmup import warmup
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -30,6 +31,7 @@ for command in (
     scenarios,
     plot,
     export,
+    warmup,
     paper,
     bench,
     generate,

@@ -21,12 +21,14 @@ from .common import (
     output_path,
     write_output,
 )
+from .warmup import ensure_compiled
 
 
 @click.command()
 @click.argument("model")
 def derive(model):
-    """Print the Hamiltonian, control law and canonical equations derived for MODEL."""
+    """Print the Hamiltonian, control law and canonical equations derived for MODEL, a
+    built-in vehicle model: unicycle or diff-drive."""
     from ..model.pmp import derive as derive_system
 
     click.echo(derive_system(model).describe())
@@ -130,6 +132,14 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
         write_output(
             lambda p: write_atomic(p, lambda tmp: Path(tmp).write_text(text)), json_out, "--json"
         )
+    if not res.success:
+        err.print(
+            "hint: simple shooting converges only from a good initial costate (--guess);"
+            " `leapfrog solve` (Leapfrog) starts from a feasible path instead",
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
     return EXIT_OK if res.success else EXIT_FAILED
 
 
@@ -207,6 +217,7 @@ def solve(
         if v is not None
     }
     planner = Planner(sc, **options)  # settings errors surface here, before any display
+    ensure_compiled([sc.model], show=not quiet)  # so the time reported is the plan's own
     result = planner.plan() if quiet else _plan_with_progress(planner)
     if outputs["--json"]:
         write_output(result.save_json, outputs["--json"], "--json")

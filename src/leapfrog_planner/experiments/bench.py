@@ -323,9 +323,10 @@ def bench_markdown(result: BenchResult) -> str:
     lines = ["# Peer benchmark", ""]
     lines += [f"**Note:** {n}" for n in result.notes] + ([""] if result.notes else [])
     lines += [
-        "Every solver on the same problem (spec section 1) in one process. Cost relative to the "
-        "best successful cost of the scenario; end-state error re-integrated (see "
-        "`leapfrog_planner.experiments.peers`). Direct-method costs carry the mesh's O(h^2) error.",
+        "Every solver on the same problem (the minimum-energy problem of the README) in one "
+        "process. Cost relative to the best successful cost of the scenario; end-state error "
+        "re-integrated (see `leapfrog_planner.experiments.peers`). Direct-method costs carry the "
+        "mesh's O(h^2) error.",
         "",
         "## Summary",
         "",

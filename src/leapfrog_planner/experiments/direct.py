@@ -1,16 +1,17 @@
 """Direct method (CasADi + IPOPT) for the planner's optimal control problem.
 
 This is the independent cross-check for the indirect (Leapfrog) solver: it shares no code with
-it, only the problem statement (spec sections 1 and 4). The problem is transcribed by RK4
-multiple shooting: controls are piecewise constant on ``N`` intervals, the node states are
-decision variables, and the running cost is integrated as an extra quadrature state inside the
-same RK4 step, so the dynamics and the cost are discretised consistently.
+it, only the problem statement (the README's minimum-energy problem and obstacle penalty). The
+problem is transcribed by RK4 multiple shooting: controls are piecewise constant on ``N``
+intervals, the node states are decision variables, and the running cost is integrated as an extra
+quadrature state inside the same RK4 step, so the dynamics and the cost are discretised
+consistently.
 
 Accuracy: for the returned controls the cost is integrated to O(h^4), but the optimal cost of the
 transcription converges to the true optimum only at O(h^2), because piecewise-constant controls
 approximate the smooth optimal control to O(h). Use :func:`richardson` on meshes ``N`` and ``2N``
-(it assumes order 2) for reference-quality costs; on the paper cases it agrees with spec
-section 5 to about 1e-6.
+(it assumes order 2) for reference-quality costs; on the paper cases it agrees with the
+reference optima to about 1e-6.
 
 The NLP is built once per model, number of obstacles, ``N`` and number of RK4 substeps. Start,
 goal, horizon, obstacle data, penalty weight and exponent are inputs of the compiled solver
@@ -200,7 +201,7 @@ class DirectTranscription:
     Decision variables are the ``N+1`` node states and ``N`` piecewise-constant controls.
     Each interval is integrated with ``substeps`` RK4 steps, carrying the running cost as a
     fourth (quadrature) state so that the cost is integrated by the same scheme as the motion.
-    Heading is a plain real variable: it is never wrapped (spec section 1).
+    Heading is a plain real variable: it is never wrapped.
     """
 
     def __init__(
