@@ -281,6 +281,8 @@ def _plan_with_progress(planner):
 def _summary(r) -> Table:
     table = Table(title=f"{r.scenario}: Leapfrog ({r.method})", show_header=False)
     clearance = "n/a (no obstacles)" if r.min_clearance is None else f"{r.min_clearance:.4g}"
+    if r.task is not None and r.task.robot_radius and r.min_clearance is not None:
+        clearance += f"  (of the footprint, radius {r.task.robot_radius:g})"
     cost = f"{r.cost:.8g}  (energy {r.energy:.6g} + penalty {r.penalty:.6g})"
     what = r.message.split("; returned: ")[0]  # the returned trajectory has its own row
     rows = [("status", str(r.status) + ("" if r.success else f": {what}"))]

@@ -314,7 +314,7 @@ def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
             sc.start,
             sc.goal,
             sc.horizon,
-            sc.obstacles,
+            sc.footprint_obstacles,
             weight=sc.weight,
             exponent=sc.exponent,
             guess_states=states,

@@ -138,7 +138,8 @@ def reference(sc: Scenario) -> tuple[Reference, object]:
         t = np.linspace(0.0, sc.horizon, n + 1)
         guess = np.column_stack([np.interp(t, tr.t, tr.x[:, i]) for i in range(3)])
         r = peers._transcription(sc.obstacles.shape[0], n).solve(
-            sc.start, sc.goal, sc.horizon, sc.obstacles, weight=sc.weight, exponent=sc.exponent,
+            sc.start, sc.goal, sc.horizon, sc.footprint_obstacles,
+            weight=sc.weight, exponent=sc.exponent,
             guess_states=guess,
         )  # fmt: skip
         costs.append(r.cost if r.success else math.nan)

@@ -120,6 +120,7 @@ class PathRun:
     raises: int  # how often the weight was raised from the scenario's for this run
     validation_time_s: float
     end_tolerance: float = END_STATE_TOLERANCE
+    margin: float = 0.0  # the clearance a clear run keeps (the scenario's robot margin)
 
     @property
     def extremal(self) -> bool:
@@ -128,11 +129,11 @@ class PathRun:
 
     @property
     def collides(self) -> bool:
-        return self.extremal and _touches(self.validation.clearance)
+        return self.extremal and _touches(self.validation.clearance, self.margin)
 
     @property
     def clear(self) -> bool:
-        return self.extremal and not _touches(self.validation.clearance)
+        return self.extremal and not _touches(self.validation.clearance, self.margin)
 
     def outcome(self) -> PathOutcome:
         v = self.validation
@@ -160,8 +161,9 @@ class Answer:
     source: str
 
 
-def _touches(clearance: np.ndarray) -> bool:
-    return bool(clearance.size) and not clearance.min() >= 0.0
+def _touches(clearance: np.ndarray, margin: float = 0.0) -> bool:
+    """Closer than ``margin`` to an obstacle (grown by the footprint), or through one."""
+    return bool(clearance.size) and not clearance.min() >= margin
 
 
 def _clearance(problem: OptimalControlProblem, tr: Trajectory) -> float:
@@ -219,9 +221,9 @@ class Planner:
         candidates = initial_paths(
             s.start,
             s.goal,
-            s.obstacles,
+            s.footprint_obstacles,
             k=max(st.initial_paths, st.candidate_paths),
-            margin=st.margin if margin is None else margin,
+            margin=max(st.margin, s.margin) if margin is None else margin,
             waypoints=s.waypoints,
         )
         if len(candidates) < 2:  # nothing to rank: the estimate took 0.6 ms of paper case 1's 9
@@ -268,7 +270,9 @@ class Planner:
             if run.success:
                 v = validate_arcs(problem, run.extremal, st.samples, self._validation)
             t_val = time.perf_counter() - t0
-        return PathRun(path, guide, run, (t, X), v, weight, raises, t_val, self._end_tolerance)
+        return PathRun(
+            path, guide, run, (t, X), v, weight, raises, t_val, self._end_tolerance, s.margin
+        )
 
     def _run_paths(self, paths: list[InitialPath], raises: int) -> list[PathRun]:
         """:meth:`_run_path` for each path, in parallel threads (see ``threads``)."""
@@ -348,7 +352,7 @@ class Planner:
                 tr = piecewise_trajectory(flow, r.run.arcs, self.settings.samples)
             except ValueError:
                 continue
-            if _clearance(self.problem, tr) >= 0.0:
+            if _clearance(self.problem, tr) >= self.scenario.margin:
                 q = r.run.arcs.t.size - 1
                 return status, r, Answer(tr, None, f"Leapfrog iterate (q = {q}), not optimal")
         first = runs[0]  # the best ranked path at the scenario's weight
@@ -419,6 +423,13 @@ class Planner:
             settings=plain(self.settings),
         )
 
+    def _too_close(self, clearance: float) -> str:
+        if clearance < 0.0:
+            return f"passed {-clearance:.3g} inside one"
+        return (
+            f"came within {clearance:.3g} of one, closer than the margin {self.scenario.margin:g}"
+        )
+
     def _message(self, status, best: PathRun, answer: Answer, runs) -> str:
         if status is PlanStatus.CONVERGED:
             msg = best.run.message
@@ -427,17 +438,20 @@ class Planner:
                 msg += (
                     f"; the obstacle weight was raised from {first.weight:g} to"
                     f" {best.weight:g} to clear the obstacles (at {first.weight:g} the extremal"
-                    f" passed {-first.validation.clearance.min():.3g} inside one)"
+                    f" {self._too_close(first.validation.clearance.min())})"
                 )
             return msg
         if status is PlanStatus.COLLIDES:
             worst = min(r.validation.clearance.min() for r in runs if r.extremal)
             top = max(r.weight for r in runs)
             weights = f"obstacle weight up to {top:g}" if top > 0 else "the obstacle weight is 0"
-            what = (
-                f"every extremal found passes through an obstacle (down to {-worst:.3g} inside,"
-                f" {weights})"
-            )
+            if worst < 0.0:
+                what = (
+                    f"every extremal found passes through an obstacle (down to {-worst:.3g}"
+                    f" inside, {weights})"
+                )
+            else:
+                what = f"every extremal found {self._too_close(worst)} ({weights})"
         else:
             what = "; ".join(f"path {r.path.label}: {r.run.message}" for r in runs if r.raises == 0)
             what = f"no initial path led to an extremal ({what})"
@@ -458,7 +472,7 @@ def penalty_margin(scenario: Scenario) -> float:
     (for control-affine models with a quadratic control cost, time scaling maps ``(T, W)`` to
     ``(1, W T^2)``), and so they do here.
     """
-    obs = scenario.obstacles
+    obs = scenario.footprint_obstacles
     if obs.shape[0] == 0 or not scenario.weight > 0.0:
         return 0.0
     r = float(np.mean(obs[:, 2]))

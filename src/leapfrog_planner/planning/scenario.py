@@ -1,87 +1,8 @@
 """Scenarios: one planning task (end states, horizon, obstacles, robot, penalty) read from TOML.
 
-A scenario file is the user-facing contract of the planner (spec section 6). Built-in scenarios,
-the paper's four cases, ship with the package and are loaded by name::
-
-    load_scenario("paper-case-3")        # a built-in
-    load_scenario("my-room.toml")        # a file; an existing file always wins over a built-in
-
-File format
------------
-UTF-8 TOML. Exactly the keys below are accepted; any other key, at any level, is an error.
-All numbers must be finite (TOML's ``nan`` and ``inf`` are rejected), booleans are never
-numbers, and integers are accepted wherever a real number is expected::
-
-    name = "paper-case-4"          # optional; default: the file name without .toml
-    horizon = 1.0                  # required: the fixed final time T > 0
-    start = [0.0, 0.0, 0.0]        # required: x, y, heading in radians
-    goal  = [2.0, 0.0, 0.0]        # required: x, y, heading in radians
-
-    waypoints = [[0.5, 0.3], [1.2, 0.3]]   # optional, see below
-
-    [robot]                        # optional
-    model = "unicycle"             # "unicycle" (default) or "diff-drive"
-    # diff-drive only: wheel_radius = 1.0, axle_length = 2.0 (these are the defaults)
-
-    [penalty]                      # optional
-    weight = 100.0                 # W >= 0, default 100.0
-    exponent = 2                   # n, an integer >= 1, default 2
-
-    [solver]                       # optional, see below
-    method = "modified-newton"
-    partitions = 8
-
-    [[obstacles]]                  # zero or more discs
-    center = [0.4, 0.05]           # cx, cy
-    radius = 0.1                   # r > 0
-
-Keys in detail:
-
-``name``
-    A non-empty string. When absent, the file name without its extension is used (or the
-    built-in's name, or ``"scenario"`` for text without a file).
-``horizon``
-    The fixed time horizon ``T``, a number ``> 0``.
-``start``, ``goal``
-    Three numbers each, ``[x, y, theta]``. Headings are not wrapped: ``theta + 2 pi`` is a
-    different end state. Neither position may lie inside an obstacle (distance to the centre
-    less than the radius; touching the edge is allowed).
-``[robot]``
-    ``model`` names the vehicle model (``"unicycle"`` or ``"diff-drive"``). The table's other
-    keys are the model's parameters by name, each a number (``> 0`` where the model declares
-    the parameter positive); parameters not given take the model's defaults. The unicycle has no
-    parameters; ``diff-drive`` has ``wheel_radius`` (default 1.0) and ``axle_length`` (2.0).
-``[penalty]``
-    The obstacle penalty ``P = sum_j W exp(-(|p - c_j|^2 / r_j^2)^n)``: ``weight`` is ``W``,
-    a number ``>= 0``; ``exponent`` is ``n``, an integer ``>= 1`` (``2.0`` is not an integer).
-``[[obstacles]]``
-    One table per disc obstacle with exactly ``center`` (two numbers) and ``radius`` (``> 0``).
-    Error messages number obstacles from 0 in file order: ``obstacles[0]`` is the first table.
-
-Optional additions beyond the spec's contract:
-
-``waypoints``
-    An array of ``[x, y]`` points, in order, through which the planner's initial feasible path
-    passes between ``start`` and ``goal`` (the initial path decides which local optimum Leapfrog
-    finds, so this is how a user picks a homotopy class). Each point must lie outside every
-    obstacle; the segments between them are not checked here. An empty array is the same as no
-    waypoints.
-``[solver]``
-    Planner settings stored with the scenario, passed through unchanged to the planner, which
-    validates their ranges. Allowed keys and types are :data:`SOLVER_KEYS`:
-    ``method`` (string, e.g. ``"modified-newton"``), ``partitions`` (integer), ``initial_paths``
-    (integer), ``tolerance`` (number), ``max_sweeps`` (integer). Unknown keys and wrong types are
-    errors.
-
-Bounds (``checks.py``), beyond which a value makes no physical sense in any consistent units:
-coordinates at most ``1e6`` in size, headings at most ``1e3``, ``1e-3 <= horizon <= 1e4``, radii
-and positive model parameters in ``[1e-6, 1e6]``, ``weight <= 1e12``, ``exponent <= 16``, at
-most 10,000 obstacles and 1,000 waypoints; a file of at most 16 MB.
-
-Every problem raises :class:`~leapfrog_planner.errors.ScenarioError` (a ``ValueError``) with a
-one-line message of the form ``<source>: <key>: <problem>``, for example
-``room.toml: start: expected 3 numbers, got 2`` or
-``room.toml: goal: (1.0, 1.0) is inside obstacles[2] (center (0.9, 1.1), radius 0.2)``.
+The file format, every key, the bounds and the error messages: ``docs/scenarios.md``. Every
+problem raises :class:`~leapfrog_planner.errors.ScenarioError` (a ``ValueError``) with one line,
+``<source>: <key>: <problem>``; :data:`SOLVER_KEYS` lists the ``[solver]`` keys and their types.
 """
 
 from __future__ import annotations
@@ -137,6 +58,7 @@ TOP_LEVEL_KEYS = (
     "obstacles",
 )
 REQUIRED_KEYS = ("horizon", "start", "goal")
+ROBOT_KEYS = ("model", "radius", "margin")  # the [robot] keys besides the model's parameters
 PENALTY_KEYS = ("weight", "exponent")
 OBSTACLE_KEYS = ("center", "radius")
 
@@ -272,6 +194,8 @@ class Scenario:
     waypoints: np.ndarray | None = None
     solver: dict[str, Any] = field(default_factory=dict)
     source: str | None = None
+    robot_radius: float = 0.0  # the footprint: a disc of this radius about (x, y)
+    margin: float = 0.0  # clearance a converged path keeps beyond the footprint
 
     def __post_init__(self):
         source = None if self.source is None else str(self.source)
@@ -300,12 +224,17 @@ class Scenario:
             if waypoints.shape[0] == 0:
                 waypoints = None
         solver = self._check_solver(c)
+        robot_radius = c.number(self.robot_radius, "robot.radius", ge=0)
+        c.in_range(robot_radius, "robot.radius", (0.0, checks.RADIUS_RANGE[1]))
+        margin = c.number(self.margin, "robot.margin", ge=0)
+        c.in_range(margin, "robot.margin", (0.0, checks.COORDINATE_MAX))
 
         points = [("start", start[:2]), ("goal", goal[:2])]
         if waypoints is not None:
             points += [(f"waypoints[{i}]", w) for i, w in enumerate(waypoints)]
-        for key, p in points:
-            c.outside(p, key, obstacles)
+        grown = obstacles + np.array([0.0, 0.0, robot_radius])
+        for key, p in points:  # the footprint may not overlap an obstacle
+            c.outside(p, key, grown if robot_radius else obstacles)
 
         values = {
             "name": name,
@@ -320,6 +249,8 @@ class Scenario:
             "waypoints": None if waypoints is None else _fresh_readonly(waypoints),
             "solver": solver,
             "source": source,
+            "robot_radius": robot_radius,
+            "margin": margin,
         }
         for k, v in values.items():
             object.__setattr__(self, k, v)
@@ -331,11 +262,11 @@ class Scenario:
         info = model_info(model)
         given = {} if self.model_parameters is None else c.table(self.model_parameters, "robot")
         positive = dict(zip(info.parameters, info.positive, strict=True))
-        c.known_keys(given, ("model", *info.parameters), "robot", f" for model {model!r}")
+        c.known_keys(given, (*ROBOT_KEYS, *info.parameters), "robot", f" for model {model!r}")
         checked = {}
         for k, v in given.items():
-            if k == "model":  # only reachable by direct construction
-                c.fail("robot.model", "give the model as Scenario.model, not a parameter")
+            if k in ROBOT_KEYS:  # only reachable by direct construction
+                c.fail(f"robot.{k}", "give it as a Scenario field, not a model parameter")
             checked[k] = c.number(v, _key_path("robot", k), gt=0 if positive[k] else None)
             if positive[k]:
                 c.in_range(checked[k], _key_path("robot", k), checks.PARAMETER_RANGE)
@@ -383,11 +314,21 @@ class Scenario:
         """The optimal control problem: model, obstacle penalty and model parameters."""
         return OptimalControlProblem.create(
             self.model,
-            self.obstacles,
+            self.footprint_obstacles,
             weight=self.weight,
             exponent=self.exponent,
             parameters=dict(self.model_parameters),
         )
+
+    @property
+    def footprint_obstacles(self) -> np.ndarray:
+        """The obstacles grown by the robot's radius: where the centre of the robot may not go
+        (the obstacles themselves for a point robot). The planner works with these."""
+        if not self.robot_radius:
+            return self.obstacles
+        grown = self.obstacles + np.array([0.0, 0.0, self.robot_radius])
+        grown.setflags(write=False)
+        return grown
 
     def to_dict(self) -> dict[str, Any]:
         """Plain Python values in the file's layout; :func:`scenario_from_dict` inverts it."""
@@ -400,6 +341,10 @@ class Scenario:
         if self.waypoints is not None:
             data["waypoints"] = self.waypoints.tolist()
         data["robot"] = {"model": self.model, **self.model_parameters}
+        if self.robot_radius:
+            data["robot"]["radius"] = self.robot_radius
+        if self.margin:
+            data["robot"]["margin"] = self.margin
         data["penalty"] = {"weight": self.weight, "exponent": self.exponent}
         if self.solver:
             data["solver"] = dict(self.solver)
@@ -446,7 +391,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
 
     robot = c.table(data.get("robot", {}), "robot")
     model = robot.get("model", DEFAULT_MODEL)
-    parameters = {k: v for k, v in robot.items() if k != "model"}
+    parameters = {k: v for k, v in robot.items() if k not in ROBOT_KEYS}
 
     penalty = c.table(data.get("penalty", {}), "penalty")
     c.known_keys(penalty, PENALTY_KEYS, "penalty")
@@ -484,6 +429,8 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
         waypoints=data.get("waypoints"),
         solver=c.table(data.get("solver", {}), "solver"),
         source=source,
+        robot_radius=robot.get("radius", 0.0),
+        margin=robot.get("margin", 0.0),
     )
 
 
