@@ -13,12 +13,9 @@ approximate the smooth optimal control to O(h). Use :func:`richardson` on meshes
 (it assumes order 2) for reference-quality costs; on the paper cases it agrees with the
 reference optima to about 1e-6.
 
-The NLP is built once per model, number of obstacles, ``N`` and number of RK4 substeps. Start,
-goal, horizon, obstacle data, penalty weight and exponent are inputs of the compiled solver
-(the fixed end states enter as equal lower and upper bounds on the first and last node, which
-IPOPT removes from the problem), so repeated solves never rebuild anything.
-
-casadi is an optional dependency; it is imported only when a solver is built.
+The NLP is built once per model, number of obstacles, ``N`` and number of RK4 substeps; start,
+goal (equal bounds on the end nodes), horizon, obstacles, penalty and control bounds are inputs,
+so repeated solves never rebuild anything. casadi is imported only when a solver is built.
 """
 
 from __future__ import annotations
@@ -33,15 +30,8 @@ import numpy as np
 from .. import checks
 from ..errors import ModelError, ScenarioError, SettingsError
 
-__all__ = [
-    "DirectResult",
-    "DirectTranscription",
-    "cached_transcription",
-    "multistart_guesses",
-    "richardson",
-    "solve_direct",
-    "straight_line_guess",
-]
+__all__ = ["DirectResult", "DirectTranscription", "cached_transcription", "multistart_guesses",
+           "richardson", "solve_direct", "straight_line_guess"]  # fmt: skip
 
 _MODELS = ("unicycle", "diff-drive")  # the direct method writes its own dynamics for these
 
@@ -311,8 +301,12 @@ class DirectTranscription:
         exponent: float = 2,
         guess_states=None,
         guess_controls=None,
+        control_bounds=None,
     ) -> DirectResult:
         """Solve one scenario from one initial guess.
+
+        ``control_bounds`` gives ``(lo, hi)`` or ``None`` per control (in the model's units):
+        box constraints on the piecewise-constant controls.
 
         ``guess_states`` is an ``(N+1, 3)`` array; without it the straight line with interpolated
         heading is used. ``guess_controls`` is ``(N, 2)`` in the model's units; without it the
@@ -348,6 +342,10 @@ class DirectTranscription:
         ubx = -lbx
         lbx[:3] = ubx[:3] = start
         lbx[3 * n : 3 * n + 3] = ubx[3 * n : 3 * n + 3] = goal
+        for i, bound in enumerate(control_bounds or ()):
+            if bound is not None:
+                lbx[3 * (n + 1) + i :: 2], ubx[3 * (n + 1) + i :: 2] = bound
+                controls0[:, i] = np.clip(controls0[:, i], *bound)
         x0 = np.concatenate((states0.ravel(), controls0.ravel()))
         params = np.concatenate(([horizon, weight, exponent], obstacles.ravel()))
 
@@ -507,6 +505,7 @@ def solve_direct(
     multistart: bool = True,
     guesses=None,
     coarse_intervals: int | None = 40,
+    control_bounds=None,
     **kw,
 ) -> DirectResult:
     """Solve a scenario by the direct method, from several initial guesses.
@@ -522,7 +521,8 @@ def solve_direct(
     and it is also more reliable: a coarse optimum lies next to the fine optimum of the same
     extremal, while a raw guess's basin of attraction changes with the mesh.
 
-    Extra keywords (``substeps``, ``wheel_radius``, ``axle_length``, ``tol``, ``max_iter``) go to
+    ``control_bounds`` (``(lo, hi)`` or ``None`` per control) bounds the controls. Extra
+    keywords (``substeps``, ``wheel_radius``, ``axle_length``, ``tol``, ``max_iter``) go to
     :class:`DirectTranscription`, built once per mesh and process (:func:`cached_transcription`)
     and reused for all guesses.
     """
@@ -547,6 +547,7 @@ def solve_direct(
                 exponent=exponent,
                 guess_states=states,
                 guess_controls=controls,
+                control_bounds=control_bounds,
             )
             for states, controls in starts
         ]

@@ -28,6 +28,10 @@ class VehicleModel:
     description: str = ""
     # Control names as shown to users (plots, JSON); the symbols may be terse.
     control_names: tuple[str, ...] = field(default=())
+    # Bounded controls, (index, lower, upper) with parameter symbols, clipped smoothly with the
+    # width ``smoothing`` (see :mod:`.bounds`); empty for free controls.
+    control_bounds: tuple[tuple[int, sp.Symbol, sp.Symbol], ...] = ()
+    smoothing: sp.Symbol | None = None
 
     def __post_init__(self):
         if len(self.states) < 3:
@@ -65,5 +69,6 @@ class VehicleModel:
             *(sp.srepr(p) for p in self.parameters),
             *(sp.srepr(e) for e in self.dynamics),
             sp.srepr(self.running_cost),
+            *(f"bound {i}: {sp.srepr(lo)} {sp.srepr(hi)}" for i, lo, hi in self.control_bounds),
         ]
         return "\n".join(parts)

@@ -30,6 +30,7 @@ _HERE = Path(__file__).parent.parent  # the package
 _GENERATOR_FILES = (
     "model/codegen.py",
     "model/pmp.py",
+    "model/bounds.py",
     "integrate/flow_template.py",
     "bvp/newton_template.py",
     "model/base.py",

@@ -18,6 +18,7 @@ import sympy as sp
 from ..errors import ModelError
 from . import get_model
 from .base import VehicleModel
+from .bounds import smooth_clip
 
 
 @dataclass(frozen=True)
@@ -112,7 +113,10 @@ def _derive_cached(model: VehicleModel) -> CanonicalSystem:
     sols = sp.solve(grad_u, us, dict=True)
     if len(sols) != 1 or set(sols[0]) != set(us):
         raise ModelError(f"model {model.name!r}: dH/du = 0 has no unique solution for {us}")
-    law = tuple(sp.simplify(sols[0][u]) for u in us)
+    law = [sp.simplify(sols[0][u]) for u in us]
+    for i, lo, hi in model.control_bounds:  # saturate smoothly (see .bounds)
+        law[i] = smooth_clip(law[i], lo, hi, model.smoothing)
+    law = tuple(law)
     on_law = dict(zip(us, law, strict=True))
 
     # No simplify here: it turns cos^2 into cos(2 theta), which reads worse and computes

@@ -20,6 +20,7 @@ from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, IntegratorSettings, Trajectory
 from ..model.problem import OptimalControlProblem
 from ..roots import RootSettings
+from .bounded import continue_to_bounds, schedule
 from .initial_path import InitialPath, initial_paths
 from .leapfrog import LeapfrogSettings, LeapfrogSolution, SweepRecord, leapfrog
 from .path_ranking import PathGuide, rank_paths
@@ -262,6 +263,8 @@ class Planner:
             run = leapfrog(
                 problem, t, X, guide=guide, settings=st.leapfrog, flow=flow, progress=on_sweep
             )
+            if s.control_bounds:  # on to the sharp bounds
+                run, problem = self._to_bounds(run, problem, (t, X), guide, flow)
             log.info("path %s: %s", label, run.message)
             # Validated here, in the path's own thread: the re-integration overlaps the other
             # paths' sweeps.
@@ -273,6 +276,27 @@ class Planner:
         return PathRun(
             path, guide, run, (t, X), v, weight, raises, t_val, self._end_tolerance, s.margin
         )
+
+    def _to_bounds(self, run, problem, junctions, guide, flow):
+        """``run`` (Leapfrog with smoothly saturating controls) continued to the sharp bounds;
+        where it failed, Leapfrog again with the bounds relaxed, then continued."""
+        s, st = self.scenario, self.settings
+        relaxed = not run.success
+        at = schedule(problem, s.control_bounds, s.smoothing_widths, relaxed)
+        if relaxed:
+            t, X = junctions
+            wide = at(0.0)
+            guide = PathGuide(wide, guide.path, s.horizon, guide.t0)
+            run = leapfrog(
+                wide, t, X, guide=guide, settings=st.leapfrog, flow=Flow(wide, flow.settings)
+            )
+            if not run.success:
+                return run, problem
+        ends, steps = (s.start, s.goal), 8 if relaxed else len(s.smoothing_widths) - 1
+        done = continue_to_bounds(
+            at, run, (0.0, s.horizon), ends, steps, st.leapfrog.final_shooting
+        )
+        return done.run, done.problem
 
     def _run_paths(self, paths: list[InitialPath], raises: int) -> list[PathRun]:
         """:meth:`_run_path` for each path, in parallel threads (see ``threads``)."""

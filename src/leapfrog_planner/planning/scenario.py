@@ -58,6 +58,10 @@ TOP_LEVEL_KEYS = (
     "obstacles",
 )
 REQUIRED_KEYS = ("horizon", "start", "goal")
+#: The smoothing widths of bounded controls, relative to the narrowest range: Leapfrog at the
+#: first, then simple shooting continued through the others (exceeding a bound by at most
+#: 2.5e-9 of the range at the last).
+SMOOTHING_STEPS = (0.1, 0.01, 1e-3, 1e-4)
 ROBOT_KEYS = ("model", "radius", "margin")  # the [robot] keys besides the model's parameters
 PENALTY_KEYS = ("weight", "exponent")
 OBSTACLE_KEYS = ("center", "radius")
@@ -196,6 +200,7 @@ class Scenario:
     source: str | None = None
     robot_radius: float = 0.0  # the footprint: a disc of this radius about (x, y)
     margin: float = 0.0  # clearance a converged path keeps beyond the footprint
+    control_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)  # name: (lo, hi)
 
     def __post_init__(self):
         source = None if self.source is None else str(self.source)
@@ -228,6 +233,7 @@ class Scenario:
         c.in_range(robot_radius, "robot.radius", (0.0, checks.RADIUS_RANGE[1]))
         margin = c.number(self.margin, "robot.margin", ge=0)
         c.in_range(margin, "robot.margin", (0.0, checks.COORDINATE_MAX))
+        bounds = self._check_bounds(c, model)
 
         points = [("start", start[:2]), ("goal", goal[:2])]
         if waypoints is not None:
@@ -251,6 +257,7 @@ class Scenario:
             "source": source,
             "robot_radius": robot_radius,
             "margin": margin,
+            "control_bounds": bounds,
         }
         for k, v in values.items():
             object.__setattr__(self, k, v)
@@ -262,16 +269,33 @@ class Scenario:
         info = model_info(model)
         given = {} if self.model_parameters is None else c.table(self.model_parameters, "robot")
         positive = dict(zip(info.parameters, info.positive, strict=True))
-        c.known_keys(given, (*ROBOT_KEYS, *info.parameters), "robot", f" for model {model!r}")
+        allowed = (*ROBOT_KEYS, *info.parameters, *info.controls)
+        c.known_keys(given, allowed, "robot", f" for model {model!r}")
         checked = {}
         for k, v in given.items():
-            if k in ROBOT_KEYS:  # only reachable by direct construction
+            if k in ROBOT_KEYS or k in info.controls:  # only by direct construction
                 c.fail(f"robot.{k}", "give it as a Scenario field, not a model parameter")
             checked[k] = c.number(v, _key_path("robot", k), gt=0 if positive[k] else None)
             if positive[k]:
                 c.in_range(checked[k], _key_path("robot", k), checks.PARAMETER_RANGE)
         values = info.parameter_values(checked)
         return model, dict(zip(info.parameters, values, strict=True))
+
+    def _check_bounds(self, c: _Check, model: str) -> dict[str, tuple[float, float]]:
+        """``[robot] <control> = [min, max]``: finite, ``min < max``, for the model's controls."""
+        controls = model_info(model).controls
+        table = c.table({} if self.control_bounds is None else self.control_bounds, "robot")
+        out = {}
+        for name, value in table.items():
+            key = _key_path("robot", name)
+            if name not in controls:
+                c.fail(key, f"model {model!r} has no control {name!r} ({', '.join(controls)})")
+            lo, hi = c.vector(value, 2, key, " [min, max]")
+            c.magnitude((lo, hi), key, checks.COORDINATE_MAX)
+            if not lo < hi:
+                c.fail(key, f"expected [min, max] with min < max, got [{lo!r}, {hi!r}]")
+            out[name] = (float(lo), float(hi))
+        return out
 
     def _check_solver(self, c: _Check) -> dict[str, Any]:
         table = c.table({} if self.solver is None else self.solver, "solver")
@@ -310,15 +334,35 @@ class Scenario:
 
     # ------------------------------------------------------------------ conversions
 
-    def problem(self) -> OptimalControlProblem:
-        """The optimal control problem: model, obstacle penalty and model parameters."""
+    def problem(self, smoothing: float | None = None) -> OptimalControlProblem:
+        """The optimal control problem: model, obstacle penalty and model parameters. With
+        control bounds, the bounded variant of the model, its controls saturating smoothly with
+        width ``smoothing`` (default: the widest of :attr:`smoothing_widths`)."""
+        model, parameters = self.model, dict(self.model_parameters)
+        if self.control_bounds:
+            from ..model import get_model
+            from ..model.bounds import SMOOTHING, bound_names, bounded_model
+
+            model = bounded_model(get_model(self.model), tuple(self.control_bounds))
+            for name, (lo, hi) in self.control_bounds.items():
+                parameters.update(zip(bound_names(name), (lo, hi), strict=True))
+            parameters[SMOOTHING] = self.smoothing_widths[0] if smoothing is None else smoothing
         return OptimalControlProblem.create(
-            self.model,
+            model,
             self.footprint_obstacles,
             weight=self.weight,
             exponent=self.exponent,
-            parameters=dict(self.model_parameters),
+            parameters=parameters,
         )
+
+    @property
+    def smoothing_widths(self) -> tuple[float, ...]:
+        """Widths of the smoothed saturation, from the one Leapfrog works at down to the final
+        one (relative to the narrowest control range; none without bounds)."""
+        if not self.control_bounds:
+            return ()
+        span = min(hi - lo for lo, hi in self.control_bounds.values())
+        return tuple(f * span for f in SMOOTHING_STEPS)
 
     @property
     def footprint_obstacles(self) -> np.ndarray:
@@ -345,6 +389,8 @@ class Scenario:
             data["robot"]["radius"] = self.robot_radius
         if self.margin:
             data["robot"]["margin"] = self.margin
+        for name, (lo, hi) in self.control_bounds.items():
+            data["robot"][name] = [lo, hi]
         data["penalty"] = {"weight": self.weight, "exponent": self.exponent}
         if self.solver:
             data["solver"] = dict(self.solver)
@@ -391,7 +437,9 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
 
     robot = c.table(data.get("robot", {}), "robot")
     model = robot.get("model", DEFAULT_MODEL)
-    parameters = {k: v for k, v in robot.items() if k not in ROBOT_KEYS}
+    controls = model_info(model).controls if model in MODELS else ()
+    parameters = {k: v for k, v in robot.items() if k not in ROBOT_KEYS and k not in controls}
+    bounds = {k: v for k, v in robot.items() if k in controls}
 
     penalty = c.table(data.get("penalty", {}), "penalty")
     c.known_keys(penalty, PENALTY_KEYS, "penalty")
@@ -431,6 +479,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
         source=source,
         robot_radius=robot.get("radius", 0.0),
         margin=robot.get("margin", 0.0),
+        control_bounds=bounds,
     )
 
 

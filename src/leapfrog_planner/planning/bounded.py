@@ -1,0 +1,142 @@
+"""Bounded controls: from a problem Leapfrog can solve to the sharp bounds, by continuation.
+
+Leapfrog solves the problem whose controls saturate smoothly with the widest width (see
+:mod:`..model.bounds`); where the initial paths ask more of the controls than the bounds allow,
+it solves the problem with the bounds relaxed far outside instead. That extremal is continued
+along ``s`` from 0 to 1: the bounds move linearly from where Leapfrog solved to the scenario's,
+and the width shrinks geometrically to the narrowest. Each step is warm from the extremal before:
+simple shooting, else multiple shooting over :data:`JUNCTIONS` arcs of that extremal (better
+conditioned where a control rides its bound). A step that fails is tried again half as long, at
+most :data:`MAX_HALVINGS` times in all.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..bvp.multiple_shooting import MultipleShootingSystem, solve_multiple_shooting
+from ..bvp.shooting import ShootingSettings, solve_shooting
+from ..integrate.flow import Flow
+from ..model.bounds import SMOOTHING, bound_names
+from ..model.problem import OptimalControlProblem
+from .leapfrog import Arcs, LeapfrogSolution
+from .results import piecewise_trajectory
+
+MAX_HALVINGS = 10
+JUNCTIONS = 16
+#: Relaxed bounds lie this many ranges outside the scenario's.
+RELAXED = 10.0
+
+
+def schedule(
+    problem: OptimalControlProblem,
+    bounds: dict[str, tuple[float, float]],
+    widths: tuple[float, ...],
+    relaxed: bool,
+) -> Callable[[float], OptimalControlProblem]:
+    """The problem at ``s`` in [0, 1]: the bounds from relaxed (or the scenario's) at 0 to the
+    scenario's at 1, the width from ``widths[0]`` to ``widths[-1]`` geometrically."""
+    names = problem.model.parameters
+    base = np.array(problem.parameters, dtype=float)
+    index = {n: names.index(n) for n in (*sum((bound_names(c) for c in bounds), ()), SMOOTHING)}
+
+    def at(s: float) -> OptimalControlProblem:
+        p = base.copy()
+        for c, (lo, hi) in bounds.items():
+            pull = RELAXED * (hi - lo) * (1.0 - s) if relaxed else 0.0
+            lo_name, hi_name = bound_names(c)
+            p[index[lo_name]], p[index[hi_name]] = lo - pull, hi + pull
+        p[index[SMOOTHING]] = widths[0] ** (1.0 - s) * widths[-1] ** s
+        return replace(problem, parameters=tuple(p.tolist()))
+
+    return at
+
+
+@dataclass(frozen=True)
+class Continued:
+    run: LeapfrogSolution  # the run, its extremal the one at the last ``s`` reached
+    problem: OptimalControlProblem  # the problem there
+    reached: bool  # ``s = 1`` was reached
+
+
+@dataclass(frozen=True)
+class _Stage:
+    """The end points of the solves and how they are made."""
+
+    t: tuple[float, float]
+    ends: tuple[np.ndarray, np.ndarray]
+    settings: ShootingSettings
+
+
+def _simple(stage: _Stage, problem, arcs: Arcs) -> Arcs | None:
+    (t0, t1), (start, goal) = stage.t, stage.ends
+    r = solve_shooting(problem, t0, start, t1, goal, guess=arcs.lam0[0], settings=stage.settings)
+    if not r.success:
+        return None
+    return Arcs(np.array([t0, t1]), np.array([start, goal]), r.costate0[None, :])
+
+
+def _multiple(stage: _Stage, previous, arcs: Arcs, problem) -> Arcs | None:
+    """Multiple shooting for ``problem`` from the extremal ``arcs`` of ``previous``, sampled at
+    :data:`JUNCTIONS` uniform times."""
+    (t0, t1), (start, goal) = stage.t, stage.ends
+    s = stage.settings
+    try:
+        tr = piecewise_trajectory(Flow(previous, s.integrator), arcs, 2001)
+    except ValueError:
+        return None
+    t = np.linspace(t0, t1, JUNCTIONS + 1)
+    t[0], t[-1] = t0, t1
+    keep = np.append(np.diff(tr.t) > 0, True)
+    z = np.hstack([tr.x, tr.lam])[keep]
+    Z = np.column_stack([np.interp(t[:-1], tr.t[keep], z[:, i]) for i in range(z.shape[1])])
+    ms = MultipleShootingSystem(Flow(problem, s.integrator), t, start, goal)
+    nx = start.size
+    root = solve_multiple_shooting(ms, ms.pack(Z[0, nx:], Z), s.method, s.root, s.compiled)
+    if not root.success:
+        return None
+    Z = ms.unpack(root.x)
+    return Arcs(t, np.vstack([Z[:, :nx], goal[None, :]]), Z[:, nx:].copy())
+
+
+def continue_to_bounds(
+    at: Callable[[float], OptimalControlProblem],
+    run: LeapfrogSolution,
+    t: tuple[float, float],
+    ends: tuple[np.ndarray, np.ndarray],
+    steps: int,
+    settings: ShootingSettings,
+) -> Continued:
+    """Continue ``run`` (an extremal of ``at(0)``) to ``at(1)`` in ``steps`` equal steps."""
+    stage = _Stage(t, ends, settings)
+    arcs, s, current, halvings = run.extremal, 0.0, at(0.0), 0
+    todo = list(np.linspace(0.0, 1.0, steps + 1)[1:])
+    while todo and arcs is not None:
+        trial = at(todo[0])
+        new = _simple(stage, trial, arcs) or _multiple(stage, current, arcs, trial)
+        if new is not None:
+            arcs, s, current = new, todo.pop(0), trial
+        elif halvings < MAX_HALVINGS:
+            halvings += 1
+            todo.insert(0, (s + todo[0]) / 2)
+        else:
+            break
+    reached = s == 1.0
+    width = current.parameters[current.model.parameters.index(SMOOTHING)]
+    if reached:
+        note = f"; controls saturated sharply at the bounds (smoothing width {width:.2g})"
+    else:
+        note = f"; the continuation to the sharp bounds stopped at {100 * s:.0f}%"
+    one = arcs is not None and arcs.t.size == 2
+    run = replace(
+        run,
+        success=run.success and reached,
+        message=run.message + note,
+        costate0=arcs.lam0[0] if reached else run.costate0,
+        extremal=arcs if reached else run.extremal,
+        final_solver=("shooting" if one else "multiple-shooting") if reached else run.final_solver,
+    )
+    return Continued(run, current if reached else at(0.0), reached)

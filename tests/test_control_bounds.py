@@ -1,0 +1,104 @@
+"""Bounds on the controls (``[robot] v = [min, max]``): the smooth saturation, the scenario
+keys, and plans that match the direct method with the same box constraints."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from leapfrog_planner.errors import ScenarioError
+from leapfrog_planner.model.bounds import smooth_clip
+from leapfrog_planner.planning.planner import plan
+from leapfrog_planner.planning.scenario import load_scenario, load_scenario_text
+
+pytest.importorskip("casadi")
+from leapfrog_planner.experiments.direct import richardson, solve_direct  # noqa: E402
+
+
+def test_the_smooth_clip_is_the_identity_inside_and_the_bound_outside():
+    lo, hi = -1.0, 2.0
+    s = np.linspace(-10, 10, 20001)
+    for eps in (0.3, 0.01, 1e-4):
+        u = smooth_clip(s, lo, hi, eps)
+        assert np.all(np.diff(u) > 0)  # strictly increasing: a unique minimiser
+        assert u.max() <= hi + eps**2 / (4 * (hi - lo)) + 1e-15
+        assert u.min() >= lo - eps**2 / (4 * (hi - lo)) - 1e-15
+        inside = (s > lo + 10 * eps) & (s < hi - 10 * eps)
+        np.testing.assert_allclose(u[inside], s[inside], atol=eps)
+        np.testing.assert_allclose(u[s > hi + 100 * eps], hi, atol=eps / 100)
+
+
+ROOM = """horizon = 1.0
+start = [0.0, 0.0, 0.0]
+goal = [2.0, 0.0, 0.0]
+[robot]
+v = [0.0, 3.0]
+omega = [-4, 4]
+[[obstacles]]
+center = [1.0, 0.1]
+radius = 0.2
+"""
+
+
+def test_bounds_are_read_written_and_checked():
+    sc = load_scenario_text(ROOM, "room.toml")
+    assert sc.control_bounds == {"v": (0.0, 3.0), "omega": (-4.0, 4.0)}
+    assert load_scenario_text(sc.to_toml()) == sc
+    bad = {
+        "v = [1, 1]": r"room\.toml: robot\.v: expected \[min, max\] with min < max",
+        "v = [3.0, 0.0]": r"robot\.v: expected \[min, max\] with min < max",
+        "v = [0.0]": r"robot\.v: expected 2 numbers",
+        "v = [0.0, inf]": r"robot\.v\[1\]: must be finite",
+    }
+    for line, message in bad.items():
+        with pytest.raises(ScenarioError, match=message):
+            load_scenario_text(ROOM.replace("v = [0.0, 3.0]", line), "room.toml")
+    with pytest.raises(ScenarioError, match="unknown key"):
+        load_scenario_text(ROOM.replace("omega = [-4, 4]", "sigma = [-4, 4]"))
+
+
+def _direct(sc, bounds):
+    """The bounded direct method on meshes of 100 and 200 intervals, extrapolated."""
+    from leapfrog_planner.planning.planner import Planner
+
+    s = np.linspace(0.0, 1.0, 201)
+    guesses = [np.column_stack(p.curve(s)) for p in Planner(sc).initial_paths()]
+    box = (bounds.get("v"), bounds.get("omega"))
+    args = (sc.start, sc.goal, sc.horizon, sc.obstacles)
+    coarse = solve_direct(
+        *args, intervals=100, guesses=[g[::2] for g in guesses], control_bounds=box
+    )
+    fine = solve_direct(*args, intervals=200, guesses=guesses, control_bounds=box)
+    assert coarse.success and fine.success
+    return richardson(coarse.cost, fine.cost)
+
+
+@pytest.mark.parametrize("case", [1, 2, 3, 4])
+def test_a_robot_that_never_reverses_matches_the_bounded_direct_method(case):
+    """v in [0, 6]: paper case 1's optimum reversed on 30% of its samples; bounded, it drives
+    forwards only. The cost matches IPOPT with the same bounds (Richardson-extrapolated) to
+    1e-5, and no control leaves its bounds by more than 1e-6."""
+    bounds = {"v": (0.0, 6.0)}
+    sc = dataclasses.replace(load_scenario(f"paper-case-{case}"), control_bounds=bounds)
+    r = plan(sc, threads=1)
+    assert r.success, r.message
+    assert "saturated sharply" in r.message
+    v = r.trajectory.u[:, 0]
+    assert v.min() >= -1e-6 and v.max() <= 6.0 + 1e-6
+    assert abs(r.cost - _direct(sc, bounds)) <= 1e-5 * r.cost
+
+
+def test_bounds_far_outside_the_optimum_change_nothing():
+    free = plan("paper-case-4", threads=1)
+    wide = dataclasses.replace(load_scenario("paper-case-4"), control_bounds={"v": (-50, 50)})
+    r = plan(wide, threads=1)
+    assert r.success and abs(r.cost - free.cost) <= 1e-8 * free.cost
+
+
+def test_a_speed_too_low_for_every_path_fails_honestly():
+    """Paper case 2 needs a speed above 4 on every path around its obstacles in T = 1."""
+    sc = dataclasses.replace(load_scenario("paper-case-2"), control_bounds={"v": (0.0, 4.0)})
+    r = plan(sc, threads=1)
+    assert not r.success and str(r.status) == "failed"
