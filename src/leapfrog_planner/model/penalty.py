@@ -76,5 +76,13 @@ def clearance(xy: np.ndarray, obstacles: np.ndarray) -> np.ndarray:
     obstacles = as_obstacle_array(obstacles)
     if obstacles.shape[0] == 0:
         return np.zeros(0)
-    d = np.linalg.norm(xy[:, None, :] - obstacles[None, :, :2], axis=2) - obstacles[None, :, 2]
-    return d.min(axis=0)
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if xy.shape[0] * obstacles.shape[0] <= 1 << 16 or not np.all(np.isfinite(xy)):
+        d = np.linalg.norm(xy[:, None, :] - obstacles[None, :, :2], axis=2) - obstacles[None, :, 2]
+        return d.min(axis=0)
+    # The path point nearest each centre (a k-d tree of the points), without an (N, m) array.
+    from scipy.spatial import cKDTree
+
+    _, near = cKDTree(xy).query(obstacles[:, :2])
+    d = np.linalg.norm(xy[near] - obstacles[:, :2], axis=1) - obstacles[:, 2]
+    return d

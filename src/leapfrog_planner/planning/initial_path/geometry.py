@@ -3,10 +3,12 @@ signatures."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 from numba import njit
+from scipy.spatial import cKDTree
 
 from ... import checks
 from ...errors import ScenarioError
@@ -157,10 +159,45 @@ def _round_winding(turn, cr, dt, closing, bound):
     return out
 
 
+#: Points per chunk of the indexed clearance (bounds its candidate lists).
+_CLEARANCE_CHUNK = 256
+
+
 def _clearance(xy: np.ndarray, obs: np.ndarray) -> float:
+    """The smallest distance of the points ``xy`` to an obstacle edge (nan if any is nan):
+    the minimum of the same terms as the plain loop, taken over the obstacles whose centres
+    are near enough to matter (found with a k-d tree)."""
     if obs.shape[0] == 0:
         return math.inf
-    return _clearance_loops(xy, obs)
+    xy = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
+    if obs.shape[0] <= 32 or xy.shape[0] == 0 or not np.all(np.isfinite(xy)):
+        return _clearance_loops(xy, obs)
+    tree = cKDTree(obs[:, :2])
+    rmax = float(np.max(obs[:, 2]))
+    # An upper bound: each point's nearest centre. Any closer edge has its centre within
+    # bound + rmax of some point (slightly more, for rounding).
+    _, near = tree.query(xy)
+    best = _pair_min(xy, obs, np.arange(xy.shape[0]), near)
+    for lo in range(0, xy.shape[0], _CLEARANCE_CHUNK):
+        part = xy[lo : lo + _CLEARANCE_CHUNK]
+        reach = (best + rmax) * (1.0 + 1e-9) + 1e-12
+        lists = tree.query_ball_point(part, reach)
+        sizes = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+        rows = lo + np.repeat(np.arange(part.shape[0]), sizes)
+        cols = np.fromiter(itertools.chain.from_iterable(lists), np.int64, int(sizes.sum()))
+        best = min(best, _pair_min(xy, obs, rows, cols))
+    return best
+
+
+@njit(cache=True)
+def _pair_min(xy, obs, rows, cols):
+    # The terms of _clearance_loops for the pairs (rows[k], cols[k]).
+    best = np.inf
+    for k in range(rows.size):
+        r, j = rows[k], cols[k]
+        d = math.hypot(xy[r, 0] - obs[j, 0], xy[r, 1] - obs[j, 1]) - obs[j, 2]
+        best = min(best, d)
+    return best
 
 
 @njit(cache=True)

@@ -162,8 +162,14 @@ def _plan(
             side = (pattern >> np.arange(rel.size)[None, :]) & 1
             masks = (1 << (2 * np.arange(rel.size)[None, :] + side)).sum(axis=1)
             more = graph.search(bits, masks.astype(np.int64))
+            width = max(paths.shape[1], more[1].shape[1])
             lengths, paths, plen = (
-                np.concatenate(x) for x in zip((lengths, paths, plen), more, strict=True)
+                np.concatenate(x)
+                for x in zip(
+                    (lengths, _widen(paths, width), plen),
+                    (more[0], _widen(more[1], width), more[2]),
+                    strict=True,
+                )
             )
 
     # Shortest first (ties: the unconstrained search, then pattern order); then the first of
@@ -178,6 +184,13 @@ def _plan(
         for sig, j in first.items()
     ]
     return sorted(out, key=lambda c: (c.graph_length, c.order))
+
+
+def _widen(paths: np.ndarray, width: int) -> np.ndarray:
+    """Node paths padded with -1 to ``width`` columns."""
+    out = np.full((paths.shape[0], width), -1, np.int64)
+    out[:, : paths.shape[1]] = paths
+    return out
 
 
 def _smooth_best(poly: np.ndarray, S, G, obs, tol, signature=None, modes=FORWARD) -> InitialPath:

@@ -9,7 +9,8 @@ import numpy as np
 from numba import njit
 
 from .curve import _TWO_PI
-from .geometry import _clean, _close_and_round, _cross, _rot, _segment_distance
+from .geometry import _clean, _close_and_round, _cross, _rot
+from .spatial import DiscGrid, disc_pairs, points_inside, segments_cut
 
 #: Arcs of the tangent graph are sampled with at most this angle between polyline vertices.
 ARC_STEP = _TWO_PI / 36
@@ -19,14 +20,20 @@ ARC_STEP = _TWO_PI / 36
 
 
 def _active_circles(C: np.ndarray, R: np.ndarray, tol: float) -> np.ndarray:
-    """Discs not contained in another disc (of equal discs, the first is kept)."""
+    """Discs not contained in another disc (of equal discs, the first is kept); only pairs of
+    discs near each other are compared (a disc within another overlaps its box)."""
     m = R.size
-    D = np.hypot(C[:, None, 0] - C[None, :, 0], C[:, None, 1] - C[None, :, 1])
-    inside = D + R[:, None] <= R[None, :] + tol  # inside[i, j]: disc i within disc j
-    np.fill_diagonal(inside, False)
-    mutual = inside & inside.T
-    earlier = np.arange(m)[None, :] < np.arange(m)[:, None]
-    return ~np.any(inside & (~mutual | earlier), axis=1)
+    out = np.ones(m, bool)
+    if m < 2:
+        return out
+    grid = DiscGrid(C, R, abs(tol))
+    i, j = disc_pairs(C, R, abs(tol), *grid.arrays())
+    D = np.hypot(C[i, 0] - C[j, 0], C[i, 1] - C[j, 1])
+    inside = D + R[i] <= R[j] + tol  # disc i within disc j
+    D_t = np.hypot(C[j, 0] - C[i, 0], C[j, 1] - C[i, 1])
+    mutual = inside & (D_t + R[j] <= R[i] + tol)
+    out[i[inside & (~mutual | (j < i))]] = False
+    return out
 
 
 class _Points:
@@ -61,6 +68,7 @@ class _TangentGraph:
     def __init__(self, S2: np.ndarray, G2: np.ndarray, C: np.ndarray, R: np.ndarray, tol: float):
         self.S2, self.G2, self.C, self.R, self.tol = S2, G2, C, R, tol
         self._polylines: dict[bytes, np.ndarray] = {}
+        self._active_grid: DiscGrid | None = None
         act = np.flatnonzero(_active_circles(C, R, tol)) if R.size else np.zeros(0, np.int64)
         self.active = act
         points = _Points(S2, G2)
@@ -133,28 +141,33 @@ class _TangentGraph:
 
     def _usable_points(self) -> np.ndarray:
         """Tangent points inside another inflated disc are no use; the ends always are."""
-        C, R, act = self.C, self.R, self.active
         keep = np.ones(self.xy.shape[0], bool)
-        if act.size:
-            gap = np.hypot(
-                self.xy[:, None, 0] - C[None, act, 0], self.xy[:, None, 1] - C[None, act, 1]
-            )
-            keep = ~np.any(gap < R[None, act] - self.tol, axis=1)
+        if self.active.size:
+            keep = ~points_inside(self.xy, self.C, self.R, self.tol, *self._grid().arrays())
             keep[:2] = True
         return keep
+
+    def _grid(self) -> DiscGrid:
+        """The grid of the active discs (built once)."""
+        if self._active_grid is None:
+            act = self.active
+            grid = DiscGrid(self.C[act], self.R[act])
+            # Indices into the full disc arrays, so the loops read C and R directly.
+            grid.items = act[grid.items]
+            self._active_grid = grid
+        return self._active_grid
 
     def _segment_edges(self, segs: list, one_way: int, keep: np.ndarray) -> tuple[list, ...]:
         """The straight start -> goal segment, then the tangents, kept when no disc cuts them:
         edge lists (sources, destinations, weights, geometry), both ways but for the ends'."""
-        C, R, act = self.C, self.R, self.active
         pa, oa, pb, ob = (
             np.concatenate([[x], *(s[i] for s in segs)]) for i, x in enumerate((0, 0, 1, 0))
         )
         both = np.arange(pa.size) > one_way
         ok = keep[pa] & keep[pb]
-        if act.size:
-            dist = _segment_distance(self.xy[pa[ok]], self.xy[pb[ok]], C[act])
-            ok[ok] = ~np.any(dist < R[act][None, :] - self.tol, axis=1)
+        if self.active.size:
+            a, b = self.xy[pa[ok]], self.xy[pb[ok]]
+            ok[ok] = ~segments_cut(a, b, self.C, self.R, self.tol, *self._grid().arrays())
         pa, oa, pb, ob, both = pa[ok], oa[ok], pb[ok], ob[ok], both[ok]
         A, B = self.xy[pa], self.xy[pb]
         seg_geo = np.column_stack([A, B])
@@ -167,7 +180,7 @@ class _TangentGraph:
     def _add_arc_edges(self, keep, src, dst, wgt, geo) -> None:
         """Arcs between neighbouring tangent points of a circle, both ways, unless another disc
         covers them: appended to the edge lists."""
-        C, R, act = self.C, self.R, self.active
+        R, act = self.R, self.active
         tp = np.flatnonzero(keep & (self.circ >= 0))
         tp = tp[np.lexsort((tp, self.angle[tp], self.circ[tp]))]
         cc = self.circ[tp]
@@ -188,15 +201,7 @@ class _TangentGraph:
         )
         ca = self.circ[a_pts]
         if act.size >= 2:
-            D = np.hypot(C[:, None, 0] - C[None, :, 0], C[:, None, 1] - C[None, :, 1])
-            meet = (np.abs(R[:, None] - R[None, :]) < D) & (D < R[:, None] + R[None, :])
-            inactive = np.ones(R.size, bool)
-            inactive[act] = False
-            meet[:, inactive] = False
-            np.fill_diagonal(meet, False)
-            alpha = np.arctan2(C[None, :, 1] - C[:, None, 1], C[None, :, 0] - C[:, None, 0])
-            into = np.mod(alpha[ca] - self.angle[a_pts][:, None], _TWO_PI) < span[:, None]
-            free = ~np.any(meet[ca] & into, axis=1)
+            free = self._arcs_free(ca, a_pts, span)
             a_pts, b_pts, span, ca = a_pts[free], b_pts[free], span[free], ca[free]
         arc_geo = np.column_stack([ca, self.angle[a_pts], span, np.full(span.shape, np.nan)])
         for o, (s_pts, d_pts) in ((1, (a_pts, b_pts)), (-1, (b_pts, a_pts))):
@@ -204,6 +209,28 @@ class _TangentGraph:
             dst.append(self.node(d_pts, np.full(d_pts.shape, o)))
             wgt.append(R[ca] * span)
             geo.append(arc_geo)
+
+    def _arcs_free(self, ca: np.ndarray, a_pts: np.ndarray, span: np.ndarray) -> np.ndarray:
+        """Per arc (on circle ``ca`` from point ``a_pts``, counter-clockwise by ``span``),
+        whether no other active circle that meets circle ``ca`` lies in its direction: only the
+        pairs of circles near each other are compared."""
+        C, R = self.C, self.R
+        grid = self._grid()
+        i, j = disc_pairs(C, R, 0.0, *grid.arrays())  # i, j: indices of active discs
+        D = np.hypot(C[i, 0] - C[j, 0], C[i, 1] - C[j, 1])
+        meet = (np.abs(R[i] - R[j]) < D) & (D < R[i] + R[j])
+        i, j = i[meet], j[meet]
+        nb_ptr = np.zeros(R.size + 1, np.int64)
+        np.cumsum(np.bincount(i, minlength=R.size), out=nb_ptr[1:])
+        # (arc, neighbour) pairs: the arcs of circle c, each with c's neighbours.
+        count = nb_ptr[ca + 1] - nb_ptr[ca]
+        arc = np.repeat(np.arange(ca.size), count)
+        first = np.repeat(nb_ptr[ca] - np.cumsum(count) + count, count)
+        nb = j[first + np.arange(arc.size)]
+        c = ca[arc]
+        alpha = np.arctan2(C[nb, 1] - C[c, 1], C[nb, 0] - C[c, 0])
+        into = np.mod(alpha - self.angle[a_pts][arc], _TWO_PI) < span[arc]
+        return np.bincount(arc[into], minlength=ca.size) == 0
 
     def _index(self, src, dst, wgt, geo) -> None:
         """The edges in CSR order (by source node), and the nodes' positions and circles."""
@@ -253,18 +280,22 @@ class _TangentGraph:
         if m == 0 or found.size == 0:
             return out
         C = obs[:, :2]
+        # Only the nodes and circles of the paths matter: renumbered in increasing order.
+        sub = paths[found]
+        nodes = np.unique(sub[sub >= 0])
+        sub = np.where(sub >= 0, np.searchsorted(nodes, np.maximum(sub, 0)), -1)
+        circ = self.node_circ[nodes]
+        circles = np.unique(circ[circ >= 0])
+        circ = np.where(circ >= 0, np.searchsorted(circles, np.maximum(circ, 0)), -1)
         # Direction angle of every node seen from every centre; a step turns by the difference,
         # taken in (-pi, pi] for a segment (or an arc seen from outside its circle, which stays
         # in a cone narrower than pi), and monotonically for an arc seen from inside its circle.
-        rel = self.node_xy[:, None, :] - C[None, :, :]
+        rel = self.node_xy[nodes][:, None, :] - C[None, :, :]
         angle = np.arctan2(rel[:, :, 1], rel[:, :, 0])
         # Which centres lie inside each circle.
-        inside = np.hypot(*(C[None, :, :] - self.C[:, None, :]).transpose(2, 0, 1))
-        inside = inside < self.R[:, None]
-        turn, first = _step_turns(
-            paths, plen, found, angle, self.node_circ, self.node_orient, inside
-        )
-        total = np.add.reduceat(turn, first, axis=0)
+        inside = np.hypot(*(C[None, :, :] - self.C[circles][:, None, :]).transpose(2, 0, 1))
+        inside = inside < self.R[circles][:, None]
+        total = _step_turns(sub, plen[found], angle, circ, self.node_orient[nodes], inside)
         out[found] = _close_and_round(total, self.S2, self.G2, obs, self.tol)
         return out
 
@@ -375,21 +406,14 @@ def _crossings(is_arc, geo, C, R, origins, dirs, reach):
 
 
 @njit(cache=True)
-def _step_turns(paths, plen, found, angle, node_circ, node_orient, inside):
-    """For :meth:`_TangentGraph.signatures`: the turn ``(steps, m)`` of every step of the paths
-    ``found`` seen from each centre (``angle``: directions of the nodes from the centres), and
-    the first step of each path. A loop over the steps of a few dozen paths, where NumPy's
-    gathers and masks cost more; the same operations as those (``np.round`` is ``rint``)."""
-    first = np.empty(found.size, np.int64)
-    n_steps = 0
-    for k in range(found.size):
-        first[k] = n_steps
-        n_steps += plen[found[k]] - 1
+def _step_turns(paths, plen, angle, node_circ, node_orient, inside):
+    """For :meth:`_TangentGraph.signatures`: the total turn ``(P, m)`` of each path seen from
+    each centre (``angle``: directions of the nodes from the centres), summed over its steps in
+    order. A loop over the steps of a few dozen paths, where NumPy's gathers and masks cost
+    more; the same operations as those (``np.round`` is ``rint``)."""
     m = angle.shape[1]
-    turn = np.empty((n_steps, m))
-    row = 0
-    for k in range(found.size):
-        p = found[k]
+    total = np.zeros((plen.size, m))
+    for p in range(plen.size):
         for t in range(plen[p] - 1):
             u, v = paths[p, t], paths[p, t + 1]
             cu = node_circ[u]
@@ -398,22 +422,24 @@ def _step_turns(paths, plen, found, angle, node_circ, node_orient, inside):
             for j in range(m):
                 x = angle[v, j] - angle[u, j]
                 if arc and inside[cu, j]:
-                    turn[row, j] = o * ((o * x) % _TWO_PI)
+                    step = o * ((o * x) % _TWO_PI)
                 else:
-                    turn[row, j] = x - _TWO_PI * np.rint(x / _TWO_PI)
-            row += 1
-    return turn, first
+                    step = x - _TWO_PI * np.rint(x / _TWO_PI)
+                total[p, j] = step if t == 0 else total[p, j] + step
+    return total
 
 
 @njit(cache=True)
 def _search(indptr, dst, wgt, bits, masks, node_xy):
     """For each mask: the shortest path from node 0 to node 1 without the edges whose ``bits``
     meet the mask (Dijkstra, ordered by the A* bound ``distance + straight line to the goal``,
-    which is consistent here): lengths (inf: none), node paths padded with -1, path sizes."""
+    which is consistent here): lengths (inf: none), node paths padded with -1 (as wide as the
+    longest), path sizes."""
     n = indptr.size - 1
     n_masks = masks.size
     lengths = np.full(n_masks, np.inf)
-    paths = np.full((n_masks, n), -1, np.int64)
+    flat = np.empty(64, np.int64)  # the paths one after another
+    used = 0
     plen = np.zeros(n_masks, np.int64)
     dist = np.empty(n)
     pred = np.empty(n, np.int64)
@@ -494,9 +520,23 @@ def _search(indptr, dst, wgt, bits, masks, node_xy):
             k += 1
             v = pred[v]
         plen[p] = k
+        if used + k > flat.size:
+            flat = np.concatenate((flat, np.empty(max(flat.size, k), np.int64)))
         v = np.int64(1)
         while v != -1:  # written backwards from the goal
             k -= 1
-            paths[p, k] = v
+            flat[used + k] = v
             v = pred[v]
-    return lengths, paths, plen
+        used += plen[p]
+    return lengths, _pad_paths(flat, plen), plen
+
+
+@njit(cache=True)
+def _pad_paths(flat, plen):
+    """The paths stored one after another in ``flat``, as rows padded with -1."""
+    paths = np.full((plen.size, max(plen.max(), 1) if plen.size else 1), -1, np.int64)
+    used = 0
+    for p in range(plen.size):
+        paths[p, : plen[p]] = flat[used : used + plen[p]]
+        used += plen[p]
+    return paths

@@ -1,0 +1,193 @@
+"""A uniform grid over discs for the tangent graph and the clearance checks: each cell lists
+(in increasing disc index) every disc whose bounding box, grown by a pad, touches it, so that a
+point, segment or disc is only tested against the discs near it. Memory is linear in the number
+of discs (times the cells a disc covers); the tests themselves are the brute-force ones, so the
+answers are the same."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: Cells per disc, at most (a disc much larger than the others covers several).
+_CELLS_PER_DISC = 4.0
+
+
+class DiscGrid:
+    """Discs ``(C, R)`` in a uniform grid of ``nx * ny`` cells of size ``h`` from ``origin``;
+    the discs of cell ``c`` are ``items[starts[c]:starts[c + 1]]``."""
+
+    def __init__(self, C: np.ndarray, R: np.ndarray, pad: float = 0.0):
+        C = np.ascontiguousarray(C, dtype=np.float64).reshape(-1, 2)
+        R = np.ascontiguousarray(R, dtype=np.float64).reshape(-1)
+        self.C, self.R = C, R
+        m = R.size
+        if m == 0:
+            lo, hi = np.zeros(2), np.ones(2)
+        else:
+            lo = np.min(C - (R + pad)[:, None], axis=0)
+            hi = np.max(C + (R + pad)[:, None], axis=0)
+        span = np.maximum(hi - lo, 1e-12 * max(1.0, float(np.max(np.abs(hi)))))
+        area = float(span[0] * span[1])
+        # Cells about the size of a typical disc, but no more than a few per disc.
+        typical = 2.0 * float(np.median(R + pad)) if m else 1.0
+        h = max(typical, math.sqrt(area / (_CELLS_PER_DISC * max(m, 1))), 1e-300)
+        nx, ny = (int(min(max(math.ceil(s / h), 1), 1 << 15)) for s in span)
+        h = max(h, float(span[0]) / nx, float(span[1]) / ny)
+        self.origin, self.h, self.nx, self.ny = lo.astype(np.float64), h, nx, ny
+        # Registered a little beyond the box, so that rounding never loses a disc.
+        reach = (R + pad) * (1.0 + 1e-12) + 1e-9 * h
+        self.starts, self.items = _fill(C, reach, self.origin, h, nx, ny)
+
+    def arrays(self):
+        """The grid as positional arguments of the compiled loops."""
+        return self.starts, self.items, self.origin[0], self.origin[1], self.h, self.nx, self.ny
+
+
+def _fill(C, reach, origin, h, nx, ny):
+    """CSR lists of the discs per cell (row-major cells, discs in increasing index)."""
+    m = reach.size
+    if m == 0:
+        return np.zeros(nx * ny + 1, np.int64), np.zeros(0, np.int64)
+    ix0 = np.clip(np.floor((C[:, 0] - reach - origin[0]) / h), 0, nx - 1).astype(np.int64)
+    ix1 = np.clip(np.floor((C[:, 0] + reach - origin[0]) / h), 0, nx - 1).astype(np.int64)
+    iy0 = np.clip(np.floor((C[:, 1] - reach - origin[1]) / h), 0, ny - 1).astype(np.int64)
+    iy1 = np.clip(np.floor((C[:, 1] + reach - origin[1]) / h), 0, ny - 1).astype(np.int64)
+    return _fill_loops(ix0, ix1, iy0, iy1, nx, ny)
+
+
+@njit(cache=True, error_model="numpy")
+def _fill_loops(ix0, ix1, iy0, iy1, nx, ny):
+    count = np.zeros(nx * ny + 1, np.int64)
+    for j in range(ix0.size):
+        for iy in range(iy0[j], iy1[j] + 1):
+            for ix in range(ix0[j], ix1[j] + 1):
+                count[iy * nx + ix + 1] += 1
+    starts = np.cumsum(count)
+    items = np.empty(starts[-1], np.int64)
+    fill = starts[:-1].copy()
+    for j in range(ix0.size):  # increasing j: each cell's list is sorted
+        for iy in range(iy0[j], iy1[j] + 1):
+            for ix in range(ix0[j], ix1[j] + 1):
+                c = iy * nx + ix
+                items[fill[c]] = j
+                fill[c] += 1
+    return starts, items
+
+
+@njit(cache=True, error_model="numpy")
+def _cell(v, o, h, n):
+    k = math.floor((v - o) / h)
+    return min(max(k, 0), n - 1)
+
+
+@njit(cache=True, error_model="numpy")
+def disc_pairs(C, R, pad, starts, items, ox, oy, h, nx, ny):
+    """Pairs ``(i, j)``, ``i != j``, of discs whose boxes (grown by ``pad``) may overlap: a
+    superset of the pairs at centre distance ``< R_i + R_j + 2 pad``, each ordered pair once."""
+    m = R.size
+    stamp = np.full(m, -1, np.int64)
+    cap = 16 * m + 16
+    pi = np.empty(cap, np.int64)
+    pj = np.empty(cap, np.int64)
+    n = 0
+    for i in range(m):
+        r = R[i] + pad
+        for iy in range(_cell(C[i, 1] - r, oy, h, ny), _cell(C[i, 1] + r, oy, h, ny) + 1):
+            for ix in range(_cell(C[i, 0] - r, ox, h, nx), _cell(C[i, 0] + r, ox, h, nx) + 1):
+                c = iy * nx + ix
+                for k in range(starts[c], starts[c + 1]):
+                    j = items[k]
+                    if j == i or stamp[j] == i:
+                        continue
+                    stamp[j] = i
+                    if n == cap:
+                        cap *= 2
+                        pi = np.concatenate((pi, np.empty(cap - n, np.int64)))
+                        pj = np.concatenate((pj, np.empty(cap - n, np.int64)))
+                    pi[n] = i
+                    pj[n] = j
+                    n += 1
+    # Sorted by (i, j), as an m x m scan would give them.
+    order = np.argsort(pi[:n] * m + pj[:n])
+    return pi[:n][order], pj[:n][order]
+
+
+@njit(cache=True, error_model="numpy")
+def points_inside(xy, C, R, tol, starts, items, ox, oy, h, nx, ny):
+    """Per point, whether it lies deeper than ``tol`` inside some disc
+    (``hypot(p - c) < R - tol``)."""
+    out = np.zeros(xy.shape[0], np.bool_)
+    for p in range(xy.shape[0]):
+        x, y = xy[p, 0], xy[p, 1]
+        kx = math.floor((x - ox) / h)
+        ky = math.floor((y - oy) / h)
+        if not (0 <= kx < nx and 0 <= ky < ny):
+            continue  # outside every disc's box (nan too)
+        c = ky * nx + kx
+        for k in range(starts[c], starts[c + 1]):
+            j = items[k]
+            if math.hypot(x - C[j, 0], y - C[j, 1]) < R[j] - tol:
+                out[p] = True
+                break
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def segments_cut(a, b, C, R, tol, starts, items, ox, oy, h, nx, ny):
+    """Per segment ``a[e] -> b[e]``, whether some disc comes closer to it than ``R - tol`` (the
+    distance formula of ``_segment_distance_loops``), testing only the discs of the cells that
+    the segment crosses."""
+    E = a.shape[0]
+    out = np.zeros(E, np.bool_)
+    stamp = np.full(R.size, -1, np.int64)
+    for e in range(E):
+        ax, ay, bx, by = a[e, 0], a[e, 1], b[e, 0], b[e, 1]
+        abx, aby = bx - ax, by - ay
+        den = abx * abx + aby * aby
+        x_lo, x_hi = min(ax, bx), max(ax, bx)
+        y_lo, y_hi = min(ay, by), max(ay, by)
+        if not (x_hi >= ox and y_hi >= oy and x_lo <= ox + nx * h and y_lo <= oy + ny * h):
+            continue  # outside the grid, or nan (no disc is closer than nan)
+        kx0 = _cell(x_lo, ox, h, nx) if x_lo == x_lo else 0
+        kx1 = _cell(x_hi, ox, h, nx) if x_hi == x_hi else nx - 1
+        hit = False
+        for kx in range(kx0, kx1 + 1):
+            # The segment's y range over this column (all of it for a vertical segment).
+            if abx != 0.0 and x_lo == x_lo:
+                xa = max(x_lo, ox + kx * h)
+                xb = min(x_hi, ox + (kx + 1) * h)
+                ya = ay + (xa - ax) / abx * aby
+                yb = ay + (xb - ax) / abx * aby
+                c_lo, c_hi = min(ya, yb), max(ya, yb)
+            else:
+                c_lo, c_hi = y_lo, y_hi
+            if c_lo == c_lo and c_hi == c_hi:
+                ky0 = max(_cell(c_lo, oy, h, ny) - 1, 0)
+                ky1 = min(_cell(c_hi, oy, h, ny) + 1, ny - 1)
+            else:
+                ky0, ky1 = 0, ny - 1
+            for ky in range(ky0, ky1 + 1):
+                c = ky * nx + kx
+                for k in range(starts[c], starts[c + 1]):
+                    j = items[k]
+                    if stamp[j] == e:
+                        continue
+                    stamp[j] = e
+                    acx, acy = C[j, 0] - ax, C[j, 1] - ay
+                    t = (acx * abx + acy * aby) / den
+                    if np.isnan(t):
+                        t = 0.0
+                    t = t if t > 0.0 else 0.0
+                    t = t if t < 1.0 else 1.0
+                    if math.hypot(acx - t * abx, acy - t * aby) < R[j] - tol:
+                        hit = True
+                        break
+                if hit:
+                    break
+            if hit:
+                break
+        out[e] = hit
+    return out
