@@ -66,7 +66,7 @@ class Dynamics(NamedTuple):
     e3: np.ndarray
     error_order: int
     parameters: np.ndarray
-    obstacles: np.ndarray
+    obstacles: object  # model.penalty.ObstacleGrid (or a plain (m, 3) array)
     weight: float
     exponent: int
     no_T: np.ndarray  # empty arrays of the right types (see Flow)

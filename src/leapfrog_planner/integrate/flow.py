@@ -96,7 +96,7 @@ class Flow:
         self.nx = problem.model.nx
         self.nz = 2 * self.nx
         self._p = np.asarray(problem.parameters, dtype=np.float64)
-        self._obs = np.ascontiguousarray(problem.obstacles)
+        self._obs = problem.penalty.grid  # obstacles and their grid (model/penalty.py)
         self._w = float(problem.penalty.weight)
         self._n = int(problem.penalty.exponent)
         self._e3 = self.tableau.e3 if self.tableau.e3 is not None else np.zeros(0)

@@ -2,7 +2,7 @@
 #
 # This file is a template, not an importable module: leapfrog_planner.model.codegen appends it
 # to the code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
-# controls, hamiltonian_model, dH_du and linearize, and imports penalty_terms, dot and
+# controls, hamiltonian_model, dH_du and linearize, and imports penalty_at, obstacle_count, dot and
 # transpose_times. Keeping the integrator in the same module as the model lets numba inline and
 # cache everything (functions passed as arguments would not be cached on disk).
 #
@@ -21,9 +21,9 @@ def aug_rhs(Y, k, p, obs, weight, exponent, out):
     """Right-hand side of the augmented system: canonical system, cost rate, sensitivities."""
     base = NZ + 1
     model_augmented(Y, p, Y[base:], k, out)
-    if obs.shape[0] == 0:
+    if obstacle_count(obs) == 0:
         return
-    P, Px, Py, Pxx, Pxy, Pyy = penalty_terms(Y[0], Y[1], obs, weight, exponent, k > 0)
+    P, Px, Py, Pxx, Pxy, Pyy = penalty_at(Y[0], Y[1], obs, weight, exponent, k > 0)
     out[NX] -= Px
     out[NX + 1] -= Py
     out[NZ] += P
@@ -275,7 +275,7 @@ def along_path(Z, p, obs, weight, exponent, U, H, dHdu):
     for r in range(Z.shape[0]):
         z = Z[r, :NZ]
         controls(z, p, U[r])
-        P, Px, Py, Pxx, Pxy, Pyy = penalty_terms(z[0], z[1], obs, weight, exponent, False)
+        P, Px, Py, Pxx, Pxy, Pyy = penalty_at(z[0], z[1], obs, weight, exponent, False)
         H[r] = hamiltonian_model(z, p) + P
         dH_du(z, U[r], p, dHdu[r])
 

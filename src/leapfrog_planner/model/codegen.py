@@ -113,7 +113,7 @@ def model_source(model: VehicleModel) -> str:
             "import numpy as np",
             "from numba import njit\n",
             "from leapfrog_planner.bvp.abi import NewtonOutcome, SweepOutcome",
-            "from leapfrog_planner.model.penalty import penalty_terms",
+            "from leapfrog_planner.model.penalty import obstacle_count, penalty_at, penalty_terms",
             "from leapfrog_planner.roots.linear import dot, transpose_times\n",
             *kernel_constants(),
             f"NX = {nx}",

@@ -5,9 +5,11 @@ value, gradient and Hessian, so a new scenario never compiles anything.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 
 @njit(cache=True)
@@ -61,6 +63,175 @@ def penalty_terms(x, y, obs, weight, exponent, want_hessian):
             Pxy += d2 * sx * sy
             Pyy += d2 * sy * sy + dP_ds * 2.0 * inv_r2
     return P, Px, Py, Pxx, Pxy, Pyy
+
+
+class ObstacleGrid(NamedTuple):
+    """The obstacles and a uniform grid over them, as the compiled kernels read them.
+
+    Cell ``(ix, iy)`` (row-major, ``nx * ny`` cells of size ``h`` from ``(ox, oy)``) lists in
+    ``items[starts[c]:starts[c + 1]]``, in increasing index, every obstacle whose influence disc
+    (where its term is not skipped as negligible, for ``weight`` and ``exponent``) touches it:
+    the penalty summed over a point's cell is the plain loop's sum, in the same order.
+    """
+
+    obstacles: np.ndarray  # (m, 3) rows [cx, cy, r]
+    starts: np.ndarray  # (nx * ny + 1,) int64
+    items: np.ndarray  # int64
+    ox: float
+    oy: float
+    h: float
+    nx: int
+    ny: int
+    weight: float  # the largest weight the grid holds for
+    exponent: int
+
+
+#: Cells per obstacle, at most.
+_CELLS_PER_OBSTACLE = 4.0
+
+
+def obstacle_grid(obstacles, weight: float, exponent: int) -> ObstacleGrid:
+    """The grid of ``obstacles`` for the penalty with ``weight`` and ``exponent`` (valid for
+    any weight up to ``weight``: the influence discs only shrink with the weight)."""
+    obs = as_obstacle_array(obstacles).view()
+    obs.setflags(write=False)  # one compiled type, whatever the caller's array
+    m = obs.shape[0]
+    far = _far(float(weight))
+    # s^n <= far where |p - c| <= r far^(1/2n); a little more, so that rounding loses nothing.
+    reach = obs[:, 2] * far ** (0.5 / exponent) * (1.0 + 1e-9) if m else np.zeros(0)
+    if m:
+        lo = np.min(obs[:, :2] - reach[:, None], axis=0)
+        hi = np.max(obs[:, :2] + reach[:, None], axis=0)
+    else:
+        lo, hi = np.zeros(2), np.ones(2)
+    span = np.maximum(hi - lo, 1e-12 * max(1.0, float(np.max(np.abs(hi)))))
+    typical = float(np.median(reach)) if m else 1.0
+    h = max(typical, math.sqrt(float(span[0] * span[1]) / (_CELLS_PER_OBSTACLE * max(m, 1))))
+    nx, ny = (int(min(max(math.ceil(v / h), 1), 1 << 15)) for v in span)
+    h = max(h, float(span[0]) / nx, float(span[1]) / ny)
+    reach = reach + 1e-9 * h
+    cells = []
+    for k, n in ((0, nx), (1, ny)):
+        a = np.clip(np.floor((obs[:, k] - reach - lo[k]) / h), 0, n - 1).astype(np.int64)
+        b = np.clip(np.floor((obs[:, k] + reach - lo[k]) / h), 0, n - 1).astype(np.int64)
+        cells += [a, b]
+    starts, items = _grid_lists(*cells, nx, ny)
+    return ObstacleGrid(
+        obs, starts, items, float(lo[0]), float(lo[1]), h, nx, ny, float(weight), int(exponent)
+    )
+
+
+def _far(weight: float) -> float:
+    """The ``far`` bound of :func:`penalty_terms`."""
+    return 60.0 + (math.log(weight) if weight > 1.0 else 0.0)
+
+
+@njit(cache=True)
+def _grid_lists(ix0, ix1, iy0, iy1, nx, ny):
+    count = np.zeros(nx * ny + 1, np.int64)
+    for j in range(ix0.size):
+        for iy in range(iy0[j], iy1[j] + 1):
+            for ix in range(ix0[j], ix1[j] + 1):
+                count[iy * nx + ix + 1] += 1
+    starts = np.cumsum(count)
+    items = np.empty(starts[-1], np.int64)
+    fill = starts[:-1].copy()
+    for j in range(ix0.size):  # increasing j: each cell's list is sorted
+        for iy in range(iy0[j], iy1[j] + 1):
+            for ix in range(ix0[j], ix1[j] + 1):
+                c = iy * nx + ix
+                items[fill[c]] = j
+                fill[c] += 1
+    return starts, items
+
+
+@njit(cache=True)
+def grid_penalty_terms(x, y, grid, weight, exponent, want_hessian):
+    """:func:`penalty_terms` over the obstacles of ``(x, y)``'s grid cell: the same sum, in the
+    same order (the others are skipped there as negligible); all obstacles at a nan point."""
+    obs = grid.obstacles
+    fx = (x - grid.ox) / grid.h
+    fy = (y - grid.oy) / grid.h
+    if fx != fx or fy != fy or weight > grid.weight or exponent != grid.exponent:
+        # A nan point, or a grid built for another penalty: the plain loop.
+        return penalty_terms(x, y, obs, weight, exponent, want_hessian)
+    P = 0.0
+    Px = 0.0
+    Py = 0.0
+    Pxx = 0.0
+    Pxy = 0.0
+    Pyy = 0.0
+    if not (0.0 <= fx < grid.nx and 0.0 <= fy < grid.ny):
+        return P, Px, Py, Pxx, Pxy, Pyy
+    c = min(int(fy), grid.ny - 1) * grid.nx + min(int(fx), grid.nx - 1)
+    n = exponent
+    far = 60.0 + (math.log(weight) if weight > 1.0 else 0.0)
+    for k in range(grid.starts[c], grid.starts[c + 1]):
+        j = grid.items[k]
+        # The body of penalty_terms' loop, unchanged.
+        inv_r2 = 1.0 / (obs[j, 2] * obs[j, 2])
+        dx = x - obs[j, 0]
+        dy = y - obs[j, 1]
+        s = (dx * dx + dy * dy) * inv_r2
+        if n == 2:
+            sn1 = s
+        else:
+            sn1 = 1.0
+            for _ in range(n - 1):
+                sn1 *= s
+        if sn1 * s > far:
+            continue
+        e = weight * math.exp(-(sn1 * s))
+        if e == 0.0:
+            continue
+        P += e
+        dP_ds = -n * sn1 * e
+        sx = 2.0 * dx * inv_r2
+        sy = 2.0 * dy * inv_r2
+        Px += dP_ds * sx
+        Py += dP_ds * sy
+        if want_hessian:
+            d2 = n * n * sn1 * sn1 * e
+            if n > 1:
+                sn2 = 1.0
+                for _ in range(n - 2):
+                    sn2 *= s
+                d2 -= n * (n - 1) * sn2 * e
+            Pxx += d2 * sx * sx + dP_ds * 2.0 * inv_r2
+            Pxy += d2 * sx * sy
+            Pyy += d2 * sy * sy + dP_ds * 2.0 * inv_r2
+    return P, Px, Py, Pxx, Pxy, Pyy
+
+
+def penalty_at(x, y, obs, weight, exponent, want_hessian):
+    """The penalty terms at ``(x, y)`` for ``obs`` given as an :class:`ObstacleGrid` or as a
+    plain ``(m, 3)`` array (compiled code picks the loop by the type)."""
+    if isinstance(obs, ObstacleGrid):
+        return grid_penalty_terms(x, y, obs, weight, exponent, want_hessian)
+    return penalty_terms(x, y, obs, weight, exponent, want_hessian)
+
+
+def obstacle_count(obs) -> int:
+    """The number of obstacles of an :class:`ObstacleGrid` or an ``(m, 3)`` array."""
+    return (obs.obstacles if isinstance(obs, ObstacleGrid) else obs).shape[0]
+
+
+@overload(penalty_at)
+def _penalty_at(x, y, obs, weight, exponent, want_hessian):
+    if isinstance(obs, types.Array):
+        return lambda x, y, obs, weight, exponent, want_hessian: penalty_terms(
+            x, y, obs, weight, exponent, want_hessian
+        )
+    return lambda x, y, obs, weight, exponent, want_hessian: grid_penalty_terms(
+        x, y, obs, weight, exponent, want_hessian
+    )
+
+
+@overload(obstacle_count)
+def _obstacle_count(obs):
+    if isinstance(obs, types.Array):
+        return lambda obs: obs.shape[0]
+    return lambda obs: obs.obstacles.shape[0]
 
 
 def as_obstacle_array(obstacles) -> np.ndarray:

@@ -79,8 +79,13 @@ def _fill_loops(ix0, ix1, iy0, iy1, nx, ny):
 
 @njit(cache=True, error_model="numpy")
 def _cell(v, o, h, n):
-    k = math.floor((v - o) / h)
-    return min(max(k, 0), n - 1)
+    # Clamped in floating point first: a huge (or infinite) v has no int64 cell.
+    k = (v - o) / h
+    if k < 1.0:
+        return 0
+    if k >= n - 1:
+        return n - 1
+    return int(k)
 
 
 @njit(cache=True, error_model="numpy")
@@ -122,11 +127,10 @@ def points_inside(xy, C, R, tol, starts, items, ox, oy, h, nx, ny):
     out = np.zeros(xy.shape[0], np.bool_)
     for p in range(xy.shape[0]):
         x, y = xy[p, 0], xy[p, 1]
-        kx = math.floor((x - ox) / h)
-        ky = math.floor((y - oy) / h)
-        if not (0 <= kx < nx and 0 <= ky < ny):
+        fx, fy = (x - ox) / h, (y - oy) / h
+        if not (0.0 <= fx < nx and 0.0 <= fy < ny):
             continue  # outside every disc's box (nan too)
-        c = ky * nx + kx
+        c = min(int(fy), ny - 1) * nx + min(int(fx), nx - 1)
         for k in range(starts[c], starts[c + 1]):
             j = items[k]
             if math.hypot(x - C[j, 0], y - C[j, 1]) < R[j] - tol:
