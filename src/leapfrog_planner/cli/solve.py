@@ -28,7 +28,7 @@ from .warmup import ensure_compiled
 @click.argument("model")
 def derive(model):
     """Print the Hamiltonian, control law and canonical equations derived for MODEL, a
-    built-in vehicle model: unicycle or diff-drive."""
+    built-in vehicle model: unicycle, diff-drive or car."""
     from ..model.pmp import derive as derive_system
 
     click.echo(derive_system(model).describe())

@@ -12,7 +12,7 @@ if TYPE_CHECKING:
     from .base import VehicleModel
 
 # name -> module in this package defining a function of the same name (with _ for -)
-_BUILTIN = {"unicycle": "unicycle", "diff-drive": "diff_drive"}
+_BUILTIN = {"unicycle": "unicycle", "diff-drive": "diff_drive", "car": "car"}
 MODELS: tuple[str, ...] = tuple(_BUILTIN)
 
 
@@ -36,7 +36,7 @@ def builtin_source(name: str) -> str:
 
 
 def __getattr__(attr):  # lazy, so that importing the package does not import SymPy
-    if attr in ("VehicleModel", "unicycle", "diff_drive"):
+    if attr in ("VehicleModel", "unicycle", "diff_drive", "car"):
         module = "base" if attr == "VehicleModel" else attr
         return getattr(importlib.import_module(f".{module}", __name__), attr)
     raise AttributeError(attr)

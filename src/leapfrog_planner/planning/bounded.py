@@ -36,12 +36,15 @@ def schedule(
     bounds: dict[str, tuple[float, float]],
     widths: tuple[float, ...],
     relaxed: bool,
+    assist: tuple[float, float] | None = None,
 ) -> Callable[[float], OptimalControlProblem]:
     """The problem at ``s`` in [0, 1]: the bounds from relaxed (or the scenario's) at 0 to the
-    scenario's at 1, the width from ``widths[0]`` to ``widths[-1]`` geometrically."""
+    scenario's at 1, the width from ``widths[0]`` to ``widths[-1]`` geometrically, and the car's
+    turn assist linearly from ``assist[0]`` to ``assist[1]``."""
     names = problem.model.parameters
     base = np.array(problem.parameters, dtype=float)
-    index = {n: names.index(n) for n in (*sum((bound_names(c) for c in bounds), ()), SMOOTHING)}
+    used = (*sum((bound_names(c) for c in bounds), ()), *((SMOOTHING,) if bounds else ()))
+    index = {n: names.index(n) for n in (*used, *(("turn_assist",) if assist else ()))}
 
     def at(s: float) -> OptimalControlProblem:
         p = base.copy()
@@ -49,7 +52,10 @@ def schedule(
             pull = RELAXED * (hi - lo) * (1.0 - s) if relaxed else 0.0
             lo_name, hi_name = bound_names(c)
             p[index[lo_name]], p[index[hi_name]] = lo - pull, hi + pull
-        p[index[SMOOTHING]] = widths[0] ** (1.0 - s) * widths[-1] ** s
+        if bounds:
+            p[index[SMOOTHING]] = widths[0] ** (1.0 - s) * widths[-1] ** s
+        if assist:
+            p[index["turn_assist"]] = assist[0] + s * (assist[1] - assist[0])
         return replace(problem, parameters=tuple(p.tolist()))
 
     return at
@@ -125,11 +131,10 @@ def continue_to_bounds(
         else:
             break
     reached = s == 1.0
-    width = current.parameters[current.model.parameters.index(SMOOTHING)]
     if reached:
-        note = f"; controls saturated sharply at the bounds (smoothing width {width:.2g})"
+        note = f"; continued to the problem itself ({_what(current)})"
     else:
-        note = f"; the continuation to the sharp bounds stopped at {100 * s:.0f}%"
+        note = f"; the continuation to the problem itself stopped at {100 * s:.0f}%"
     one = arcs is not None and arcs.t.size == 2
     run = replace(
         run,
@@ -140,3 +145,14 @@ def continue_to_bounds(
         final_solver=("shooting" if one else "multiple-shooting") if reached else run.final_solver,
     )
     return Continued(run, current if reached else at(0.0), reached)
+
+
+def _what(problem: OptimalControlProblem) -> str:
+    names, values = problem.model.parameters, problem.parameters
+    parts = []
+    if SMOOTHING in names:
+        width = values[names.index(SMOOTHING)]
+        parts.append(f"controls saturated sharply at the bounds, smoothing width {width:.2g}")
+    if "turn_assist" in names:
+        parts.append(f"turn assist {values[names.index('turn_assist')]:g}")
+    return "; ".join(parts)

@@ -30,31 +30,36 @@ def estimated_cost(
 
 
 def estimated_costs(
-    problem: OptimalControlProblem, paths: list[InitialPath], horizon: float, samples: int = 201
+    problem: OptimalControlProblem,
+    paths: list[InitialPath],
+    horizon: float,
+    samples: int = 201,
+    ends=None,
 ) -> np.ndarray:
     """:func:`estimated_cost` of each path, as an array.
 
     The paths go through each step together: every step acts row by row (per sample, or per
     path for the sums), so the costs are exactly those of separate calls, and the fixed costs of
-    the NumPy calls are paid once, not once per path.
+    the NumPy calls are paid once, not once per path. ``ends`` (the full start and goal
+    states) fill a model's further states (see :func:`path_states`).
     """
     s = np.linspace(0.0, 1.0, samples)
     t = s * horizon
-    X = np.empty((len(paths), samples, 3))
-    for k, path in enumerate(paths):
-        X[k, :, :2], X[k, :, 2] = path.curve(s)
-    Xdot = np.gradient(X, t, axis=1)
     model = problem.model
     K = model.kernels
     p = np.asarray(problem.parameters, dtype=float)
     nx, nu = model.nx, model.nu
+    X = np.empty((len(paths), samples, nx))
+    for k, path in enumerate(paths):
+        X[k] = path_states(path, s, ends)
+    Xdot = np.gradient(X, t, axis=1)
     n = X.shape[0] * samples
     f = np.empty((n, nx))
     A = np.empty((n, nx, nx))
     B = np.empty((n, nx, nu))
     R = np.empty((n, nu, nu))
-    K.linearize_rows(X.reshape(n, 3), np.zeros(nu), p, f, A, B, R)
-    r = Xdot.reshape(n, 3) - f
+    K.linearize_rows(X.reshape(n, nx), np.zeros(nu), p, f, A, B, R)
+    r = Xdot.reshape(n, nx) - f
     Bt = np.swapaxes(B, 1, 2)
     u = np.linalg.solve(Bt @ B, (Bt @ r[..., None]))[..., 0]  # least squares, all samples
     energy = 0.5 * np.einsum("ni,nij,nj->n", u, R, u)
@@ -62,11 +67,23 @@ def estimated_costs(
     return np.sum(0.5 * (running[:, 1:] + running[:, :-1]) * np.diff(t), axis=1)  # trapezoid
 
 
+def path_states(path: InitialPath, s: np.ndarray, ends=None) -> np.ndarray:
+    """The states along ``path`` at normalised times ``s``: its poses ``(x, y, heading)`` and,
+    given the full end ``states`` (start, goal) of a model with more, the further states (the
+    car's steering angle) moving linearly from their start to their goal values."""
+    xy, th = path.curve(s)
+    X = np.column_stack([xy, th])
+    if ends is None or len(ends[0]) == 3:
+        return X
+    a, b = np.asarray(ends[0][3:], dtype=float), np.asarray(ends[1][3:], dtype=float)
+    return np.column_stack([X, a[None, :] + np.asarray(s)[:, None] * (b - a)[None, :]])
+
+
 def rank_paths(
-    problem: OptimalControlProblem, paths: list[InitialPath], horizon: float
+    problem: OptimalControlProblem, paths: list[InitialPath], horizon: float, ends=None
 ) -> list[tuple[float, InitialPath]]:
     """``(estimated cost, path)`` sorted cheapest first (ties keep the given order)."""
-    costs = estimated_costs(problem, paths, horizon).tolist()
+    costs = estimated_costs(problem, paths, horizon, ends=ends).tolist()
     order = sorted(range(len(paths)), key=lambda i: costs[i])
     return [(costs[i], paths[i]) for i in order]
 
@@ -84,13 +101,14 @@ class PathGuide:
     about forward motion along the chord, does not.
     """
 
-    def __init__(self, problem: OptimalControlProblem, path: InitialPath, horizon, t0=0.0):
-        self.problem, self.path = problem, path
+    def __init__(
+        self, problem: OptimalControlProblem, path: InitialPath, horizon, t0=0.0, ends=None
+    ):
+        self.problem, self.path, self.ends = problem, path, ends
         self.t0, self.horizon = float(t0), float(horizon)
 
     def _poses(self, s: np.ndarray) -> np.ndarray:
-        xy, th = self.path.curve(s)
-        return np.column_stack([xy, th])
+        return path_states(self.path, s, self.ends)
 
     def state(self, t: float) -> np.ndarray:
         return self._poses(np.array([(t - self.t0) / self.horizon]))[0]

@@ -23,7 +23,7 @@ from ..roots import RootSettings
 from .bounded import continue_to_bounds, schedule
 from .initial_path import InitialPath, initial_paths
 from .leapfrog import LeapfrogSettings, LeapfrogSolution, SweepRecord, leapfrog
-from .path_ranking import PathGuide, rank_paths
+from .path_ranking import PathGuide, path_states, rank_paths
 from .result_files import plain
 from .results import (
     PathOutcome,
@@ -99,6 +99,10 @@ class PlannerSettings:
             **{k: v for k, v in options.items() if k in own},
         )
 
+
+#: The car's turn assist while Leapfrog runs (1: turns like a unicycle); continued to the
+#: scenario's value (0 by default) afterwards.
+ASSIST = 1.0
 
 #: When no extremal clears the obstacles and some passed through one, those initial paths are
 #: planned again with the obstacle weight raised by this factor, at most ``WEIGHT_RAISES`` times
@@ -204,6 +208,15 @@ class Planner:
                     raise ScenarioError(f"{source}: solver.{key}: {e}") from None
         self.settings = PlannerSettings.from_options(settings, **{**from_file, **options})
         self.problem = self.scenario.problem()
+        # The car plans first with the turn assist of a unicycle, then continues it to its own.
+        names = self.problem.model.parameters
+        self._assist = None
+        if "turn_assist" in names:
+            i = names.index("turn_assist")
+            self._assist = self.problem.parameters[i]
+            values = list(self.problem.parameters)
+            values[i] = ASSIST
+            self.problem = replace(self.problem, parameters=tuple(values))
         self.flow = Flow(self.problem, self.settings.leapfrog.final_shooting.integrator)
         self.progress = progress
         self._progress_lock = threading.Lock()
@@ -220,8 +233,8 @@ class Planner:
         ``margin`` (default: the settings') from the obstacles."""
         s, st = self.scenario, self.settings
         candidates = initial_paths(
-            s.start,
-            s.goal,
+            s.start[:3],  # poses: a model's further states are filled along the paths
+            s.goal[:3],
             s.footprint_obstacles,
             k=max(st.initial_paths, st.candidate_paths),
             margin=max(st.margin, s.margin) if margin is None else margin,
@@ -229,7 +242,7 @@ class Planner:
         )
         if len(candidates) < 2:  # nothing to rank: the estimate took 0.6 ms of paper case 1's 9
             return candidates
-        ranked = rank_paths(self.problem, candidates, s.horizon)
+        ranked = rank_paths(self.problem, candidates, s.horizon, (s.start, s.goal))
         return [path for _, path in ranked[: st.initial_paths]]
 
     def plan(self) -> PlanResult:
@@ -253,18 +266,22 @@ class Planner:
         label = path.label + (f" (obstacle weight {weight:g})" if raises else "")
         self._emit(PlanEvent("path", k, paths, label))
         t, X = path.junctions(st.leapfrog.partitions, s.horizon, T0)
+        if s.start.size > 3:  # a model's further states, from their start to their goal values
+            frac = (t - T0) / s.horizon
+            X = np.column_stack([X, path_states(path, frac, (s.start, s.goal))[:, 3:]])
+            X[0], X[-1] = s.start, s.goal
 
         def on_sweep(rec):
             self._emit(PlanEvent("sweep", k, paths, label, rec))
 
         problem, flow = self._at_weight(weight)
-        guide = PathGuide(problem, path, s.horizon, T0)
+        guide = PathGuide(problem, path, s.horizon, T0, (s.start, s.goal))
         with held_by_parent():
             run = leapfrog(
                 problem, t, X, guide=guide, settings=st.leapfrog, flow=flow, progress=on_sweep
             )
-            if s.control_bounds:  # on to the sharp bounds
-                run, problem = self._to_bounds(run, problem, (t, X), guide, flow)
+            if s.control_bounds or self._assist is not None:  # on to the problem itself
+                run, problem = self._continued(run, problem, (t, X), guide, flow)
             log.info("path %s: %s", label, run.message)
             # Validated here, in the path's own thread: the re-integration overlaps the other
             # paths' sweeps.
@@ -277,22 +294,27 @@ class Planner:
             path, guide, run, (t, X), v, weight, raises, t_val, self._end_tolerance, s.margin
         )
 
-    def _to_bounds(self, run, problem, junctions, guide, flow):
-        """``run`` (Leapfrog with smoothly saturating controls) continued to the sharp bounds;
-        where it failed, Leapfrog again with the bounds relaxed, then continued."""
+    def _continued(self, run, problem, junctions, guide, flow):
+        """``run`` (Leapfrog with smoothly saturating controls, or the car with its turn assist)
+        continued to the scenario's problem; where it failed with bounds, Leapfrog again with
+        the bounds relaxed, then continued (see :mod:`.bounded`)."""
         s, st = self.scenario, self.settings
-        relaxed = not run.success
-        at = schedule(problem, s.control_bounds, s.smoothing_widths, relaxed)
+        relaxed = not run.success and bool(s.control_bounds)
+        assist = None if self._assist is None else (ASSIST, self._assist)
+        at = schedule(problem, s.control_bounds, s.smoothing_widths, relaxed, assist)
         if relaxed:
             t, X = junctions
             wide = at(0.0)
-            guide = PathGuide(wide, guide.path, s.horizon, guide.t0)
+            guide = PathGuide(wide, guide.path, s.horizon, guide.t0, guide.ends)
             run = leapfrog(
                 wide, t, X, guide=guide, settings=st.leapfrog, flow=Flow(wide, flow.settings)
             )
             if not run.success:
                 return run, problem
-        ends, steps = (s.start, s.goal), 8 if relaxed else len(s.smoothing_widths) - 1
+        if not run.success:
+            return run, problem
+        steps = 8 if relaxed or assist else len(s.smoothing_widths) - 1
+        ends = (s.start, s.goal)
         done = continue_to_bounds(
             at, run, (0.0, s.horizon), ends, steps, st.leapfrog.final_shooting
         )

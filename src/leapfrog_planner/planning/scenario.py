@@ -111,12 +111,15 @@ class _Check:
     def magnitude(self, values, key: str, limit: float) -> None:
         self._named(checks.magnitude, values, key, limit)
 
-    def pose(self, value: Any, key: str) -> np.ndarray:
-        """``[x, y, heading]`` within the coordinate and heading bounds."""
-        p = self.vector(value, 3, key, " [x, y, heading]")
+    def pose(self, value: Any, key: str, names=("x", "y", "heading")) -> np.ndarray:
+        """A state ``[x, y, heading, ...]`` of the model (``names``) within the bounds."""
+        p = self.vector(value, len(names), key, f" [{', '.join(names)}]")
         self.magnitude(p[:2], key, checks.COORDINATE_MAX)
         if not abs(p[2]) <= checks.HEADING_MAX:
             self.fail(f"{key}[2]", f"must be at most {checks.HEADING_MAX:g} in size, got {p[2]!r}")
+        for i in range(3, p.size):
+            if not abs(p[i]) <= checks.COORDINATE_MAX:
+                self.fail(f"{key}[{i}]", f"must be at most 1e+06 in size, got {p[i]!r}")
         return p
 
     def string(self, value: Any, key: str) -> str:
@@ -210,10 +213,11 @@ class Scenario:
             c.fail("name", "expected a non-empty string")
         horizon = c.number(self.horizon, "horizon", gt=0)
         c.in_range(horizon, "horizon", checks.HORIZON_RANGE)
-        start = c.pose(self.start, "start")
-        goal = c.pose(self.goal, "goal")
-        obstacles = c.obstacles(self.obstacles)
         model, parameters = self._check_model(c)
+        names = ("x", "y", "heading", *model_info(model).states[3:])
+        start = c.pose(self.start, "start", names)
+        goal = c.pose(self.goal, "goal", names)
+        obstacles = c.obstacles(self.obstacles)
         weight = c.number(self.weight, "penalty.weight", ge=0)
         c.in_range(weight, "penalty.weight", (0.0, checks.WEIGHT_MAX))
         exponent = c.integer(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 
+from ..model.kernels import model_info
 from .planner import plan
 from .scenario import Scenario
 
@@ -27,11 +28,12 @@ def warm_up(model: str = "unicycle") -> float:
     """Compile (or load from the disk cache) every kernel of ``model``; returns the seconds taken
     (about 40 on a fresh machine, well under one once cached)."""
     t0 = time.perf_counter()
+    extra = [0.0] * (model_info(model).nx - 3)  # a model's further states (the car's steering)
     sc = Scenario(
         name="warm-up",
         horizon=1.0,
-        start=[0.0, 0.0, 0.0],
-        goal=[1.0, 0.3, 0.5],
+        start=[0.0, 0.0, 0.0, *extra],
+        goal=[1.0, 0.3, 0.5, *extra],
         obstacles=[[0.5, 0.25, 0.1]],
         model=model,
     )
