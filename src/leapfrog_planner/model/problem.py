@@ -52,8 +52,15 @@ class ObstaclePenalty:
         obs = self.obstacles
         if obs.shape[0] == 0:
             return np.zeros(xy.shape[:-1])
-        d2 = ((xy[..., None, :] - obs[:, :2]) ** 2).sum(-1) / obs[:, 2] ** 2
-        return (self.weight * np.exp(-(d2**self.exponent))).sum(-1)
+        # Rows in chunks of about a million terms: the same values, without an (N, m) array.
+        flat = xy.reshape(-1, 2)
+        out = np.empty(flat.shape[0])
+        step = max(1, (1 << 20) // obs.shape[0])
+        for lo in range(0, flat.shape[0], step):
+            part = flat[lo : lo + step]
+            d2 = ((part[:, None, :] - obs[:, :2]) ** 2).sum(-1) / obs[:, 2] ** 2
+            out[lo : lo + step] = (self.weight * np.exp(-(d2**self.exponent))).sum(-1)
+        return out.reshape(xy.shape[:-1])[()]
 
     def clearance(self, xy) -> np.ndarray:
         """Per obstacle, the smallest distance from the path ``xy`` to its edge."""
