@@ -44,7 +44,11 @@ def _context():
     # forkserver: workers are forked from a clean, thread-free server (the sweep's own process
     # runs the progress display's thread; forking it would be unsafe).
     methods = mp.get_all_start_methods()
-    return mp.get_context("forkserver" if "forkserver" in methods else "spawn")
+    if "forkserver" not in methods:
+        return mp.get_context("spawn")
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(["leapfrog_planner.batch._forkserver_preload"])  # see .orphans
+    return ctx
 
 
 class LocalEngine:

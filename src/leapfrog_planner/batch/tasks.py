@@ -21,9 +21,11 @@ import numpy as np
 from ..bvp.shooting import ShootingSettings, solve_shooting
 from ..errors import LeapfrogError, SettingsError
 from ..experiments.direct import solve_direct
+from ..model.kernels import model_info
 from ..planning.planner import END_STATE_TOLERANCE, Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate
 from ..planning.scenario import Scenario
+from .orphans import die_with_parent
 
 PLANNER_METHODS = ("newton", "modified-newton", "nleq-err")
 BUILTIN_METHODS = (*PLANNER_METHODS, "shooting", "direct")
@@ -168,6 +170,7 @@ _STARTED = None
 def init_local_worker(started) -> None:
     global _STARTED
     _STARTED = started
+    die_with_parent()  # with the forkserver, and so with the sweep
 
 
 def _warm_up(model: str) -> float:
@@ -175,11 +178,12 @@ def _warm_up(model: str) -> float:
     if model in _WARM:
         return 0.0
     t = time.perf_counter()
+    extra = [0.0] * (model_info(model).nx - 3)  # a model's further states (the car's steering)
     sc = Scenario(
         name="warm-up",
         horizon=1.0,
-        start=[0.0, 0.0, 0.0],
-        goal=[1.0, 0.0, 0.0],
+        start=[0.0, 0.0, 0.0, *extra],
+        goal=[1.0, 0.0, 0.0, *extra],
         obstacles=[[0.5, 0.05, 0.1]],
         model=model,
     )
@@ -266,19 +270,21 @@ def _run_direct(sc: Scenario, options: dict) -> dict:
     planner = Planner(sc, **{**options, "initial_paths": paths})
     s = np.linspace(0.0, 1.0, DIRECT_INTERVALS + 1)
     guesses = [np.column_stack(path.curve(s)) for path in planner.initial_paths()]
+    bounds = tuple(sc.control_bounds.get(c) for c in model_info(sc.model).controls)
     r = solve_direct(
         sc.start,
         sc.goal,
         sc.horizon,
-        sc.obstacles,
+        sc.footprint_obstacles,  # the robot's centre among the obstacles grown by its radius
         weight=sc.weight,
         exponent=sc.exponent,
         intervals=DIRECT_INTERVALS,
         model=sc.model,
         guesses=guesses,
+        control_bounds=bounds if any(bounds) else None,
         **sc.model_parameters,
     )
-    clear = r.min_clearance >= 0.0
+    clear = r.min_clearance >= sc.margin
     ok = r.success and math.isfinite(r.cost) and clear
     message = r.message if clear else f"{r.message}; the path collides ({r.min_clearance:.3g})"
     return {

@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 
 from .common import EXIT_OK, console, err, output_folder, write_output
-from .warmup import ensure_compiled
+from .warmup import ensure_compiled, held_interrupts
 
 # As bench.SOLVERS (the test checks), without importing the benchmark for --help.
 SOLVER_CHOICES = ["leapfrog-mnm", "leapfrog-mnm-1path", "leapfrog-nm", "leapfrog-nleq-err",
@@ -37,16 +37,20 @@ def _progress_bar():
 
 
 def _run_with_bar(title: str, run, quiet: bool):
-    """Call ``run(progress)`` with a rich progress bar fed by its events (none when quiet)."""
-    if quiet:
-        return run(None)
-    with _progress_bar() as bar:
-        task = bar.add_task(title, total=None, info="")
+    """Call ``run(progress)`` with a rich progress bar fed by its events (none when quiet).
+    Ctrl-C is held during the run and acted on at the next event: numba compiles kernels on
+    their first call, and an interrupt in the middle of that crashed the process."""
+    with held_interrupts() as pending:
+        if quiet:
+            return run(lambda ev: pending())
+        with _progress_bar() as bar:
+            task = bar.add_task(title, total=None, info="")
 
-        def on_event(ev):
-            bar.update(task, total=ev.total, completed=ev.done, info=ev.label)
+            def on_event(ev):
+                pending()
+                bar.update(task, total=ev.total, completed=ev.done, info=ev.label)
 
-        return run(on_event)
+            return run(on_event)
 
 
 @click.command()

@@ -11,7 +11,7 @@ import click
 
 from ..errors import LeapfrogError
 from .batch import generate, report, sweep
-from .common import EXIT_BAD_INPUT, EXIT_OK, err
+from .common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, err
 from .experiments import bench, paper
 from .results import export, plot
 from .solve import derive, scenarios, shoot, solve
@@ -41,13 +41,38 @@ for command in (
     cli.add_command(command)
 
 
+EXIT_INTERRUPTED = 130
+
+
+def _interrupted(e: BaseException) -> bool:
+    """Ctrl-C, also as numba reports it from inside a compiled call (a SystemError whose
+    context is the KeyboardInterrupt) and as click reports it (Abort from the interrupt)."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
+
+
 def main(argv=None) -> None:
     """Entry point: maps errors to one line and an exit code instead of a traceback."""
     try:
         code = cli.main(args=argv, prog_name="leapfrog", standalone_mode=False)
-    except click.exceptions.Abort:
-        err.print("aborted", markup=False)
-        sys.exit(130)
+    except (KeyboardInterrupt, click.exceptions.Abort, SystemError) as e:
+        if not _interrupted(e):
+            if not isinstance(e, click.exceptions.Abort):
+                raise
+            # click turns an EOFError into Abort: a file ended early (a damaged cache entry)
+            err.print(f"error: a file ended early ({e.__context__!r})", markup=False)
+            sys.exit(EXIT_FAILED)
+        err.print("interrupted", markup=False, highlight=False)
+        sys.exit(EXIT_INTERRUPTED)
+    except OSError as e:  # a file that vanished or a full disk while writing
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        err.print(f"error: {where}{e.strerror or e}", highlight=False, soft_wrap=True, markup=False)
+        sys.exit(EXIT_FAILED)
     except click.UsageError as e:
         err.print(f"error: {e.format_message()}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
@@ -76,6 +101,11 @@ def run() -> None:
         else:
             print(e.code, file=sys.stderr)
             code = 1
+    except KeyboardInterrupt:  # Ctrl-C between main's handlers and here
+        code = EXIT_INTERRUPTED
+    mp_util = sys.modules.get("multiprocessing.util")
+    if mp_util is not None:  # os._exit skips them: they remove multiprocessing's pymp-* folder
+        mp_util._run_finalizers()
     logging.shutdown()
     sys.stdout.flush()
     sys.stderr.flush()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import threading
 import time
 
@@ -11,6 +13,28 @@ from .common import EXIT_OK, console, err
 
 #: Loading cached kernels takes about 0.3 s; a warm-up still running after this is compiling.
 COMPILING_AFTER_S = 1.5
+
+
+@contextlib.contextmanager
+def held_interrupts():
+    """Hold Ctrl-C while numba loads or compiles kernels (interrupted there, the process died
+    of a segmentation fault, measured), and raise it once the block ends, or earlier where the
+    block calls the function it is given (a safe point between steps)."""
+    caught = []
+
+    def pending():
+        if caught:
+            raise KeyboardInterrupt
+
+    if threading.current_thread() is not threading.main_thread():
+        yield pending
+        return
+    previous = signal.signal(signal.SIGINT, lambda *_: caught.append(True))
+    try:
+        yield pending
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    pending()
 
 
 def ensure_compiled(models, show: bool = True) -> None:
@@ -23,13 +47,15 @@ def ensure_compiled(models, show: bool = True) -> None:
     for model in dict.fromkeys(models):
         note = f"compiling the {model} kernels, once per machine (about 40 s)"
         if not show:
-            warm_up(model)
+            with held_interrupts():
+                warm_up(model)
             continue
         with err.status(f"loading the {model} kernels") as status:
             timer = threading.Timer(COMPILING_AFTER_S, lambda s=status, n=note: s.update(n))
             timer.start()
             try:
-                seconds = warm_up(model)
+                with held_interrupts():
+                    seconds = warm_up(model)
             finally:
                 timer.cancel()
         if seconds > COMPILING_AFTER_S:
@@ -53,6 +79,7 @@ def warmup(models):
     for model in models or MODELS:
         t0 = time.perf_counter()
         with err.status(f"compiling the {model} kernels (about 40 s unless cached)"):
-            warm_up(model)
+            with held_interrupts():
+                warm_up(model)
         console.print(f"{model}: ready in {time.perf_counter() - t0:.1f} s", highlight=False)
     return EXIT_OK
