@@ -634,3 +634,16 @@ def test_a_single_candidate_path_is_not_ranked(monkeypatch):
     assert path.label == "straight" and calls == []
     paths = Planner("paper-case-3").initial_paths()
     assert len(paths) == 3 and len(calls) == 1 and calls[0] >= 3
+
+
+@pytest.mark.parametrize("kind", ["fifo", "folder"])
+def test_an_atomic_write_never_replaces_a_special_file_or_a_folder(tmp_path, kind):
+    path = tmp_path / "target"
+    if kind == "fifo":
+        os.mkfifo(path)
+    else:
+        path.mkdir()
+    with pytest.raises(OSError):
+        write_atomic(path, lambda tmp: open(tmp, "w").write("x"))
+    assert os.listdir(tmp_path) == ["target"]
+    assert path.is_fifo() if kind == "fifo" else path.is_dir()

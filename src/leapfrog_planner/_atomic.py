@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 import tempfile
@@ -27,11 +28,20 @@ def _umask() -> int:
 def write_atomic(path, write: Callable[[str], None]) -> None:
     """Call ``write(tmp)`` on a temporary file next to ``path``, then rename it to ``path``.
 
-    The temporary file has the same extension (writers that pick the format by extension work)
-    and gets the permissions a new file would have (or those of the file it replaces); on any
-    error it is removed and ``path`` is left as it was.
+    An existing ``path`` that is not a regular file (a folder, device, FIFO or socket) is
+    refused with an ``OSError``. The temporary file has the same extension (writers that pick
+    the format by extension work) and gets the permissions a new file would have (or those of
+    the file it replaces); on any error it is removed and ``path`` is left as it was.
     """
     path = Path(path)
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        mode = None
+    if mode is not None and stat.S_ISDIR(mode):
+        raise IsADirectoryError(errno.EISDIR, "is a folder", str(path))
+    if mode is not None and not stat.S_ISREG(mode):  # never rename over /dev/null or a FIFO
+        raise OSError(errno.EINVAL, "not a regular file (a device, FIFO or socket)", str(path))
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
     os.close(fd)
     try:

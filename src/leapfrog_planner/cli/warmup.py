@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
+import sys
 import threading
 import time
+from pathlib import Path
 
 import click
 
@@ -37,10 +40,48 @@ def held_interrupts():
     pending()
 
 
+#: Set in the environment when a damaged cache was cleared and the command started again.
+REBUILT = "LEAPFROG_CACHE_REBUILT"
+
+
+def _heal(exc: Exception) -> None:
+    """Warming up a fixed, valid plan failed: the compiled cache is damaged (numba's index or
+    data files, measured: random or flipped bytes, empty or truncated files). Clear it and run
+    the command again in a fresh process: first the models' cache, then, if that was not it,
+    numba's cache of the package itself; a third failure is not the cache's."""
+    stage = int(os.environ.get(REBUILT, "0") or 0)
+    if stage >= 2:
+        raise exc
+    from ..model.kernels import cache_dir
+
+    err.print(
+        f"warning: the compiled kernel cache was damaged ({type(exc).__name__}); rebuilding it",
+        markup=False,
+        highlight=False,
+        soft_wrap=True,
+    )
+    folder = cache_dir() if stage == 0 else Path(__file__).resolve().parent.parent
+    for pattern in ("**/*.nbi", "**/*.nbc", "models/*.py", "tableaux-*.npz"):
+        for p in folder.glob(pattern):
+            with contextlib.suppress(OSError):
+                p.unlink()
+    os.environ[REBUILT] = str(stage + 1)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os.execv(sys.executable, [sys.executable, "-m", "leapfrog_planner.cli", *sys.argv[1:]])
+
+
 def ensure_compiled(models, show: bool = True) -> None:
     """Warm the kernels of ``models`` up before any timed work. When that takes long (a fresh
     cache: numba compiles), say so on a terminal: what is compiling, that it happens once per
-    machine, and how long it took."""
+    machine, and how long it took. A damaged cache is cleared and the command run again."""
+    try:
+        _ensure_compiled(models, show)
+    except Exception as exc:
+        _heal(exc)
+
+
+def _ensure_compiled(models, show: bool) -> None:
     from ..planning.warmup import warm_up
 
     show = show and err.is_terminal

@@ -8,6 +8,8 @@ copied once into the user's cache directory (keyed by SciPy's version) and read 
 
 from __future__ import annotations
 
+import logging
+import zipfile
 from dataclasses import dataclass
 from functools import cache, lru_cache
 
@@ -17,6 +19,8 @@ import scipy
 from .._atomic import write_atomic
 from ..errors import SettingsError
 from ..model.kernels import cache_dir
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,14 +74,25 @@ def _from_scipy() -> dict[str, np.ndarray]:
     }  # fmt: skip
 
 
+_KEYS = {f"{m}_{k}" for m in ("dp5", "dop853") for k in ("A", "b", "c", "e", "orders")} | {
+    "dop853_e3"
+}
+
+
 @lru_cache(maxsize=1)
 def _coefficients() -> dict[str, np.ndarray]:
     path = cache_dir() / f"tableaux-scipy-{scipy.__version__}.npz"
     try:
         with np.load(path) as f:
-            return {k: _arr(f[k]) for k in f.files}
-    except (OSError, ValueError, KeyError):
+            cached = {k: _arr(f[k]) for k in f.files}
+        if set(cached) >= _KEYS:
+            return cached
+    except FileNotFoundError:
         pass
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        log.warning(
+            "warning: damaged cache file %s (%s): rebuilding it", path.name, type(exc).__name__
+        )
     data = _from_scipy()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import logging
 import os
 import sys
 import tempfile
@@ -23,6 +24,8 @@ import numba
 
 from ..errors import ModelError
 from . import MODELS, builtin_source, get_model
+
+log = logging.getLogger(__name__)
 
 _HERE = Path(__file__).parent.parent  # the package
 # Everything compiled into the generated module, callees included: numba's disk cache does not
@@ -91,18 +94,48 @@ def load_kernels(model) -> ModuleType:
         return sys.modules[mod_name]
     path = _writable_dir() / f"{mod_name}.py"
     if not path.exists():
-        from .codegen import module_text  # SymPy only when generating
+        _generate(model, path)
+    try:
+        return _import(mod_name, path)
+    except Exception as exc:  # a damaged cache entry: report it, build it again, once
+        log.warning(
+            "warning: damaged kernel cache for %s (%s): rebuilding it", name, type(exc).__name__
+        )
+        sys.modules.pop(mod_name, None)
+        remove_cached(path)
+        _generate(model, path)
+        return _import(mod_name, path)
 
-        text = module_text(get_model(model))
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)  # atomic: concurrent processes write identical text
+
+def _generate(model, path: Path) -> None:
+    from .codegen import module_text  # SymPy only when generating
+
+    text = module_text(get_model(model))
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)  # atomic: concurrent processes write identical text
+
+
+def _import(mod_name: str, path: Path) -> ModuleType:
     spec = importlib.util.spec_from_file_location(mod_name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[mod_name] = module
-    spec.loader.exec_module(module)
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        sys.modules.pop(mod_name, None)
+        raise
     return module
+
+
+def remove_cached(path: Path) -> None:
+    """Remove a generated module and numba's cache files of it (``__pycache__/<stem>.*``)."""
+    for p in [path, *path.parent.glob(f"__pycache__/{path.stem}.*")]:
+        try:
+            p.unlink()
+        except OSError:
+            pass
 
 
 @dataclass(frozen=True)

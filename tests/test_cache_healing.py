@@ -1,0 +1,86 @@
+"""A damaged kernel cache heals itself: the damage is reported in one line, the entry rebuilt,
+and the command gives the right answer. Each case runs on a copy of the warm cache of the
+unicycle's kernels (never the real one)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from tests.test_cli import cli_env
+
+from leapfrog_planner.model.kernels import cache_dir, load_kernels
+
+CASE1 = 10.323202  # paper case 1's optimum
+
+
+@pytest.fixture(scope="module")
+def warm(tmp_path_factory) -> Path:
+    """The unicycle's generated module, numba's files of it and the tableaux, copied."""
+    module = Path(load_kernels("unicycle").__file__)
+    subprocess.run(  # make sure every kernel the solve uses is in the disk cache
+        [sys.executable, "-m", "leapfrog_planner.cli", "warmup", "unicycle"],
+        env=cli_env(), capture_output=True, check=True, timeout=600,
+    )  # fmt: skip
+    root = tmp_path_factory.mktemp("warm-cache")
+    (root / "models" / "__pycache__").mkdir(parents=True)
+    shutil.copy2(module, root / "models" / module.name)
+    for f in module.parent.glob(f"__pycache__/{module.stem}.*"):
+        shutil.copy2(f, root / "models" / "__pycache__" / f.name)
+    for f in cache_dir().glob("tableaux-*.npz"):
+        shutil.copy2(f, root / f.name)
+    return root
+
+
+def _damage(path: Path, how: str) -> None:
+    data = path.read_bytes()
+    if how == "empty":
+        path.write_bytes(b"")
+    elif how == "truncated":
+        path.write_bytes(data[: len(data) // 2])
+    elif how == "flipped":
+        b = bytearray(data)
+        b[len(b) // 2] ^= 0xFF
+        path.write_bytes(bytes(b))
+    else:  # random bytes of the same length
+        path.write_bytes(os.urandom(max(len(data), 64)))
+
+
+def _target(cache: Path, what: str) -> Path:
+    if what == "module":
+        return next((cache / "models").glob("*.py"))
+    if what == "tableaux":
+        return next(cache.glob("tableaux-*.npz"))
+    return sorted((cache / "models" / "__pycache__").glob(f"*shoot_newton*.{what}"))[0]
+
+
+@pytest.mark.parametrize(
+    "what, how",
+    [  # each but the last recompiles the kernels (20-40 s); all 11 kinds were checked by hand
+        ("module", "truncated"),
+        ("nbi", "random"),
+        ("nbi", "empty"),
+        ("nbc", "flipped"),
+        ("nbc", "truncated"),
+        ("tableaux", "truncated"),
+    ],
+)
+def test_a_damaged_cache_entry_is_reported_once_and_rebuilt(warm, tmp_path, what, how):
+    cache = tmp_path / "cache"
+    shutil.copytree(warm, cache)
+    _damage(_target(cache, what), how)
+    env = {**cli_env(), "LEAPFROG_CACHE_DIR": str(cache)}
+    p = subprocess.run(
+        [sys.executable, "-m", "leapfrog_planner.cli", "solve", "paper-case-1", "--quiet",
+         "--json", "r.json"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900,
+    )  # fmt: skip
+    assert p.returncode == 0, p.stderr[-2000:]
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) <= 1 and all(line.startswith("warning: ") for line in lines), p.stderr
+    assert json.loads((tmp_path / "r.json").read_text())["cost"] == pytest.approx(CASE1, rel=1e-6)
