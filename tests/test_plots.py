@@ -169,10 +169,15 @@ def test_plot_path_lists_alternatives_by_cost(planned):
     texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]
     assert any("23.215" in t and "visibility #2" in t for t in texts)
     assert any("visibility #3" in t and "failed" in t for t in texts)
-    # Alternatives carry no path: nothing is drawn for them.
+    # These two carry no path: nothing is drawn for them. The planner's own alternatives carry
+    # their extremals, drawn dotted, one line each.
     n_lines = len(ax.lines)
-    ax2 = plot_path(result, sc)
+    ax2 = plot_path(dataclasses.replace(result, alternatives=()), sc)
     assert len(ax2.lines) == n_lines
+    kept = dataclasses.replace(alts[0], trajectory=result.trajectory)
+    ax3 = plot_path(dataclasses.replace(result, alternatives=(kept, alts[1])), sc)
+    assert len(ax3.lines) == n_lines + 1
+    assert [line.get_linestyle() for line in ax3.lines].count(":") == 1
     ax3 = plot_path(dataclasses.replace(result, alternatives=alts), sc, show_alternatives=False)
     assert not any("23.215" in t.get_text() for t in ax3.figure.legends[0].get_texts())
 

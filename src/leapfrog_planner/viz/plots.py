@@ -129,15 +129,10 @@ def plot_path(
         )
     draw_ends(ax, sc, L)
 
+    if tr is not None and sc.robot_radius:
+        _draw_footprint(ax, sc, tr)
     if show_alternatives:
-        for alt in result.alternatives:
-            if np.isfinite(alt.cost):
-                text = (
-                    f"other local optimum J = {alt.cost:.6g}\n  (from {alt.label}; path not kept)"
-                )
-            else:
-                text = f"from {alt.label}: {status_text(alt)}"
-            extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
+        extra += _draw_alternatives(ax, result)
 
     frame_axes(ax, sc, result)
     ax.set_title(path_title(result, sc))
@@ -147,6 +142,39 @@ def plot_path(
     else:
         ax.legend(handles=handles, fontsize="small", loc="best", framealpha=0.85)
     return ax
+
+
+def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
+    """The other initial paths' extremals, faint and dotted; legend entries for those without."""
+    extra = []
+    for alt in result.alternatives:
+        if alt.trajectory is not None:
+            what = "other local optimum" if alt.status == "converged" else str(alt.status)
+            ax.plot(
+                alt.trajectory.x[:, 0], alt.trajectory.x[:, 1], color="0.45", lw=1.2, ls=":",
+                zorder=2, label=f"{what} J = {alt.cost:.6g} (from {alt.label})",
+            )  # fmt: skip
+        else:  # its path was not kept (a result saved before paths were)
+            text = f"from {alt.label}: {status_text(alt)}"
+            if np.isfinite(alt.cost):
+                text = f"other local optimum J = {alt.cost:.6g}\n  (from {alt.label}; not kept)"
+            extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
+    return extra
+
+
+def _draw_footprint(ax: Axes, sc: Scenario, tr) -> None:
+    """The robot to scale at six poses along the path, and the obstacles grown by its radius
+    (where its centre may not go)."""
+    from matplotlib.patches import Circle
+
+    for k, (cx, cy, r) in enumerate(sc.footprint_obstacles.tolist()):
+        ax.add_patch(Circle((cx, cy), r, fill=False, ls="--", lw=0.8, ec="0.5", zorder=1,
+                            label="obstacles grown by the robot" if k == 0 else None))  # fmt: skip
+    idx = np.linspace(0, tr.t.size - 1, 6).round().astype(int)
+    for k, i in enumerate(idx):
+        label = "robot (to scale)" if k == 0 else None
+        ax.add_patch(Circle(tr.x[i, :2], sc.robot_radius, fill=False, lw=1.0, ec=PATH_COLOR,
+                            alpha=0.7, zorder=3, label=label))  # fmt: skip
 
 
 # --------------------------------------------------------------------------- plot_convergence
