@@ -123,7 +123,11 @@ def test_cli_report(results, tmp_path):
         [*cmd, str(results), "--out", str(tmp_path / "o")], capture_output=True, text=True
     )
     assert r.returncode == 0, r.stderr
-    assert "# Sweep report" in r.stdout and (tmp_path / "o" / "success.png").is_file()
+    assert (tmp_path / "o" / "success.png").is_file()
+    assert "# Sweep report" in (tmp_path / "o" / "report.md").read_text()
+    # The terminal gets a short summary: a line per method and per pair, not the tables.
+    assert "converged" in r.stdout and "Holm" in r.stdout and "|" not in r.stdout
+    assert len(r.stdout.splitlines()) <= 12
     bad = subprocess.run([*cmd, str(tmp_path / "none.jsonl")], capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "none.jsonl" in bad.stderr
     garbage = tmp_path / "g.jsonl"
@@ -142,3 +146,16 @@ def test_a_converged_record_through_an_obstacle_is_not_a_success():
     m = build_report(recs).methods[0]
     assert (m.runs, m.converged) == (4, 2)
     assert m.failures == {"collides": 2}
+
+
+def test_holm_adjusts_step_down_and_leaves_nan_out():
+    """Hand-computed: p = 0.01, 0.04, 0.03, 0.005 (m = 4): sorted 0.005 x 4 = 0.02, 0.01 x 3 =
+    0.03, 0.03 x 2 = 0.06, 0.04 x 1 = 0.04 -> 0.06 (non-decreasing)."""
+    from leapfrog_planner.batch.report import holm
+
+    adj = holm([0.01, 0.04, float("nan"), 0.03, 0.005])
+    assert adj[0] == pytest.approx(0.03) and adj[4] == pytest.approx(0.02)
+    assert adj[3] == pytest.approx(0.06) and adj[1] == pytest.approx(0.06)
+    assert math.isnan(adj[2])
+    assert holm([0.9, 0.8]) == [1.0, 1.0]
+    assert holm([]) == []

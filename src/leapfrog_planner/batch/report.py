@@ -19,7 +19,7 @@ figures ``success.png`` (rates with intervals), ``cost_ratio_ecdf.png`` and ``ti
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -113,6 +113,9 @@ class PairStats:
     b_faster: int
     median_time_ratio: float  # median over scenarios of time_a / time_b, both converged
     time_wilcoxon_p: float
+    # The three p-values Holm-adjusted over every test of the report (all pairs): read these
+    # when several pairs are compared, not the raw ones.
+    holm: tuple[float, float, float] = (math.nan, math.nan, math.nan)
 
 
 @dataclass(frozen=True)
@@ -138,6 +141,40 @@ class Report:
 
     def to_markdown(self) -> str:
         return _markdown(self)
+
+
+def holm(pvalues) -> list[float]:
+    """Holm's step-down adjustment of ``pvalues`` (NaN left out of the family and kept NaN):
+    the k-th smallest of m is multiplied by m - k + 1, made non-decreasing, capped at 1."""
+    p = [float(v) for v in pvalues]
+    order = sorted((i for i, v in enumerate(p) if not math.isnan(v)), key=lambda i: p[i])
+    m, out, running = len(order), [math.nan] * len(p), 0.0
+    for k, i in enumerate(order):
+        running = max(running, min(1.0, (m - k) * p[i]))
+        out[i] = running
+    return out
+
+
+def summary_text(rep: Report) -> str:
+    """A few lines for the terminal: per method, success with its interval, best optima found
+    and median time; per pair, who solves more, is cheaper and faster, with Holm-adjusted p."""
+    lines = [f"{rep.runs} runs on {rep.scenarios} scenarios"]
+    for m in rep.methods:
+        lines.append(
+            f"  {m.method}: converged {m.converged}/{m.runs} ({100 * m.success_rate:.1f}%, 95% CI"
+            f" {100 * m.ci_low:.1f}-{100 * m.ci_high:.1f}%), best optimum {m.best_found},"
+            f" median time {_f(m.time_s.median)} s"
+        )
+    for p in rep.pairs:
+        ps, pc, pt = (_p(v) for v in p.holm)
+        lines.append(
+            f"  {p.a} vs {p.b}: only {p.a} {p.only_a}, only {p.b} {p.only_b} (p {ps});"
+            f" cheaper {p.a_cheaper}/{p.b_cheaper} (p {pc}); time ratio"
+            f" {_f(p.median_time_ratio, '.3g')} (p {pt})"
+        )
+    if rep.pairs:
+        lines.append("  (p: exact McNemar and Wilcoxon tests, Holm-adjusted over all of them)")
+    return "\n".join(lines)
 
 
 def _wilcoxon(d: np.ndarray) -> float:
@@ -216,6 +253,9 @@ def build_report(records: list[dict]) -> Report:
     for i, a in enumerate(methods):
         for b in methods[i + 1 :]:
             pairs.append(_pair(a, b, scenarios, by, ok))
+    raw = [v for p in pairs for v in (p.mcnemar_p, p.cost_wilcoxon_p, p.time_wilcoxon_p)]
+    adjusted = holm(raw)
+    pairs = [replace(p, holm=tuple(adjusted[3 * k : 3 * k + 3])) for k, p in enumerate(pairs)]
     return Report(
         runs=len(records),
         scenarios=len(scenarios),
@@ -344,7 +384,8 @@ def _markdown(rep: Report) -> str:
             "## Paired comparisons (same scenarios)",
             "",
             "Success: scenarios only A (only B) solved; p from the exact McNemar test. Cost and"
-            " time: among scenarios both solved; p from the Wilcoxon signed-rank test.",
+            " time: among scenarios both solved; p from the Wilcoxon signed-rank test. Every p"
+            " is Holm-adjusted over all the tests of this table.",
             "",
             "| A | B | scenarios | both | only A | only B | neither | p (success) |"
             " A cheaper | B cheaper | ties | p (cost) | A faster | B faster |"
@@ -354,9 +395,9 @@ def _markdown(rep: Report) -> str:
         for p in rep.pairs:
             out.append(
                 f"| {p.a} | {p.b} | {p.scenarios} | {p.both_converged} | {p.only_a} | "
-                f"{p.only_b} | {p.neither} | {_p(p.mcnemar_p)} | {p.a_cheaper} | "
-                f"{p.b_cheaper} | {p.cost_ties} | {_p(p.cost_wilcoxon_p)} | {p.a_faster} | "
-                f"{p.b_faster} | {_f(p.median_time_ratio, '.3g')} | {_p(p.time_wilcoxon_p)} |"
+                f"{p.only_b} | {p.neither} | {_p(p.holm[0])} | {p.a_cheaper} | "
+                f"{p.b_cheaper} | {p.cost_ties} | {_p(p.holm[1])} | {p.a_faster} | "
+                f"{p.b_faster} | {_f(p.median_time_ratio, '.3g')} | {_p(p.holm[2])} |"
             )
     return "\n".join(out) + "\n"
 

@@ -328,7 +328,7 @@ def _print_summary(s):
 )
 def report(results, out):
     """Statistics of a sweep's RESULTS file: success, cost, time, paired comparisons."""
-    from ..batch.report import build_report, save_report
+    from ..batch.report import build_report, save_report, summary_text
     from ..batch.store import read_records
 
     if not Path(results).is_file():
@@ -339,5 +339,7 @@ def report(results, out):
     rep = build_report(read_records(results))
     if out is not None:
         write_output(lambda f: save_report(rep, f), folder, "--out")
-    click.echo(rep.to_markdown(), nl=False)
+    click.echo(summary_text(rep))
+    more = f"written to {folder}/ (report.md: all tables)" if out else "all tables: --out DIR"
+    click.echo(more)
     return EXIT_OK
