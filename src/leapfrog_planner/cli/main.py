@@ -14,6 +14,7 @@ from .batch import generate, report, sweep
 from .common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, err
 from .experiments import bench, paper
 from .results import export, plot
+from .serve import serve
 from .solve import derive, scenarios, shoot, solve
 from .warmup import warmup
 
@@ -37,6 +38,7 @@ for command in (
     generate,
     sweep,
     report,
+    serve,
 ):
     cli.add_command(command)
 

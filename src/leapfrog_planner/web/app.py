@@ -1,0 +1,162 @@
+"""The web application of ``leapfrog serve``: the page and its JSON API.
+
+- ``GET /``: the page; ``GET /static/...``: its script and style (shipped in the package).
+- ``GET /api/scenarios``: the built-in scenarios, in the layout of a scenario file.
+- ``POST /api/open`` ``{"toml", "name"}``: a scenario file opened on the page, checked.
+- ``POST /api/plan`` ``{"scenario", "options", "session", "seq"}``: plan it; what the page draws.
+- ``POST /api/toml``, ``/api/result.json``, ``/api/result.csv``: the downloads (the scenario file
+  with the page's options in its ``[solver]`` table; the result as ``leapfrog solve --json`` and
+  ``leapfrog export --csv`` write it).
+- ``GET /api/health``: the pool's state and counts.
+
+Every error is JSON, ``{"error": "<one line>"}``: 400 for bad input (the command line's message),
+404/405 for a wrong address or method, 409 for a request superseded by a newer one of the same
+session, 413 for a body too large, 503 when the pool is full, 504 past the time limit.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import OrderedDict
+from contextlib import asynccontextmanager
+from importlib import resources
+
+import anyio
+from starlette.applications import Starlette
+from starlette.exceptions import HTTPException
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, Response
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
+
+from ..planning.scenario import builtin_scenarios, load_scenario
+from .pool import PoolError, SolvePool
+from .schema import PlanRequest, RequestError, file_name, parse_json, parse_plan, parse_toml
+
+log = logging.getLogger(__name__)
+
+#: Sessions whose latest request number is remembered (the oldest forgotten first).
+MAX_SESSIONS = 4096
+
+STATIC = resources.files("leapfrog_planner.web").joinpath("static")
+
+
+def error(message: str, status: int) -> JSONResponse:
+    return JSONResponse({"error": " ".join(str(message).splitlines())}, status_code=status)
+
+
+class _Latest:
+    """The newest request number of each session."""
+
+    def __init__(self):
+        self._seen: OrderedDict[str, int] = OrderedDict()
+
+    def note(self, session: str | None, seq: int) -> None:
+        if session is None:
+            return
+        self._seen[session] = max(seq, self._seen.get(session, seq))
+        self._seen.move_to_end(session)
+        while len(self._seen) > MAX_SESSIONS:
+            self._seen.popitem(last=False)
+
+    def stale(self, session: str | None, seq: int):
+        if session is None:
+            return None
+        return lambda: self._seen.get(session, seq) > seq
+
+
+async def _body(request: Request):
+    return parse_json(await request.body())
+
+
+def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
+    """The application; it starts ``pool`` (or a new ``SolvePool(**pool_options)``) when it
+    starts and closes it when it stops."""
+    pool = pool if pool is not None else SolvePool(**pool_options)
+    latest = _Latest()
+    limiter = anyio.CapacityLimiter(pool.capacity)
+
+    async def solve(req: PlanRequest, kind: str) -> bytes:
+        with pool.admitted():
+            latest.note(req.session, req.seq)
+            stale = latest.stale(req.session, req.seq)
+            status, value = await anyio.to_thread.run_sync(
+                pool.run, req.job(kind), stale, limiter=limiter
+            )
+        if status == "bad":
+            raise RequestError(value)
+        if status != "ok":
+            raise PoolError(value)
+        return value
+
+    async def page(request):
+        return FileResponse(str(STATIC.joinpath("index.html")), media_type="text/html")
+
+    async def scenarios(request):
+        out = [{"name": n, "scenario": load_scenario(n).to_dict()} for n in builtin_scenarios()]
+        return JSONResponse({"scenarios": out})
+
+    async def open_file(request):
+        sc = parse_toml(await _body(request))
+        return JSONResponse({"scenario": sc.to_dict()})
+
+    async def plan(request):
+        body = await solve(parse_plan(await _body(request)), "view")
+        return Response(body, media_type="application/json")
+
+    async def toml(request):
+        req = parse_plan(await _body(request))
+        text = req.scenario_with_options().to_toml()
+        return _download(text.encode(), "application/toml", file_name(req.scenario.name, ".toml"))
+
+    async def result_json(request):
+        req = parse_plan(await _body(request))
+        body = await solve(req, "json")
+        return _download(body, "application/json", file_name(req.scenario.name, ".json"))
+
+    async def result_csv(request):
+        req = parse_plan(await _body(request))
+        body = await solve(req, "csv")
+        return _download(body, "text/csv", file_name(req.scenario.name, ".csv"))
+
+    async def health(request):
+        return JSONResponse(pool.stats())
+
+    @asynccontextmanager
+    async def lifespan(app):
+        await anyio.to_thread.run_sync(pool.start)
+        try:
+            yield
+        finally:
+            pool.close()
+
+    routes = [
+        Route("/", page),
+        Route("/api/scenarios", scenarios),
+        Route("/api/open", open_file, methods=["POST"]),
+        Route("/api/plan", plan, methods=["POST"]),
+        Route("/api/toml", toml, methods=["POST"]),
+        Route("/api/result.json", result_json, methods=["POST"]),
+        Route("/api/result.csv", result_csv, methods=["POST"]),
+        Route("/api/health", health),
+        Mount("/static", app=StaticFiles(directory=str(STATIC)), name="static"),
+    ]
+    handlers = {
+        RequestError: lambda r, e: error(str(e), e.status),
+        PoolError: lambda r, e: error(str(e), e.status),
+        HTTPException: lambda r, e: error(e.detail, e.status_code),
+        Exception: _internal,
+    }
+    app = Starlette(routes=routes, exception_handlers=handlers, lifespan=lifespan)
+    app.state.pool = pool
+    return app
+
+
+def _internal(request, exc) -> JSONResponse:
+    log.exception("internal error", exc_info=exc)
+    return error(f"internal error: {type(exc).__name__}", 500)
+
+
+def _download(body: bytes, media_type: str, name: str) -> Response:
+    headers = {"Content-Disposition": f'attachment; filename="{name}"'}
+    return Response(body, media_type=media_type, headers=headers)

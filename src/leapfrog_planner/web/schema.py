@@ -1,0 +1,166 @@
+"""Requests of the web API: parsed and checked with the scenario parser and the shared checks,
+so that a bad value gets the message the command line gives for it (``<source>: <key>:
+<problem>``, one line)."""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from .. import checks
+from ..errors import ScenarioError
+from ..planning.scenario import Scenario, load_scenario_text, scenario_from_dict
+
+#: The planner options the page sets, and their bounds (those of ``leapfrog solve``).
+METHODS = ("newton", "modified-newton", "nleq-err")
+OPTION_KEYS = ("method", "initial_paths", "partitions")
+PARTITIONS_RANGE = (2, 1024)
+INITIAL_PATHS_RANGE = (1, 32)
+
+#: The name scenario errors of a request carry in front (a file keeps its own name).
+SOURCE = "scenario"
+
+#: A request body larger than this is refused (a scenario of 10,000 obstacles is about 600 kB).
+MAX_BODY_BYTES = 2 * 2**20
+
+#: Longest session name kept (the page's random id).
+MAX_SESSION = 64
+
+
+class RequestError(ScenarioError):
+    """A request that cannot be served as sent: a one-line message and an HTTP status."""
+
+    def __init__(self, message: str, status: int = 400):
+        super().__init__(" ".join(str(message).splitlines()))
+        self.status = status
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """A scenario to plan, the planner's options, and who asked (``session``, ``seq``: a newer
+    request of the same session supersedes an older one still waiting)."""
+
+    scenario: Scenario
+    options: dict[str, Any]
+    session: str | None = None
+    seq: int = 0
+
+    def job(self, kind: str) -> tuple[str, dict, dict]:
+        """What a worker process is sent: plain values only."""
+        return kind, self.scenario.to_dict(), dict(self.options)
+
+    def scenario_with_options(self) -> Scenario:
+        """The scenario with the options in its ``[solver]`` table: its TOML file, planned by
+        ``leapfrog solve``, gives what the page showed."""
+        from dataclasses import replace
+
+        return replace(self.scenario, solver={**self.scenario.solver, **self.options})
+
+
+def parse_json(body: bytes) -> Any:
+    if len(body) > MAX_BODY_BYTES:
+        raise RequestError(f"request: larger than {MAX_BODY_BYTES // 2**20} MB", 413)
+    try:
+        return json.loads(body.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise RequestError(f"request: not UTF-8 text (at byte {e.start})") from None
+    except (ValueError, RecursionError) as e:
+        raise RequestError(f"request: not valid JSON ({e})") from None
+
+
+def _object(value: Any, key: str) -> Mapping:
+    if not isinstance(value, Mapping):
+        raise RequestError(f"{key}: expected a JSON object, got {checks.describe(value)}")
+    return value
+
+
+def _known(table: Mapping, allowed, key: str) -> None:
+    for k in table:
+        if k not in allowed:
+            raise RequestError(
+                f"{key}: unknown key {checks.short(str(k))} (allowed: {', '.join(allowed)})"
+            )
+
+
+def parse_options(value: Any) -> dict[str, Any]:
+    """``method``, ``initial_paths`` and ``partitions``, each optional, within the command
+    line's bounds."""
+    options = _object({} if value is None else value, "options")
+    _known(options, OPTION_KEYS, "options")
+    out: dict[str, Any] = {}
+    try:
+        if "method" in options:
+            method = options["method"]
+            if method not in METHODS:
+                raise RequestError(
+                    f"options.method: unknown method {checks.describe(method)}"
+                    f" (known: {', '.join(METHODS)})"
+                )
+            out["method"] = method
+        for key, (lo, hi) in (
+            ("initial_paths", INITIAL_PATHS_RANGE),
+            ("partitions", PARTITIONS_RANGE),
+        ):
+            if key in options:
+                out[key] = checks.integer(options[key], f"options.{key}", minimum=lo, maximum=hi)
+    except ScenarioError as e:
+        raise RequestError(str(e)) from None
+    return out
+
+
+def parse_scenario(value: Any, source: str = SOURCE) -> Scenario:
+    """A scenario in the layout of a scenario file (as ``Scenario.to_dict`` gives it)."""
+    try:
+        return scenario_from_dict(value, source)
+    except ScenarioError as e:
+        raise RequestError(str(e)) from None
+    except RecursionError:
+        raise RequestError(f"{source}: values nested too deeply") from None
+
+
+def parse_plan(data: Any) -> PlanRequest:
+    """``{"scenario": {...}, "options": {...}, "session": "...", "seq": 3}``."""
+    data = _object(data, "request")
+    _known(data, ("scenario", "options", "session", "seq"), "request")
+    if "scenario" not in data:
+        raise RequestError("request: scenario: missing required key")
+    scenario = parse_scenario(data["scenario"])
+    options = parse_options(data.get("options"))
+    session = data.get("session")
+    if session is not None and not (isinstance(session, str) and 0 < len(session) <= MAX_SESSION):
+        raise RequestError(
+            f"request: session: expected a short string, got {checks.describe(session)}"
+        )
+    try:
+        seq = checks.integer(data.get("seq", 0), "request: seq", minimum=0, maximum=2**53)
+    except ScenarioError as e:
+        raise RequestError(str(e)) from None
+    return PlanRequest(scenario, options, session, seq)
+
+
+_SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def file_name(name: str, suffix: str) -> str:
+    """A file name for a download: the scenario's name with anything unusual replaced."""
+    stem = _SAFE_NAME.sub("-", name).strip("-.")[:80] or "scenario"
+    return stem + suffix
+
+
+def parse_toml(data: Any) -> Scenario:
+    """``{"toml": "<file text>", "name": "room.toml"}``: a scenario file opened on the page, its
+    errors named after the file as the command line names them."""
+    data = _object(data, "request")
+    _known(data, ("toml", "name"), "request")
+    text, name = data.get("toml"), data.get("name", "scenario.toml")
+    if not isinstance(text, str):
+        raise RequestError(f"request: toml: expected a string, got {checks.describe(text)}")
+    if not isinstance(name, str) or not name.strip():
+        raise RequestError(f"request: name: expected a file name, got {checks.describe(name)}")
+    try:
+        return load_scenario_text(text, name.strip()[:200])
+    except ScenarioError as e:
+        raise RequestError(str(e)) from None

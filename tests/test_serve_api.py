@@ -1,0 +1,252 @@
+"""The JSON API of ``leapfrog serve``, in-process (Starlette's test client, real solver
+processes): every endpoint, bad input (a 4xx with a one-line JSON message, the command line's
+words), the time limit (504, the worker replaced), the pool bound (503) and a request superseded
+by a newer one of the same session (409)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import threading
+import time
+
+import pytest
+
+pytest.importorskip("starlette")
+pytest.importorskip("httpx")
+
+from starlette.testclient import TestClient  # noqa: E402
+
+from leapfrog_planner.planning.scenario import load_scenario  # noqa: E402
+from leapfrog_planner.web.app import create_app  # noqa: E402
+
+pytestmark = pytest.mark.filterwarnings("ignore:Using `httpx` with `starlette.testclient`")
+
+CASE4 = load_scenario("paper-case-4").to_dict()
+#: Options that make paper case 4 take seconds (16 initial paths, 256 junctions each).
+HEAVY = {"initial_paths": 16, "partitions": 256}
+
+
+@pytest.fixture(scope="module")
+def client():
+    with TestClient(create_app(workers=1, queue=4, time_limit=30.0)) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def tight():
+    """One solver process, nothing waiting, half a second per solve."""
+    with TestClient(create_app(workers=1, queue=0, time_limit=0.5)) as c:
+        yield c
+
+
+def _wait_for(client, key, value, timeout=20.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if client.get("/api/health").json()[key] >= value:
+            return
+        time.sleep(0.01)
+    raise AssertionError(f"health {key} never reached {value}")
+
+
+def _in_thread(client, body):
+    out = {}
+    th = threading.Thread(target=lambda: out.update(r=client.post("/api/plan", json=body)))
+    th.start()
+    return th, out
+
+
+def test_page_and_assets_are_served(client):
+    page = client.get("/")
+    assert page.status_code == 200 and "text/html" in page.headers["content-type"]
+    for asset in ("app.js", "app.css"):
+        assert f"/static/{asset}" in page.text
+        r = client.get(f"/static/{asset}")
+        assert r.status_code == 200 and len(r.content) > 1000
+    assert "https://" not in page.text  # nothing fetched from elsewhere
+
+
+def test_builtin_scenarios_are_listed_in_the_file_layout(client):
+    got = client.get("/api/scenarios").json()["scenarios"]
+    assert [s["name"] for s in got] == [f"paper-case-{i}" for i in (1, 2, 3, 4)]
+    assert got[3]["scenario"] == CASE4
+
+
+def test_plan_gives_what_the_page_draws(client):
+    r = client.post("/api/plan", json={"scenario": CASE4, "session": "a", "seq": 1})
+    assert r.status_code == 200, r.text
+    v = r.json()
+    assert v["status"] == "converged" and v["optimal"]
+    assert v["cost"] == pytest.approx(4.585248, abs=1e-6)
+    assert v["energy"] + v["penalty"] == pytest.approx(v["cost"])
+    assert v["min_clearance"] > 0
+    path = v["path"]
+    assert len(path["t"]) == len(path["x"]) == len(path["v"]) == len(path["reverse"]) == 401
+    assert path["x"][0] == 0.0 and path["x"][-1] == pytest.approx(2.0, abs=1e-6)
+    assert sorted(a["cost"] for a in v["alternatives"]) == pytest.approx([5.663874, 5.784293])
+    frames = v["frames"]
+    assert frames[0]["sweep"] == 0 and len(frames) == v["sweeps"] + 1
+    assert frames[-1]["cost"] == pytest.approx(v["cost"], rel=1e-3)
+    assert len(frames[0]["x"]) == frames[0]["q"] + 1
+
+
+def test_options_are_used(client):
+    body = {"scenario": CASE4, "options": {"method": "newton", "initial_paths": 1}}
+    v = client.post("/api/plan", json=body).json()
+    assert v["method"] == "newton" and v["alternatives"] == []
+
+
+def test_a_failure_is_an_answer_with_its_message_and_best_motion(client):
+    # a hundredth of the time: no extremal keeps clear of the obstacles
+    sc = dict(CASE4, horizon=0.01, solver={"max_sweeps": 1})
+    r = client.post("/api/plan", json={"scenario": sc, "options": {"initial_paths": 1}})
+    assert r.status_code == 200
+    v = r.json()
+    assert v["status"] == "collides" and not v["optimal"] and not v["success"]
+    assert v["message"].startswith("every extremal found passes through an obstacle")
+    assert v["trajectory_source"] == "initial path, not optimal"
+    assert len(v["path"]["x"]) == 401 and v["cost"] > 0
+
+
+def test_scenario_download_plans_to_the_same_cost(client):
+    body = {"scenario": CASE4, "options": {"partitions": 8, "method": "modified-newton"}}
+    r = client.post("/api/toml", json=body)
+    assert r.status_code == 200
+    assert r.headers["content-disposition"] == 'attachment; filename="paper-case-4.toml"'
+    from leapfrog_planner import plan
+    from leapfrog_planner.planning.scenario import load_scenario_text
+
+    sc = load_scenario_text(r.text, "download.toml")
+    assert sc.solver == {"partitions": 8, "method": "modified-newton"}
+    assert plan(sc).cost == pytest.approx(4.585248, abs=1e-6)
+
+
+def test_result_downloads_are_the_command_lines_files(client):
+    r = client.post("/api/result.json", json={"scenario": CASE4})
+    assert r.status_code == 200 and r.headers["content-disposition"].endswith('.json"')
+    d = r.json()
+    assert d["schema"] == 2 and d["cost"] == pytest.approx(4.585248, abs=1e-6)
+    assert d["scenario_file"]["obstacles"] == CASE4["obstacles"]
+    r = client.post("/api/result.csv", json={"scenario": CASE4})
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv")
+    rows = list(csv.reader(io.StringIO(r.text)))
+    assert rows[0] == ["t", "x", "y", "theta", "v", "omega"] and len(rows) == 102
+
+
+def test_a_scenario_file_is_opened_with_the_command_lines_messages(client):
+    text = "\n".join(
+        ["horizon = 1.0", "start = [0, 0, 0]", "goal = [2, 0, 0]", "[[obstacles]]"]
+        + ["center = [1, 0.1]", "radius = 0.1", ""]
+    )
+    r = client.post("/api/open", json={"toml": text, "name": "room.toml"})
+    assert r.status_code == 200
+    assert r.json()["scenario"]["name"] == "room"
+    r = client.post("/api/open", json={"toml": "horizon = -1\n", "name": "room.toml"})
+    assert r.status_code == 400 and r.json() == {"error": "room.toml: start: missing required key"}
+    r = client.post("/api/open", json={"toml": "horizon = = 1", "name": "room.toml"})
+    assert r.status_code == 400 and r.json()["error"].startswith("room.toml: invalid TOML:")
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        (
+            {"scenario": dict(CASE4, obstacles=[{"center": [1, 0.5], "radius": -1}])},
+            "scenario: obstacles[0].radius: must be > 0, got -1.0",
+        ),
+        (
+            {"scenario": dict(CASE4, horizon="abc")},
+            "scenario: horizon: expected a number, got string 'abc'",
+        ),
+        (
+            {"scenario": dict(CASE4, start=[0.4, 0.05, 0])},
+            "scenario: start: (0.4, 0.05) is inside obstacles[0] (center (0.4, 0.05), radius 0.1)",
+        ),
+        (
+            {"scenario": dict(CASE4, colour="red")},
+            "scenario: colour: unknown key (allowed: name, horizon, start, goal, waypoints, robot,"
+            " penalty, solver, obstacles)",
+        ),
+        (
+            {"scenario": CASE4, "options": {"method": "secant"}},
+            "options.method: unknown method string 'secant' (known: newton, modified-newton,"
+            " nleq-err)",
+        ),
+        (
+            {"scenario": CASE4, "options": {"partitions": 1}},
+            "options.partitions: must be an integer >= 2, got 1",
+        ),
+        (
+            {"scenario": CASE4, "options": {"initial_paths": 2.5}},
+            "options.initial_paths: expected an integer >= 1, got number 2.5",
+        ),
+        ({"scenario": CASE4, "options": {"speed": 1}}, "options: unknown key 'speed'"),
+        ({"options": {}}, "request: scenario: missing required key"),
+        ([1, 2], "request: expected a JSON object, got an array of 2"),
+        (
+            {"scenario": dict(CASE4, solver={"partitions": 1})},
+            "scenario: solver.partitions: partitions must be an integer >= 2, got 1",
+        ),
+    ],
+)
+def test_bad_input_is_a_400_with_the_message(client, body, message):
+    r = client.post("/api/plan", json=body)
+    assert r.status_code == 400, r.text
+    got = r.json()["error"]
+    assert "\n" not in got and got.startswith(message)
+
+
+def test_malformed_requests_are_json_errors(client):
+    r = client.post("/api/plan", content=b"{not json")
+    assert r.status_code == 400 and r.json()["error"].startswith("request: not valid JSON")
+    r = client.post("/api/plan", content=b"\xff\xfe")
+    assert r.status_code == 400 and "not UTF-8" in r.json()["error"]
+    r = client.post("/api/plan", content=b" " * (2 * 2**20 + 1))
+    assert r.status_code == 413
+    assert client.get("/api/nothing").json() == {"error": "Not Found"}
+    assert client.get("/api/plan").status_code == 405
+    for path in ("/api/toml", "/api/result.json", "/api/result.csv", "/api/open"):
+        r = client.post(path, json=[])
+        assert r.status_code == 400 and "error" in r.json()
+
+
+def test_health_reports_the_pool(client):
+    h = client.get("/api/health").json()
+    assert h["workers"] == 1 and h["capacity"] == 5 and h["busy"] == 0 and len(h["pids"]) == 1
+
+
+def test_an_older_waiting_request_is_superseded(client):
+    first, a = _in_thread(client, {"scenario": CASE4, "options": HEAVY, "session": "s", "seq": 1})
+    _wait_for(client, "busy", 1)
+    second, b = _in_thread(client, {"scenario": CASE4, "session": "s", "seq": 2})
+    _wait_for(client, "admitted", 2)
+    c = client.post("/api/plan", json={"scenario": CASE4, "session": "s", "seq": 3})
+    first.join()
+    second.join()
+    assert a["r"].status_code == 200
+    assert b["r"].status_code == 409 and b["r"].json()["error"] == "superseded by a newer request"
+    assert c.status_code == 200 and c.json()["cost"] == pytest.approx(4.585248, abs=1e-6)
+
+
+def test_a_solve_past_the_time_limit_is_stopped_and_its_worker_replaced(tight):
+    pid = tight.get("/api/health").json()["pids"]
+    t0 = time.monotonic()
+    r = tight.post("/api/plan", json={"scenario": CASE4, "options": HEAVY})
+    assert time.monotonic() - t0 < 3.0
+    assert r.status_code == 504
+    assert r.json() == {"error": "time limit: the solve ran past 0.5 s and was stopped"}
+    _wait_for(tight, "ready", 1)
+    assert tight.get("/api/health").json()["pids"] != pid
+    r = tight.post("/api/plan", json={"scenario": CASE4, "options": {"initial_paths": 1}})
+    assert r.status_code == 200, r.text
+
+
+def test_requests_beyond_the_pool_get_503(tight):
+    _wait_for(tight, "ready", 1)
+    first, a = _in_thread(tight, {"scenario": CASE4, "options": HEAVY})
+    _wait_for(tight, "busy", 1)
+    r = tight.post("/api/plan", json={"scenario": CASE4})
+    first.join()
+    assert r.status_code == 503
+    assert r.json()["error"].startswith("busy: 1 requests are being solved or waiting (at most 1)")
+    assert a["r"].status_code == 504
