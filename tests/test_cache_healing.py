@@ -14,7 +14,9 @@ from pathlib import Path
 import pytest
 from tests.test_cli import cli_env
 
-from leapfrog_planner.model.kernels import cache_dir, load_kernels
+import leapfrog_planner
+from leapfrog_planner._cache import cache_dir
+from leapfrog_planner.model.kernels import load_kernels
 
 CASE1 = 10.323202  # paper case 1's optimum
 
@@ -84,3 +86,46 @@ def test_a_damaged_cache_entry_is_reported_once_and_rebuilt(warm, tmp_path, what
     lines = p.stderr.strip().splitlines()
     assert len(lines) <= 1 and all(line.startswith("warning: ") for line in lines), p.stderr
     assert json.loads((tmp_path / "r.json").read_text())["cost"] == pytest.approx(CASE1, rel=1e-6)
+
+
+def _read_only_mounts_work() -> bool:
+    if shutil.which("unshare") is None or os.geteuid() != 0:
+        return False
+    script = 'mount --bind -o ro "$1" "$1" && ! touch "$1/.probe" 2>/dev/null'
+    probe = subprocess.run(
+        ["unshare", "-m", "--propagation", "private", "sh", "-c", script, "sh", "/tmp"],
+        capture_output=True,
+    )
+    return probe.returncode == 0
+
+
+@pytest.mark.skipif(not _read_only_mounts_work(), reason="needs root and read-only bind mounts")
+def test_a_warm_read_only_installation_and_cache_are_used_as_they_are(warm, tmp_path):
+    """The package, the cache and the home folder read-only (as on some clusters): before, numba
+    could not define a cached function and the import failed; now the warm compiled files are
+    copied to a temporary folder and used there: nothing is compiled again."""
+    package = Path(leapfrog_planner.__file__).resolve().parent
+    home, tmp = tmp_path / "home", tmp_path / "tmp"
+    home.mkdir()
+    tmp.mkdir()
+    script = (
+        'for d in "$PACKAGE" "$LEAPFROG_CACHE_DIR" "$HOME"; do mount --bind -o ro "$d" "$d"; done\n'
+        'exec "$@"'
+    )
+    env = {**cli_env(), "PACKAGE": str(package), "LEAPFROG_CACHE_DIR": str(warm),
+           "HOME": str(home), "TMPDIR": str(tmp)}  # fmt: skip
+    env.pop("XDG_CACHE_HOME", None)
+    env.pop("NUMBA_CACHE_DIR", None)
+    p = subprocess.run(
+        ["unshare", "-m", "--propagation", "private", "sh", "-c", script, "sh",
+         sys.executable, "-m", "leapfrog_planner.cli", "solve", "paper-case-1", "--quiet",
+         "--json", str(tmp / "r.json")],
+        env=env, capture_output=True, text=True, timeout=900,
+    )  # fmt: skip
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert json.loads((tmp / "r.json").read_text())["cost"] == pytest.approx(CASE1, rel=1e-6)
+    originals = {f.name: f.read_bytes() for f in [*package.rglob("*.nbi"), *warm.rglob("*.nbi")]}
+    copies = list(tmp.rglob("*.nbi"))
+    assert copies, "nothing was copied from the read-only cache"
+    recompiled = [f.name for f in copies if originals.get(f.name) != f.read_bytes()]
+    assert not recompiled, f"compiled again: {recompiled[:5]}"

@@ -2,7 +2,8 @@
 
 import importlib
 
-from . import _compat
+# first: importing _cache sets numba's cache up before any compiled function is defined
+from . import _cache, _compat  # noqa: F401
 from .bvp.shooting import ShootingResult, ShootingSettings, affine_costate_guess, solve_shooting
 from .errors import LeapfrogError, ModelError, ScenarioError, SettingsError
 from .integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory

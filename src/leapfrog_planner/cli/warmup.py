@@ -52,7 +52,7 @@ def _heal(exc: Exception) -> None:
     stage = int(os.environ.get(REBUILT, "0") or 0)
     if stage >= 2:
         raise exc
-    from ..model.kernels import cache_dir
+    from .._cache import cache_dir
 
     err.print(
         f"warning: the compiled kernel cache was damaged ({type(exc).__name__}); rebuilding it",
@@ -60,7 +60,10 @@ def _heal(exc: Exception) -> None:
         highlight=False,
         soft_wrap=True,
     )
-    folder = cache_dir() if stage == 0 else Path(__file__).resolve().parent.parent
+    import numba  # a read-only installation keeps numba's cache of the package elsewhere
+
+    package = numba.config.CACHE_DIR or Path(__file__).resolve().parent.parent
+    folder = cache_dir() if stage == 0 else Path(package)
     for pattern in ("**/*.nbi", "**/*.nbc", "models/*.py", "tableaux-*.npz"):
         for p in folder.glob(pattern):
             with contextlib.suppress(OSError):

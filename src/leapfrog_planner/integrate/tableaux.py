@@ -17,8 +17,8 @@ import numpy as np
 import scipy
 
 from .._atomic import write_atomic
+from .._cache import cache_dir
 from ..errors import SettingsError
-from ..model.kernels import cache_dir
 
 log = logging.getLogger(__name__)
 

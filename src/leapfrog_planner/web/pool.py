@@ -21,6 +21,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from multiprocessing.connection import Connection
 
 log = logging.getLogger(__name__)
@@ -115,6 +116,10 @@ class SolvePool:
         self._busy = 0
         self._closed = False
         self._started = False
+        # Every process is started from this one thread, which lives as long as the pool: a
+        # worker asks the kernel to kill it when the thread that started it ends (measured:
+        # started from a short-lived thread, workers were killed under load, exit -9).
+        self._spawner = ThreadPoolExecutor(1, thread_name_prefix="leapfrog-serve-spawn")
         self.counts = {"solved": 0, "time_limit": 0, "full": 0, "superseded": 0, "lost": 0}
 
     # ------------------------------------------------------------------ life cycle
@@ -135,7 +140,7 @@ class SolvePool:
             t.join()
 
     def _spawn(self) -> _Worker:
-        w = _Worker(self.models, self.threads)
+        w = self._spawner.submit(_Worker, self.models, self.threads).result()
         with self._lock:
             self._all.add(w)
         return w
@@ -166,6 +171,7 @@ class SolvePool:
 
     def close(self) -> None:
         self._closed = True
+        self._spawner.shutdown(wait=False)
         with self._lock:
             workers = list(self._all)
             self._all.clear()

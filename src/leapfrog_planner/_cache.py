@@ -1,0 +1,112 @@
+"""Where compiled code is kept on disk, also when the installation or the cache is read-only.
+
+Two caches: the project's own (generated model modules and their compiled code, the Runge-Kutta
+tableaux) in ``cache_dir()``, and numba's cache of the package's own compiled functions, which
+numba keeps in ``__pycache__`` beside their source, else in the user's cache folder. Where neither
+is writable (a read-only installation and home, as on some clusters), numba cannot even define a
+cached function, and importing the package would fail. ``use_writable_numba_cache`` is run before
+any such function is defined: it points numba at a writable folder seeded with the files compiled
+beside the package, so that a warm read-only installation is used as it is, not compiled again.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numba
+from numba.core.caching import _CacheLocator
+
+from ._atomic import write_atomic
+
+log = logging.getLogger(__name__)
+
+PACKAGE = Path(__file__).resolve().parent
+
+__all__ = [
+    "cache_dir",
+    "copy_atomic",
+    "copy_compiled",
+    "numba_cache_of",
+    "use_writable_numba_cache",
+    "writable_dir",
+]
+
+
+def cache_dir() -> Path:
+    """Where generated modules live: ``$LEAPFROG_CACHE_DIR``, else the user's cache directory."""
+    env = os.environ.get("LEAPFROG_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "leapfrog-planner"
+
+
+def writable_dir(name: str) -> Path:
+    """``cache_dir() / name``, created; where that cannot be written (a read-only home), the
+    same name in a folder of the temporary directory."""
+    d = cache_dir() / name
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        probe = d / f".probe-{os.getpid()}"
+        probe.write_text("")
+        probe.unlink()
+        return d
+    except OSError:
+        d = Path(tempfile.gettempdir()) / "leapfrog-planner" / name
+        d.mkdir(parents=True, exist_ok=True)
+        return d
+
+
+def copy_atomic(source: Path, target: Path) -> None:
+    """Copy ``source`` to ``target`` (folders created); concurrent copies write the same bytes."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(target, lambda tmp: shutil.copyfile(source, tmp))
+
+
+def _writable(folder: Path) -> bool:
+    while not folder.exists():
+        folder = folder.parent
+    return os.access(folder, os.W_OK | os.X_OK)
+
+
+def use_writable_numba_cache() -> None:
+    """If numba cannot write beside the package, give it a writable cache folder, seeded with
+    the package's compiled files (numba keys them by the source's content, so copies are valid).
+    ``NUMBA_CACHE_DIR``, when set, is the user's choice and is left alone."""
+    if numba.config.CACHE_DIR or _writable(PACKAGE / "model" / "__pycache__"):
+        return
+    try:
+        target = writable_dir("numba")
+    except OSError as exc:
+        log.info("no writable folder for numba's cache (%s): compiling without it", exc)
+        return
+    numba.config.CACHE_DIR = str(target)
+    for pycache in sorted(PACKAGE.rglob("__pycache__")):
+        try:
+            copy_compiled(pycache, numba_cache_of(pycache.parent))
+        except OSError as exc:
+            log.info("could not copy %s into numba's cache: %s", pycache, exc)
+    log.info("the package is read-only: numba's cache is %s", target)
+
+
+def numba_cache_of(folder: Path) -> Path:
+    """Where numba keeps the compiled code of the modules in ``folder``."""
+    if not numba.config.CACHE_DIR:
+        return folder / "__pycache__"
+    subpath = _CacheLocator.get_suitable_cache_subpath(str(folder / "module.py"))
+    return Path(numba.config.CACHE_DIR) / subpath
+
+
+def copy_compiled(source: Path, target: Path, stem: str = "") -> None:
+    """Copy numba's files (of the modules named ``stem``, default all) from ``source`` to
+    ``target``, data files before their index, skipping those already there."""
+    for f in sorted(source.glob(f"{stem or '*'}.*nb[ic]")):
+        if not (target / f.name).exists():
+            copy_atomic(f, target / f.name)
+
+
+use_writable_numba_cache()  # on import: the package imports this module before the others
