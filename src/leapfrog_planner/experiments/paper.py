@@ -50,7 +50,7 @@ PAPER_TABLE1 = {
     4: (2.79, 113.36, 106.75),
 }
 
-# Spec section 5: independent direct-method optima, about 1e-5 relative.
+# Independent reference optima (direct method, CasADi with IPOPT), about 1e-5 relative.
 REFERENCE_COST = {1: 10.32320, 2: 21.20621, 3: 3.274137, 4: 5.663875}
 
 # A cost this far above the reference is another (worse) local optimum, not rounding.
@@ -249,11 +249,12 @@ def table1_markdown(result: PaperResult) -> str:
     lines = [
         "# Table 1, reproduced",
         "",
-        "Leapfrog on the paper's four cases (spec section 5) with classical Newton (NM) and the "
-        "modified Newton method (MNM) in the inner loop. Time is the wall time of one full "
-        "`Planner.plan()` (all initial paths, sweeps, final solve, validation). Iterations and "
-        "F evaluations are totals over all initial paths. A failed run is shown as failed, and "
-        "a converged cost above the spec's reference is marked as a worse local optimum.",
+        "Leapfrog on the paper's four cases (as this project reconstructs them) with classical "
+        "Newton (NM) and the modified Newton method (MNM) in the inner loop. Time is the wall "
+        "time of one full `Planner.plan()` (all initial paths, sweeps, final solve, validation). "
+        "Iterations and F evaluations are totals over all initial paths. A failed run is shown "
+        "as failed, and a converged cost above the reference optimum is marked as a worse local "
+        "optimum.",
         "",
         head,
         "|" + "---|" * 10,
@@ -289,20 +290,20 @@ def comparison_markdown(result: PaperResult) -> str:
         "# Our figures beside the paper's Table 1",
         "",
         "**The costs cannot be compared.** The paper leaves out its robot constants, its time "
-        "horizon, its obstacle penalty and the obstacle layouts of cases 2 to 4 (spec section 5). "
-        "This project fills those gaps with the spec's fixed choices (`T = 1`, `W = 100`, `n = 2`, "
+        "horizon, its obstacle penalty and the obstacle layouts of cases 2 to 4. This project "
+        "fills those gaps with fixed choices of its own (`T = 1`, `W = 100`, `n = 2`, "
         "reconstructed obstacles), so the same case numbers are different problems: with this "
         "cost and `T = 1`, case 2 cannot cost less than 1/2 * 3.5^2 * 2 = 12.25, while the paper "
-        "reports 5.98. Our costs are checked against the spec's independent reference optima "
-        "instead (last columns).",
+        "reports 5.98. Our costs are checked instead against independent reference optima (direct "
+        "method, CasADi with IPOPT), in the reference columns.",
         "",
         "Times are compared as ratios (paper time / our median time). The paper's are "
         "MATLAB-era times on unknown hardware, so a ratio says how much faster this "
         "implementation is in practice, not which algorithm is faster.",
         "",
-        "| case | paper cost | our cost NM | our cost MNM | reference (spec) | MNM / reference - 1 "
-        "| paper NM (s) | our NM (s) | NM speed-up | paper MNM (s) | our MNM (s) "
-        "| MNM speed-up |",
+        "| case | paper cost | our cost NM | our cost MNM | reference optimum "
+        "| MNM / reference - 1 | paper NM (s) | our NM (s) | NM speed-up | paper MNM (s) "
+        "| our MNM (s) | MNM speed-up |",
         "|" + "---|" * 12,
     ]
     for c in result.cases:
@@ -338,8 +339,8 @@ def comparison_markdown(result: PaperResult) -> str:
     ]
     lines += [
         "",
-        "The paper saw MNM slightly faster than NM on every case (spec section 5 adds that "
-        "classical Newton was seen to diverge on case 4 where MNM converged). In this run NM "
+        "The paper saw MNM slightly faster than NM on every case (classical Newton was also "
+        "reported to diverge on case 4 where MNM converged). In this run NM "
         + (
             f"failed or ended on a worse optimum on case(s) {', '.join(map(str, struggles))}."
             if struggles
@@ -355,6 +356,12 @@ def comparison_markdown(result: PaperResult) -> str:
 
 def _write_text(path: Path, text: str) -> None:
     write_atomic(path, lambda tmp: Path(tmp).write_text(text))
+
+
+def _figure_title(c: CaseRun) -> str:
+    r = c.mnm.result
+    cost = f"J = {r.cost:.6g}" if r.success else str(r.status)
+    return f"{c.scenario}, Leapfrog with MNM, {cost}"
 
 
 def write_paper(result: PaperResult, out: Path | str, *, figures: bool = True) -> list[Path]:
@@ -377,6 +384,6 @@ def write_paper(result: PaperResult, out: Path | str, *, figures: bool = True) -
             written.append(path)
         if figures:
             ax = plot_path(c.mnm.result, c.scenario)
-            ax.set_title(f"Figure {c.case}: {c.scenario}, Leapfrog with MNM\n{ax.get_title()}")
-            written.append(save_figure(ax.figure, out / f"fig{c.case}.png"))
+            ax.set_title(f"Figure {c.case}: {_figure_title(c)}")  # replaces the plot's title
+            written.append(save_figure(ax, out / f"fig{c.case}.png"))
     return written

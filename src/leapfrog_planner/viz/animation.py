@@ -7,74 +7,112 @@ from pathlib import Path
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
 from .._atomic import write_atomic as _write_atomic
 from ..planning.results import PlanResult
 from ..planning.scenario import Scenario
 from .style import (
-    ARROW_COLOR,
     GID_HEADING,
+    OBSTACLE_EDGE,
+    OBSTACLE_FACE,
+    REVERSE_COLOR,
+    REVERSE_LABEL,
     arrow_length,
     as_scenario,
     cost_text,
     draw_arrows,
     draw_ends,
     draw_obstacles,
+    draw_reversing,
     frame_axes,
+    heading_colors,
+    heading_proxy,
     initial_junctions,
+    legend_below,
     new_figure,
+    path_figsize,
+    reversing_runs,
     status_text,
     sweep_colors,
 )
+
+#: The animation's width in pixels (8 inches at 100 dpi).
+GIF_DPI = 100
+GIF_WIDTH_IN = 8.0
 
 # --------------------------------------------------------------------------- animate_sweeps
 
 
 def _frames(sc: Scenario, result: PlanResult) -> list[tuple[str, np.ndarray | None, str]]:
-    """The animation's frames: (kind, junctions, title), the initial junctions first, then
-    one per sweep, then the final path (three frames) or the status."""
-    frames: list[tuple[str, np.ndarray | None, str]] = []  # (kind, X, title)
+    """The animation's frames: (kind, junctions, counter text), the initial junctions first,
+    then one per sweep, then the final path (three frames) or the status."""
+    frames: list[tuple[str, np.ndarray | None, str]] = []  # (kind, X, text)
+    K = len(result.history)
     X0 = initial_junctions(result)
     if X0 is not None:
-        frames.append(
-            (
-                "junctions",
-                X0,
-                f"initial path: q = {len(X0) - 1}, J = {cost_text(result.initial_cost)}",
-            )
-        )
+        text = f"initial path (sweep 0 of {K}), cost J = {cost_text(result.initial_cost)}"
+        frames.append(("junctions", X0, f"{text} (q = {len(X0) - 1})"))
     for h in result.history:
         frames.append(
             (
                 "junctions",
                 np.asarray(h.X, dtype=float),
-                f"sweep {h.sweep}/{len(result.history)}: q = {h.q}, J = {cost_text(h.cost)}, "
-                f"jump = {h.max_costate_jump:.2g}",
+                f"sweep {h.sweep} of {K}, cost J = {cost_text(h.cost)} "
+                f"(q = {h.q}, costate jump {h.max_costate_jump:.2g})",
             )
         )
     if result.trajectory is not None:
-        final = f"final extremal: J = {cost_text(result.cost)} ({result.method})"
+        final = f"final extremal after {K} sweeps, cost J = {cost_text(result.cost)}"
         frames += [("final", None, final)] * 3
     elif not frames:
         frames.append(("junctions", None, f"{status_text(result)}: nothing to animate"))
     else:
         kind, X, text = frames[-1]
-        frames.append((kind, X, f"{text} — {status_text(result)}"))
+        frames.append((kind, X, f"{text}: {status_text(result)}"))
 
     return frames
 
 
+def _legend_handles(sc: Scenario, result: PlanResult) -> list:
+    """Proxies for what the frames draw (the moving artists are not there when the legend is)."""
+    current = sweep_colors(3)[1]
+    handles = []
+    if sc.obstacles.shape[0]:
+        handles.append(Patch(facecolor=OBSTACLE_FACE, edgecolor=OBSTACLE_EDGE, label="obstacles"))
+    handles += [
+        Line2D([], [], ls="none", marker="o", ms=8, mfc="tab:green", mec="black", label="start"),
+        Line2D([], [], ls="none", marker="*", ms=12, mfc="tab:red", mec="black", label="goal"),
+        Line2D([], [], marker="o", ms=4, lw=1.4, color=current, label="junctions of this sweep"),
+        Line2D([], [], lw=0.8, color="0.75", label="earlier sweeps"),
+    ]
+    if result.trajectory is not None:
+        handles.append(Line2D([], [], lw=2.0, color="black", label="final extremal"))
+        if reversing_runs(result):
+            handles.append(
+                Line2D([], [], lw=2.0, ls=(0, (3.0, 1.2)), color=REVERSE_COLOR, label=REVERSE_LABEL)
+            )
+    handles.append(heading_proxy("heading"))
+    return handles
+
+
 def _animation_canvas(sc: Scenario, result: PlanResult, L: float) -> tuple[Figure, Axes]:
     """The animation's figure and its (invisible) axes over a picture of the static part."""
-    # The static part (obstacles, start, goal, axes and ticks) is drawn once, laid out with room
-    # for a two-line title; each frame then draws only that picture and the moving artists, on
-    # invisible axes at exactly the same place with the same limits.
-    static = new_figure(figsize=(6.0, 5.5), dpi=80)
+    # The static part (obstacles, start, goal, axes, ticks and the legend) is drawn once, laid
+    # out with room for a two-line title; each frame then draws only that picture and the moving
+    # artists, on invisible axes at exactly the same place with the same limits.
+    static = new_figure(figsize=path_figsize(sc, result, 1.0, GIF_WIDTH_IN), dpi=GIF_DPI)
     ax0 = static.add_subplot()
     draw_obstacles(ax0, sc, label=False)
     draw_ends(ax0, sc, L, label=False)
     frame_axes(ax0, sc, result)
     ax0.set_title("title\nplaceholder")
+    legend_below(
+        static,
+        _legend_handles(sc, result),
+        lambda h: path_figsize(sc, result, h + 0.3, GIF_WIDTH_IN),
+    )
     static.canvas.draw()
     static.set_layout_engine("none")  # keep the room for the title
     ax0.title.set_visible(False)
@@ -145,11 +183,13 @@ def animate_sweeps(result: PlanResult, scenario: Scenario | str, path, *, fps: i
                     done.append(X)
                 elif kind == "final" and tr is not None:
                     dynamic += ax.plot(tr.x[:, 0], tr.x[:, 1], color="black", lw=2.0, zorder=3)
+                    dynamic += draw_reversing(ax, result, lw=2.0)
                     ts = np.linspace(tr.t[0], tr.t[-1], 11)[1:-1]
                     xy = np.column_stack([np.interp(ts, tr.t, tr.x[:, i]) for i in range(2)])
                     th = np.interp(ts, tr.t, tr.x[:, 2])
-                    dynamic.append(draw_arrows(ax, xy, th, L, gid=GID_HEADING, color=ARROW_COLOR))
-                title.set_text(f"{sc.name}\n{text}")
+                    color = heading_colors(result, ts)
+                    dynamic.append(draw_arrows(ax, xy, th, L, gid=GID_HEADING, color=color))
+                title.set_text(f"{sc.name}: Leapfrog ({result.method})\n{text}")
                 writer.grab_frame()
 
     _write_atomic(path, render)

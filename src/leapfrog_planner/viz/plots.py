@@ -1,8 +1,8 @@
 """Figures of a planning result, in the style of the paper's figures 1 to 4.
 
 - :func:`plot_path`: obstacles as filled discs, the optimal path with arrows for the robot's
-  heading along it, start and goal marked with their headings, the initial feasible path's
-  junctions (dashed) and, in the legend, the costs of the other local optima that were found.
+  heading along it (orange and dashed where it reverses), start and goal marked with their
+  headings, the initial feasible path's junctions (dashed) and the other local optima found.
 - :func:`plot_convergence`: the junctions of every Leapfrog sweep overlaid (light to dark), next
   to the cost and the largest costate jump per sweep.
 - :func:`plot_controls`: controls, costates and ``H - H(0)`` against time.
@@ -29,12 +29,14 @@ from ..planning.results import PlanResult
 from ..planning.scenario import Scenario
 from .animation import animate_sweeps
 from .style import (
-    ARROW_COLOR,
+    ALTERNATIVE_STYLES,
     FIGURE_FORMATS,
     GID_HEADING,
     GID_PATH,
     GID_SWEEP,
     PATH_COLOR,
+    REVERSE_COLOR,
+    REVERSE_LABEL,
     arrow_length,
     as_scenario,
     cost_text,
@@ -42,13 +44,17 @@ from .style import (
     draw_ends,
     draw_initial,
     draw_obstacles,
+    draw_reversing,
     frame_axes,
+    heading_colors,
     heading_proxy,
     initial_junctions,
+    legend_below,
     new_figure,
     no_data,
     path_figsize,
     path_title,
+    reversing_runs,
     status_text,
     sweep_colors,
 )
@@ -71,10 +77,16 @@ def plot_path(
 
     Obstacles are filled discs (gid ``"obstacle"``), the optimal path a line (gid
     ``"optimal-path"``) with ``arrows`` heading arrows at evenly spaced interior times (one
-    quiver, gid ``"heading"``; no arrows for ``arrows=0``). Start (circle) and goal (star) are
-    marked with their headings (quiver gid ``"end-heading"``). With ``show_initial`` the initial
-    feasible path's junctions are drawn dashed. The other local optima, found from other initial
-    paths, carry only costs, not paths: with ``show_alternatives`` the legend lists their costs.
+    quiver, gid ``"heading"``; no arrows for ``arrows=0``). Where the robot drives backwards
+    (``v < 0``) the path is drawn orange and dashed over that line (gid ``"reversing"``, labelled
+    with the share of the time) and the arrows there are orange too. Start (circle) and goal
+    (star) are marked with their headings (quiver gid ``"end-heading"``). With ``show_initial``
+    the initial feasible path's junctions are drawn dashed. With ``show_alternatives`` the other
+    initial paths' extremals are drawn in grey, each in its own line style, with their costs in
+    the legend (those saved without a path: only the legend entry).
+
+    On a new figure (``ax`` None) the legend sits below the axes, across the figure, and the
+    figure's height follows the data's aspect ratio; on a given axes it goes inside (``best``).
 
     A failed result (``trajectory is None``) draws obstacles, start, goal, the initial junctions
     and the junctions after the last sweep; the title says the status. ``scenario`` is a
@@ -86,7 +98,7 @@ def plot_path(
     sc = as_scenario(scenario)
     own = ax is None
     if own:
-        ax = new_figure(figsize=path_figsize(sc, result, 4.2)).add_subplot()
+        ax = new_figure(figsize=path_figsize(sc, result, 1.0)).add_subplot()
     L = arrow_length(sc, result, arrows)
 
     draw_obstacles(ax, sc)
@@ -104,12 +116,13 @@ def plot_path(
             gid=GID_PATH,
             label=f"optimal path (J = {cost_text(result.cost)})",
         )
+        draw_reversing(ax, result)
         if arrows:
             t0, t1 = float(tr.t[0]), float(tr.t[-1])
             ts = np.linspace(t0, t1, arrows + 2)[1:-1]
             xy = np.column_stack([np.interp(ts, tr.t, tr.x[:, i]) for i in range(2)])
             th = np.interp(ts, tr.t, tr.x[:, 2])
-            draw_arrows(ax, xy, th, L, gid=GID_HEADING, color=ARROW_COLOR)
+            draw_arrows(ax, xy, th, L, gid=GID_HEADING, color=heading_colors(result, ts))
             extra.append(heading_proxy("heading"))
     elif result.history:
         last = result.history[-1]
@@ -137,8 +150,8 @@ def plot_path(
     frame_axes(ax, sc, result)
     ax.set_title(path_title(result, sc))
     handles = ax.get_legend_handles_labels()[0] + extra
-    if own:  # outside, right of the axes: inside it would hide part of the path or obstacles
-        ax.figure.legend(handles=handles, fontsize="small", loc="outside right upper")
+    if own:  # below the axes, across the figure: inside it would hide part of the path
+        legend_below(ax.figure, handles, lambda h: path_figsize(sc, result, h))
     else:
         ax.legend(handles=handles, fontsize="small", loc="best", framealpha=0.85)
     return ax
@@ -147,17 +160,20 @@ def plot_path(
 def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
     """The other initial paths' extremals, faint and dotted; legend entries for those without."""
     extra = []
+    drawn = 0
     for alt in result.alternatives:
         if alt.trajectory is not None:
-            what = "other local optimum" if alt.status == "converged" else str(alt.status)
+            what = "local optimum" if alt.status == "converged" else str(alt.status)
+            ls = ALTERNATIVE_STYLES[drawn % len(ALTERNATIVE_STYLES)]
+            drawn += 1
             ax.plot(
-                alt.trajectory.x[:, 0], alt.trajectory.x[:, 1], color="0.45", lw=1.2, ls=":",
-                zorder=2, label=f"{what} J = {alt.cost:.6g} (from {alt.label})",
+                alt.trajectory.x[:, 0], alt.trajectory.x[:, 1], color="0.4", lw=1.3, ls=ls,
+                zorder=2, label=f"{what} J = {alt.cost:.6g} ({alt.label})",
             )  # fmt: skip
         else:  # its path was not kept (a result saved before paths were)
-            text = f"from {alt.label}: {status_text(alt)}"
+            text = f"{alt.label}: {status_text(alt)}"
             if np.isfinite(alt.cost):
-                text = f"other local optimum J = {alt.cost:.6g}\n  (from {alt.label}; not kept)"
+                text = f"local optimum J = {alt.cost:.6g}\n  ({alt.label}; not kept)"
             extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
     return extra
 
@@ -324,6 +340,10 @@ def plot_controls(result: PlanResult, fig=None) -> Figure:
     if tr is not None:
         for i, name in enumerate(result.control_names):
             ax_u.plot(tr.t, tr.u[:, i], lw=1.6, label=name)
+        for k, (i, j) in enumerate(reversing_runs(result)):  # shaded where v < 0
+            t0, t1 = tr.t[max(i - 1, 0)], tr.t[min(j, tr.t.size - 1)]
+            label = REVERSE_LABEL if k == 0 else None
+            ax_u.axvspan(t0, t1, color=REVERSE_COLOR, alpha=0.15, lw=0, label=label)
         for i in range(tr.lam.shape[1]):
             state = result.state_names[i] if i < len(result.state_names) else str(i + 1)
             ax_l.plot(tr.t, tr.lam[:, i], lw=1.6, label=rf"$\lambda_{{{i + 1}}}$ ({state})")
@@ -363,13 +383,19 @@ def plot_controls(result: PlanResult, fig=None) -> Figure:
 # --------------------------------------------------------------------------- save_figure
 
 
-def save_figure(fig: Figure, path) -> Path:
+def save_figure(fig: Figure | Axes, path) -> Path:
     """Save ``fig`` as PNG, PDF or SVG (chosen by the extension) atomically; returns the path.
+
+    ``fig`` is a figure or an axes (such as :func:`plot_path` returns): an axes saves its figure.
 
     The file is written to a temporary file in the same folder and renamed, so ``path`` is
     either the old file or the complete new one, never half a file. The figure is closed once
     saved. An unknown extension raises ``ValueError`` before anything is written.
     """
+    if isinstance(fig, Axes):
+        fig = fig.get_figure(root=True)
+    if not isinstance(fig, Figure):
+        raise TypeError(f"expected a matplotlib Figure or Axes, got {type(fig).__name__}")
     path = Path(path)
     fmt = FIGURE_FORMATS.get(path.suffix.lower())
     if fmt is None:

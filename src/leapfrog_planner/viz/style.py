@@ -18,6 +18,8 @@ FIGURE_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
 
 PATH_COLOR = "C0"
 ARROW_COLOR = "0.1"
+REVERSE_COLOR = "tab:orange"
+REVERSE_LABEL = "reversing (v < 0)"
 START_COLOR = "tab:green"
 GOAL_COLOR = "tab:red"
 INITIAL_COLOR = "0.45"
@@ -32,6 +34,10 @@ GID_END_HEADING = "end-heading"
 GID_OBSTACLE = "obstacle"
 GID_INITIAL = "initial-junctions"
 GID_SWEEP = "sweep"
+GID_REVERSING = "reversing"
+
+#: Line styles of the other local optima, in turn (the first is dotted).
+ALTERNATIVE_STYLES = (":", (0, (5, 2, 1, 2)), (0, (1, 3)), (0, (6, 3)))
 
 
 # --------------------------------------------------------------------------- helpers
@@ -101,13 +107,33 @@ def arrow_length(sc: Scenario, result: PlanResult, arrows: int = 9) -> float:
     return max(length, 0.02 * max(x1 - x0, y1 - y0, 1e-9))
 
 
-def path_figsize(sc: Scenario, result: PlanResult, legend_width: float) -> tuple:
-    """A figure whose axes roughly follow the data's aspect ratio, plus room for the legend."""
+def path_figsize(sc: Scenario, result: PlanResult, legend_h: float, width: float = 6.4) -> tuple:
+    """A figure ``width`` inches wide whose axes follow the data's aspect ratio (between 2 and 6.5
+    inches high), with room for a title above and a legend ``legend_h`` inches high below."""
     x0, x1, y0, y1 = view_extent(sc, result)
     w, h = max(x1 - x0, 1e-9), max(y1 - y0, 1e-9)
-    width = 6.0
-    height = float(np.clip(width * h / w, 3.0, 7.5)) + 1.0
-    return (width + legend_width, max(height, 4.0))
+    pad = 0.24 * max(w, h)  # frame_axes' padding on both sides
+    axes_h = float(np.clip((width - 0.8) * (h + pad) / (w + pad), 2.0, 6.5))
+    return (width, axes_h + 1.0 + legend_h)
+
+
+def legend_below(fig: Figure, handles: list, height=None, fontsize="small"):
+    """The legend under the axes, across the figure: in two columns where they fit the figure's
+    width, else in one. With ``height`` (a function of the legend's height in inches giving the
+    figure's size) the figure is resized to make room for it."""
+    renderer = fig.canvas.get_renderer()
+    for ncols in (2, 1):
+        legend = fig.legend(
+            handles=handles, loc="outside lower center", ncols=ncols, fontsize=fontsize,
+            frameon=False,
+        )  # fmt: skip
+        box = legend.get_window_extent(renderer)
+        if ncols == 1 or box.width <= 0.97 * fig.bbox.width:
+            break
+        legend.remove()
+    if height is not None:
+        fig.set_size_inches(height(box.height / fig.dpi))
+    return legend
 
 
 def frame_axes(ax: Axes, sc: Scenario, result: PlanResult) -> None:
@@ -227,3 +253,63 @@ def sweep_colors(n: int):
 
     cmap = colormaps[SWEEP_CMAP]
     return [cmap(v) for v in np.linspace(0.3, 1.0, n)] if n else []
+
+
+# --------------------------------------------------------------------------- reversing
+
+
+def forward_speed(result: PlanResult) -> np.ndarray | None:
+    """The signed speed along the heading at each trajectory sample (negative: reversing).
+
+    The control ``v`` where the model has one, else ``cos(theta) x' + sin(theta) y'`` from the
+    samples. None without a trajectory."""
+    tr = result.trajectory
+    if tr is None or tr.t.size < 2:
+        return None
+    names = list(result.control_names)
+    if "v" in names and tr.u.ndim == 2 and tr.u.shape[1] > names.index("v"):
+        return np.asarray(tr.u[:, names.index("v")], dtype=float)
+    th = tr.x[:, 2]
+    dx, dy = (np.gradient(tr.x[:, i], tr.t) for i in range(2))
+    return np.cos(th) * dx + np.sin(th) * dy
+
+
+def reversing_runs(result: PlanResult) -> list[tuple[int, int]]:
+    """Sample index ranges ``[i, j)`` where the robot drives backwards (``v < 0``)."""
+    v = forward_speed(result)
+    if v is None:
+        return []
+    rev = np.r_[False, v < 0, False].astype(int)
+    edges = np.flatnonzero(np.diff(rev))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def draw_reversing(ax: Axes, result: PlanResult, lw: float = 2.2, zorder: float = 3.2) -> list:
+    """The reversing stretches of the path over the path line: orange and dashed, on a white
+    underlay that hides the path's own colour there. One labelled line (gid ``"reversing"``, NaN
+    between the stretches); nothing when the robot never reverses."""
+    runs = reversing_runs(result)
+    if not runs:
+        return []
+    tr = result.trajectory
+    n = tr.t.size
+    parts = []
+    for a, b in runs:  # one sample either side, so that the stretch meets the forward path
+        parts += [tr.x[max(a - 1, 0) : min(b + 1, n), :2], np.full((1, 2), np.nan)]
+    xy = np.concatenate(parts[:-1])
+    v = forward_speed(result)
+    share = float(np.sum(np.diff(tr.t) * (v[:-1] < 0)) / max(tr.t[-1] - tr.t[0], 1e-300))
+    label = f"{REVERSE_LABEL}: {share:.0%} of the time"
+    under = ax.plot(xy[:, 0], xy[:, 1], color="white", lw=lw + 0.6, zorder=zorder - 0.05)
+    over = ax.plot(xy[:, 0], xy[:, 1], color=REVERSE_COLOR, lw=lw, ls=(0, (3.0, 1.2)),
+                   zorder=zorder, gid=GID_REVERSING, label=label)  # fmt: skip
+    return under + over
+
+
+def heading_colors(result: PlanResult, ts: np.ndarray) -> list:
+    """Arrow colours at times ``ts``: the reversing colour where ``v < 0``."""
+    v = forward_speed(result)
+    if v is None:
+        return [ARROW_COLOR] * len(ts)
+    vs = np.interp(ts, result.trajectory.t, v)
+    return [REVERSE_COLOR if s < 0 else ARROW_COLOR for s in vs]
