@@ -402,35 +402,57 @@ def _markdown(rep: Report) -> str:
     return "\n".join(out) + "\n"
 
 
-def _ecdf(ax, values, label):
+# --------------------------------------------------------------------------- figures
+
+_COLORS = tuple(
+    f"tab:{c}" for c in "blue orange green red purple brown pink gray olive cyan".split()
+)
+_LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (8, 2)), (0, (1, 1)))
+_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "h")
+
+
+def method_style(k: int) -> dict:
+    """The k-th method's colour, line style, marker and width: (colour, line style) pairs differ
+    for the first 70 methods, and each line is thinner than the one before it, so that curves on
+    top of each other stay visible (the earlier ones show round the later ones)."""
+    return {
+        "color": _COLORS[k % len(_COLORS)],
+        "ls": _LINESTYLES[k % len(_LINESTYLES)],
+        "marker": _MARKERS[k % len(_MARKERS)],
+        "lw": max(2.8 - 0.5 * k, 1.0),
+    }
+
+
+def _ecdf(ax, values, label, k: int = 0, log: bool = True):
+    """The empirical distribution of ``values`` as a step line from 0 to 1, with hollow markers
+    at (a staggered subset of) the runs."""
     v = np.sort(np.asarray(values, dtype=float))
-    if v.size:
-        ax.step(v, np.arange(1, v.size + 1) / v.size, where="post", label=label)
+    if not v.size:
+        return None
+    x = np.r_[v[0], v]
+    y = np.r_[0.0, np.arange(1, v.size + 1) / v.size]
+    step = max(1, v.size // 12)
+    (line,) = ax.step(
+        x, y, where="post", label=f"{label} (n = {v.size})", markevery=(1 + k % step, step),
+        ms=5, mfc="none", mew=1.2, zorder=2 + 0.1 * k, **method_style(k),
+    )  # fmt: skip
+    return line
 
 
-def save_report(rep: Report, folder) -> list[Path]:
-    """Write ``report.md`` and the three figures into ``folder`` (created); each atomically."""
-    import matplotlib
+def _scale(ax, values) -> None:
+    """Log x scale where the values span more than a factor of 10, else linear."""
+    v = np.concatenate([np.asarray(x, dtype=float) for x in values] or [np.zeros(0)])
+    v = v[np.isfinite(v) & (v > 0)]
+    if v.size and v.max() > 10 * v.min():
+        ax.set_xscale("log")
 
-    matplotlib.use("Agg")  # files only; never a window
-    import matplotlib.pyplot as plt
 
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    written = []
-    md = rep.to_markdown()
-    path = folder / "report.md"
-    write_atomic(path, lambda tmp: Path(tmp).write_text(md, encoding="utf-8"))
-    written.append(path)
-
-    def save(fig, name):
-        p = folder / name
-        write_atomic(p, lambda tmp: fig.savefig(tmp, dpi=120))
-        plt.close(fig)
-        written.append(p)
+def _success_figure(rep: Report):
+    from ..viz.style import new_figure
 
     names = [m.method for m in rep.methods]
-    fig, ax = plt.subplots(figsize=(1.6 + 1.2 * len(names), 3.5), layout="constrained")
+    fig = new_figure(figsize=(1.8 + 1.2 * len(names), 3.8))
+    ax = fig.add_subplot()
     rate = np.array([m.success_rate for m in rep.methods])
     err = np.array(
         [
@@ -438,27 +460,70 @@ def save_report(rep: Report, folder) -> list[Path]:
             [m.ci_high - m.success_rate for m in rep.methods],
         ]
     )
-    ax.bar(names, rate, yerr=err, capsize=4, color="tab:blue")
+    colors = [method_style(k)["color"] for k in range(len(names))]
+    bars = ax.bar(names, rate, yerr=err, capsize=4, color=colors, alpha=0.85, ecolor="0.2")
+    for bar, m in zip(bars, rep.methods, strict=True):
+        ax.annotate(
+            f"{m.converged}/{m.runs}", (bar.get_x() + bar.get_width() / 2, 0.02), ha="center",
+            va="bottom", fontsize="small", color="white", fontweight="bold",
+        )  # fmt: skip
     ax.set_ylim(0, 1.05)
-    ax.set_ylabel("success rate (95% Wilson CI)")
+    ax.set_ylabel("success rate")
     ax.tick_params(axis="x", rotation=20)
-    save(fig, "success.png")
+    ax.set_title(f"Success per method, 95% Wilson intervals ({rep.scenarios} scenarios)")
+    return fig
 
-    fig, ax = plt.subplots(figsize=(5.5, 3.5), layout="constrained")
-    for m in names:
-        _ecdf(ax, rep.cost_ratios[m], m)
-    ax.set_xscale("log")
-    ax.set_xlabel("cost / best cost on the scenario")
-    ax.set_ylabel("fraction of converged runs")
-    ax.legend()
-    save(fig, "cost_ratio_ecdf.png")
 
-    fig, ax = plt.subplots(figsize=(5.5, 3.5), layout="constrained")
-    for m in names:
-        _ecdf(ax, [t for t in rep.times[m] if t > 0], m)
-    ax.set_xscale("log")
-    ax.set_xlabel("solver wall time per run (s)")
-    ax.set_ylabel("fraction of runs")
-    ax.legend()
-    save(fig, "time_ecdf.png")
+def _ecdf_figure(series: dict, title: str, xlabel: str, ylabel: str):
+    from ..viz.style import new_figure
+
+    fig = new_figure(figsize=(6.4, 4.0))
+    ax = fig.add_subplot()
+    for k, (m, values) in enumerate(series.items()):
+        _ecdf(ax, values, m, k)
+    _scale(ax, series.values())
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="lower right", fontsize="small", framealpha=0.9)
+    return fig
+
+
+def report_figures(rep: Report) -> dict:
+    """The report's figures by file name: ``success.png``, ``cost_ratio_ecdf.png`` and
+    ``time_ecdf.png`` (matplotlib figures on the Agg canvas; nothing is shown or saved)."""
+    names = [m.method for m in rep.methods]
+    return {
+        "success.png": _success_figure(rep),
+        "cost_ratio_ecdf.png": _ecdf_figure(
+            {m: rep.cost_ratios[m] for m in names},
+            "Cost relative to the best found on each scenario",
+            "cost / best cost on the scenario",
+            "fraction of converged runs",
+        ),
+        "time_ecdf.png": _ecdf_figure(
+            {m: [t for t in rep.times[m] if t > 0] for m in names},
+            "Solver wall time per run",
+            "solver wall time per run (s)",
+            "fraction of runs",
+        ),
+    }
+
+
+def save_report(rep: Report, folder) -> list[Path]:
+    """Write ``report.md`` and the three figures into ``folder`` (created); each atomically."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    md = rep.to_markdown()
+    path = folder / "report.md"
+    write_atomic(path, lambda tmp: Path(tmp).write_text(md, encoding="utf-8"))
+    written.append(path)
+    for name, fig in report_figures(rep).items():
+        p = folder / name
+        write_atomic(p, lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=150))
+        written.append(p)
     return written
