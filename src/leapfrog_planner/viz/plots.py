@@ -215,7 +215,8 @@ def _draw_sweeps(fig: Figure, ax: Axes, sc: Scenario, result: PlanResult) -> Non
             "sweeps", colors if len(colors) > 1 else colors * 2
         )
         sm = ScalarMappable(norm=Normalize(1, max(len(hist), 2)), cmap=cmap)
-        cb = fig.colorbar(sm, ax=ax, shrink=0.7, pad=0.02)
+        cax = ax.inset_axes([1.02, 0.0, 0.03, 1.0])  # as high as the axes, however flat they are
+        cb = fig.colorbar(sm, cax=cax)
         cb.set_label("sweep")
     tr = result.trajectory
     if tr is not None:
@@ -228,6 +229,7 @@ def _draw_sweeps(fig: Figure, ax: Axes, sc: Scenario, result: PlanResult) -> Non
             gid=GID_PATH,
             label=f"final path (J = {cost_text(result.cost)})",
         )
+        draw_reversing(ax, result, lw=1.8)
     draw_ends(ax, sc, L, label=False)
     frame_axes(ax, sc, result)
     ax.set_title("junctions after each sweep")

@@ -1,0 +1,278 @@
+"""Figures as a reader sees them: where the legend is, equal aspect, one title, reversing shown,
+the GIF's size and frames, and report curves that stay apart where they overlap."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import matplotlib
+import numpy as np
+import pytest
+from matplotlib.axes import Axes
+from matplotlib.colors import to_rgba
+from matplotlib.figure import Figure
+from PIL import Image
+
+from leapfrog_planner.batch.report import build_report, report_figures
+from leapfrog_planner.experiments import paper
+from leapfrog_planner.planning.planner import plan
+from leapfrog_planner.planning.scenario import load_scenario
+from leapfrog_planner.viz import animation
+from leapfrog_planner.viz import plots as viz_plots
+from leapfrog_planner.viz.plots import animate_sweeps, plot_convergence, plot_path, save_figure
+from leapfrog_planner.viz.style import ARROW_COLOR, PATH_COLOR, REVERSE_COLOR
+
+matplotlib.use("Agg")
+
+
+@pytest.fixture(scope="module")
+def case1():
+    """Paper case 1: its optimum reverses at both ends (v < 0 on 30% of the time)."""
+    result = plan("paper-case-1")
+    assert result.success, result.message
+    return result, load_scenario("paper-case-1")
+
+
+@pytest.fixture(scope="module")
+def case2():
+    """Paper case 2: two discs, two other local optima with their paths, never reverses."""
+    result = plan("paper-case-2")
+    assert result.success, result.message
+    return result, load_scenario("paper-case-2")
+
+
+def titles(fig: Figure) -> list[str]:
+    """Every non-empty title of the figure: the axes' (left, centre, right) and the suptitle."""
+    out = [ax.get_title(loc) for ax in fig.axes for loc in ("left", "center", "right")]
+    if fig._suptitle is not None:  # no public getter tells 'none'
+        out.append(fig._suptitle.get_text())
+    return [t for t in out if t.strip()]
+
+
+def dashes(line) -> tuple:
+    """The line style as drawn, before scaling by the width ('--' for every custom pattern)."""
+    return line._unscaled_dash_pattern
+
+
+def by_gid(ax: Axes, gid: str) -> list:
+    return [a for a in [*ax.lines, *ax.collections] if a.get_gid() == gid]
+
+
+# --------------------------------------------------------------------------- path figure
+
+
+@pytest.mark.parametrize("name", ["case1", "case2"])
+def test_path_legend_is_below_the_axes_and_inside_the_figure(name, request):
+    result, sc = request.getfixturevalue(name)
+    ax = plot_path(result, sc)
+    fig = ax.figure
+    fig.canvas.draw()
+    (legend,) = fig.legends
+    lb, ab, fb = legend.get_window_extent(), ax.get_window_extent(), fig.bbox
+    assert lb.y1 <= ab.y0  # below the axes, not beside them
+    assert lb.x0 >= fb.x0 - 1 and lb.x1 <= fb.x1 + 1 and lb.y0 >= fb.y0 - 1
+    assert ab.width >= 0.75 * fb.width  # no side strip: the axes take the figure's width
+    assert ax.get_legend() is None
+
+
+def test_path_legend_on_given_axes_is_inside_them(case2):
+    result, sc = case2
+    fig = Figure(figsize=(6, 6))
+    ax = plot_path(result, sc, fig.add_subplot())
+    fig.canvas.draw()
+    lb, ab = ax.get_legend().get_window_extent(), ax.get_window_extent()
+    assert ab.x0 <= lb.x0 and lb.x1 <= ab.x1 and ab.y0 <= lb.y0 and lb.y1 <= ab.y1
+
+
+@pytest.mark.parametrize("name", ["case1", "case2"])
+def test_path_has_equal_aspect_and_one_title(name, request):
+    result, sc = request.getfixturevalue(name)
+    ax = plot_path(result, sc)
+    ax.figure.canvas.draw()
+    assert ax.get_aspect() == 1.0
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    box = ax.get_window_extent()
+    assert (x1 - x0) / (y1 - y0) == pytest.approx(box.width / box.height, rel=0.02)
+    (title,) = titles(ax.figure)
+    assert "\n" not in title and sc.name in title
+
+
+def test_reversing_is_drawn_in_its_own_style(case1):
+    result, sc = case1
+    ax = plot_path(result, sc)
+    tr = result.trajectory
+    v = tr.u[:, list(result.control_names).index("v")]
+    assert 0.25 < (v < 0).mean() < 0.35  # the issue's 30%
+
+    (rev,) = by_gid(ax, "reversing")
+    (path,) = by_gid(ax, "optimal-path")
+    assert rev.get_label().startswith("reversing (v < 0)")
+    assert to_rgba(rev.get_color()) == to_rgba(REVERSE_COLOR) != to_rgba(path.get_color())
+    assert dashes(rev) != dashes(path) and rev.get_zorder() > path.get_zorder()
+    # Its points are the reversing samples (two stretches, one forward sample either side).
+    xy = np.column_stack([rev.get_xdata(), rev.get_ydata()])
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    assert abs(len(xy) - int((v < 0).sum())) <= 4
+    i = np.argmin(np.hypot(*(tr.x[:, None, :2] - xy[None]).transpose(2, 0, 1)), axis=0)
+    assert (v[i] < 0).mean() > 0.95
+
+    # The heading arrows take the reversing colour exactly where v < 0.
+    (q,) = [c for c in by_gid(ax, "heading") if hasattr(c, "U")]
+    ts = np.linspace(tr.t[0], tr.t[-1], q.N + 2)[1:-1]
+    backwards = np.interp(ts, tr.t, v) < 0
+    assert backwards.any() and not backwards.all()
+    colors = [tuple(c) for c in q.get_facecolors()]
+    expected = [to_rgba(REVERSE_COLOR) if b else to_rgba(ARROW_COLOR) for b in backwards]
+    assert colors == expected
+
+    texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]
+    assert any(t.startswith("reversing (v < 0)") and "30%" in t for t in texts)
+
+    # The convergence figure marks it on the final path too.
+    assert len(by_gid(plot_convergence(result, sc).axes[0], "reversing")) == 1
+
+
+def test_no_reversing_style_when_the_robot_only_drives_forwards(case1, case2):
+    result, sc = case2
+    ax = plot_path(result, sc)
+    assert by_gid(ax, "reversing") == []
+    assert not any("reversing" in t.get_text() for t in ax.figure.legends[0].get_texts())
+    # Case 1 with |v| in place of v: the control decides, nothing is drawn as reversing.
+    r1, sc1 = case1
+    tr = r1.trajectory
+    u = tr.u.copy()
+    u[:, 0] = np.abs(u[:, 0])
+    fwd = dataclasses.replace(r1, trajectory=dataclasses.replace(tr, u=u))
+    assert by_gid(plot_path(fwd, sc1), "reversing") == []
+
+
+def test_alternatives_are_drawn_each_in_its_own_style(case2):
+    result, sc = case2
+    kept = [a for a in result.alternatives if a.trajectory is not None]
+    assert len(kept) >= 2
+    ax = plot_path(result, sc)
+    alts = [line for line in ax.lines if "local optimum" in line.get_label()]
+    assert len(alts) == len(kept)
+    assert len({dashes(line) for line in alts}) == len(alts)
+    for line, alt in zip(alts, kept, strict=True):
+        np.testing.assert_array_equal(line.get_xdata(), alt.trajectory.x[:, 0])
+        assert to_rgba(line.get_color()) != to_rgba(PATH_COLOR)
+
+
+# --------------------------------------------------------------------------- paper figures
+
+
+def test_paper_figures_carry_one_title(case1, monkeypatch, tmp_path):
+    result, _ = case1
+    run = paper.MethodRun("modified-newton", result, (1.0,))
+    nm = paper.MethodRun("newton", result, (1.0,))
+    res = paper.PaperResult(
+        paper.PaperSettings(cases=(1,), repeat=1),
+        (paper.CaseRun(1, "paper-case-1", 0, nm, run),),
+        paper.machine_info(),
+        1.0,
+    )
+    saved = []
+    monkeypatch.setattr(viz_plots, "save_figure", lambda fig, path: saved.append(fig) or path)
+    paper.write_paper(res, tmp_path)
+    (fig,) = saved
+    fig = fig.figure if isinstance(fig, Axes) else fig
+    (title,) = titles(fig)
+    assert title == f"Figure 1: paper-case-1, Leapfrog with MNM, J = {result.cost:.6g}"
+
+
+# --------------------------------------------------------------------------- save_figure
+
+
+def test_save_figure_takes_an_axes(case1, tmp_path):
+    result, sc = case1
+    ax = plot_path(result, sc)
+    w, h = ax.figure.get_size_inches()
+    out = save_figure(ax, tmp_path / "p.png")
+    with Image.open(out) as im:
+        assert abs(im.size[0] - w * 150) <= 1 and abs(im.size[1] - h * 150) <= 1
+    with pytest.raises(TypeError, match="Figure or Axes"):
+        save_figure("not a figure", tmp_path / "q.png")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.png"]
+
+
+# --------------------------------------------------------------------------- GIF
+
+
+def test_gif_is_large_and_its_frames_differ(case1, tmp_path):
+    result, sc = case1
+    gif = animate_sweeps(result, sc, tmp_path / "a.gif")
+    with Image.open(gif) as im:
+        assert im.size[0] >= 780 and 300 <= im.size[1] <= 900
+        n = im.n_frames
+        frames = []
+        for k in range(n):
+            im.seek(k)
+            frames.append(np.asarray(im.convert("RGB"), dtype=int))
+    # initial, each sweep, the final path (held three frames long: GIF merges equal frames)
+    assert n == len(result.history) + 2
+    for a, b in zip(frames[:-1], frames[1:], strict=True):
+        assert np.abs(a - b).sum() > 0  # each frame changes the picture
+    # The final frames draw the reversing stretches in orange: more orange than in frame 0
+    # (where only the legend has it).
+    orange = np.array([255, 127, 14])
+
+    def n_orange(f):
+        return int((np.abs(f - orange).sum(axis=2) < 60).sum())
+
+    assert n_orange(frames[-1]) > n_orange(frames[0]) + 100
+
+
+def test_gif_counts_the_sweeps(case1):
+    result, sc = case1
+    texts = [text for _, _, text in animation._frames(sc, result)]
+    K = len(result.history)
+    assert texts[0].startswith(f"initial path (sweep 0 of {K}), cost J = ")
+    for k in range(1, K + 1):
+        assert re.match(rf"sweep {k} of {K}, cost J = \d", texts[k])
+    assert texts[-1] == f"final extremal after {K} sweeps, cost J = {result.cost:.6g}"
+    names = [h.get_label() for h in animation._legend_handles(sc, result)]
+    assert "final extremal" in names and "heading" in names
+    assert any(n.startswith("reversing (v < 0)") for n in names)
+
+
+# --------------------------------------------------------------------------- report figures
+
+
+def _rec(scenario, method, cost, t):
+    return {
+        "scenario": scenario,
+        "method": method,
+        "status": "failed" if cost is None else "converged",
+        "failure": None if cost is not None else "solver",
+        "cost": cost,
+        "wall_time_s": t,
+        "newton_iterations": 10,
+    }
+
+
+def test_report_curves_stay_apart_and_every_figure_has_a_title():
+    methods = ["newton", "modified-newton", "nleq-err", "shooting", "direct"]
+    recs = []
+    for i in range(12):  # the first three methods find the same costs: identical curves
+        for k, m in enumerate(methods):
+            cost = None if (m == "shooting" and i % 2) else 1.0 + (0.01 * i if k == 4 else 0.0)
+            recs.append(_rec(f"s{i}", m, cost, 0.01 * (i + 1) * (1 + k)))
+    figs = report_figures(build_report(recs))
+    assert sorted(figs) == ["cost_ratio_ecdf.png", "success.png", "time_ecdf.png"]
+    for name, fig in figs.items():
+        (title,) = titles(fig)
+        assert title and "\n" not in title, name
+    for name in ("cost_ratio_ecdf.png", "time_ecdf.png"):
+        (ax,) = figs[name].axes
+        lines = [line for line in ax.get_lines() if not line.get_label().startswith("_")]
+        assert len(lines) == len(methods)
+        styles = {(to_rgba(line.get_color()), dashes(line)) for line in lines}
+        assert len(styles) == len(methods), name  # pairwise distinct colour and line style
+        assert len({line.get_marker() for line in lines}) == len(methods)
+        widths = [line.get_linewidth() for line in lines]
+        assert widths == sorted(widths, reverse=True) and widths[0] > widths[-1]
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        shooting = 6 if name == "cost_ratio_ecdf.png" else 12  # converged runs; all runs
+        assert labels[0] == "newton (n = 12)" and labels[3] == f"shooting (n = {shooting})"
