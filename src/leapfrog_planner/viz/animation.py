@@ -77,7 +77,7 @@ def _frames(sc: Scenario, result: PlanResult) -> list[tuple[str, np.ndarray | No
 
 def _legend_handles(sc: Scenario, result: PlanResult) -> list:
     """Proxies for what the frames draw (the moving artists are not there when the legend is)."""
-    current = sweep_colors(3)[1]
+    current = sweep_colors(3, lightest=0.5)[1]
     handles = []
     if sc.obstacles.shape[0]:
         handles.append(Patch(facecolor=OBSTACLE_FACE, edgecolor=OBSTACLE_EDGE, label="obstacles"))
@@ -131,16 +131,68 @@ def _animation_canvas(sc: Scenario, result: PlanResult, L: float) -> tuple[Figur
     return fig, ax
 
 
+def _draw_frame(ax: Axes, result: PlanResult, frame, color, done: list, L: float) -> list:
+    """The moving artists of one frame: the last few junction sets faint, then this frame's
+    junctions with their headings, or the final path with reversing and headings."""
+    kind, X, _ = frame
+    tr = result.trajectory
+    artists: list = []
+    for old in done[-6:]:
+        artists += ax.plot(old[:, 0], old[:, 1], color="0.75", lw=0.8, zorder=2)
+    if kind == "junctions" and X is not None:
+        artists += ax.plot(X[:, 0], X[:, 1], "o-", color=color, ms=4, lw=1.4, zorder=3)
+        if X.shape[1] >= 3:
+            artists.append(
+                draw_arrows(ax, X[1:-1, :2], X[1:-1, 2], 0.7 * L, gid=GID_HEADING, color=color)
+            )
+        done.append(X)
+    elif kind == "final" and tr is not None:
+        artists += ax.plot(tr.x[:, 0], tr.x[:, 1], color="black", lw=2.0, zorder=3)
+        artists += draw_reversing(ax, result, lw=2.0)
+        ts = np.linspace(tr.t[0], tr.t[-1], 11)[1:-1]
+        xy = np.column_stack([np.interp(ts, tr.t, tr.x[:, i]) for i in range(2)])
+        th = np.interp(ts, tr.t, tr.x[:, 2])
+        artists.append(
+            draw_arrows(ax, xy, th, L, gid=GID_HEADING, color=heading_colors(result, ts))
+        )
+    return artists
+
+
+def _write_gif(images: list, tmp: str, fps: float) -> None:
+    """The frames (RGB arrays) as a looping GIF, all on one palette: the 256 commonest colours
+    of the first, middle and last frames, exactly, each pixel mapped to its nearest (a palette per
+    frame turned the legend's orange brown where no path was drawn yet; Pillow's own mapping
+    turned white into light grey)."""
+    from PIL import Image
+
+    keys = [(im[..., 0] << 16) | (im[..., 1] << 8) | im[..., 2] for im in images]
+    sample = np.concatenate([keys[k].ravel() for k in sorted({0, len(keys) // 2, len(keys) - 1})])
+    colours, counts = np.unique(sample, return_counts=True)
+    pal = colours[np.argsort(-counts, kind="stable")[:256]]
+    pal_rgb = np.stack([(pal >> 16) & 255, (pal >> 8) & 255, pal & 255], axis=1)
+    frames = []
+    for key in keys:
+        uniq, inverse = np.unique(key, return_inverse=True)
+        rgb = np.stack([(uniq >> 16) & 255, (uniq >> 8) & 255, uniq & 255], axis=1)
+        nearest = np.argmin(((rgb[:, None, :] - pal_rgb[None, :, :]) ** 2).sum(axis=2), axis=1)
+        frame = Image.fromarray(nearest[inverse.reshape(key.shape)].astype(np.uint8))  # L, then P
+        frame.putpalette(pal_rgb.astype(np.uint8).ravel().tolist())
+        frames.append(frame)
+    frames[0].save(
+        tmp, format="GIF", save_all=True, append_images=frames[1:], loop=0,
+        duration=round(1000 / fps), disposal=1,
+    )  # fmt: skip
+
+
 def animate_sweeps(result: PlanResult, scenario: Scenario | str, path, *, fps: int = 4) -> Path:
     """Write an animated GIF of the junctions sweep by sweep, then the final path.
 
     Frame 0 shows the initial junctions, frame k the junctions after sweep k (earlier sweeps
-    faint), and the last frames the final path with its heading arrows (if there is one). The
-    file (extension ``.gif``) is written through a temporary file in the same folder and a
-    rename. Returns the path.
+    faint), and the last frames the final path with its heading arrows (if there is one), the
+    reversing stretches orange. Above the axes: the scenario and a sweep counter with the cost;
+    below them a legend. 800 pixels wide. The file (extension ``.gif``) is written through a
+    temporary file in the same folder and a rename. Returns the path.
     """
-    from matplotlib.animation import PillowWriter
-
     path = Path(path)
     if path.suffix.lower() != ".gif":
         raise ValueError(f"{path.name}: an animation is written as GIF, expected a .gif file")
@@ -150,47 +202,18 @@ def animate_sweeps(result: PlanResult, scenario: Scenario | str, path, *, fps: i
     L = arrow_length(sc, result)
     fig, ax = _animation_canvas(sc, result, L)
     frames = _frames(sc, result)
-    tr = result.trajectory
-    title = ax.title
-    colors = sweep_colors(max(len(frames), 1))
+    colors = sweep_colors(max(len(frames), 1), lightest=0.5)  # the first ones visible too
 
-    def render(tmp: str) -> None:
-        dynamic: list = []  # artists of the current frame
-        done: list[np.ndarray] = []  # junctions shown so far, drawn faint
-        writer = PillowWriter(fps=fps)
-        with writer.saving(fig, tmp, dpi=fig.dpi):
-            for k, (kind, X, text) in enumerate(frames):
-                for a in dynamic:
-                    a.remove()
-                dynamic.clear()
-                for old in done[-6:]:
-                    dynamic += ax.plot(old[:, 0], old[:, 1], color="0.75", lw=0.8, zorder=2)
-                if kind == "junctions" and X is not None:
-                    dynamic += ax.plot(
-                        X[:, 0], X[:, 1], "o-", color=colors[k], ms=4, lw=1.4, zorder=3
-                    )
-                    if X.shape[1] >= 3:
-                        dynamic.append(
-                            draw_arrows(
-                                ax,
-                                X[1:-1, :2],
-                                X[1:-1, 2],
-                                0.7 * L,
-                                gid=GID_HEADING,
-                                color=colors[k],
-                            )
-                        )
-                    done.append(X)
-                elif kind == "final" and tr is not None:
-                    dynamic += ax.plot(tr.x[:, 0], tr.x[:, 1], color="black", lw=2.0, zorder=3)
-                    dynamic += draw_reversing(ax, result, lw=2.0)
-                    ts = np.linspace(tr.t[0], tr.t[-1], 11)[1:-1]
-                    xy = np.column_stack([np.interp(ts, tr.t, tr.x[:, i]) for i in range(2)])
-                    th = np.interp(ts, tr.t, tr.x[:, 2])
-                    color = heading_colors(result, ts)
-                    dynamic.append(draw_arrows(ax, xy, th, L, gid=GID_HEADING, color=color))
-                title.set_text(f"{sc.name}: Leapfrog ({result.method})\n{text}")
-                writer.grab_frame()
+    images = []
+    dynamic: list = []  # artists of the current frame
+    done: list[np.ndarray] = []  # junctions shown so far, drawn faint
+    for k, frame in enumerate(frames):
+        for a in dynamic:
+            a.remove()
+        dynamic = _draw_frame(ax, result, frame, colors[k], done, L)
+        ax.title.set_text(f"{sc.name}: Leapfrog ({result.method})\n{frame[2]}")
+        fig.canvas.draw()
+        images.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].astype(np.int64))
 
-    _write_atomic(path, render)
+    _write_atomic(path, lambda tmp: _write_gif(images, tmp, fps))
     return path

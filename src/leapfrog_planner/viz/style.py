@@ -248,11 +248,11 @@ def no_data(ax: Axes, text: str) -> None:
     ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color="0.4")
 
 
-def sweep_colors(n: int):
+def sweep_colors(n: int, lightest: float = 0.3):
     from matplotlib import colormaps
 
     cmap = colormaps[SWEEP_CMAP]
-    return [cmap(v) for v in np.linspace(0.3, 1.0, n)] if n else []
+    return [cmap(v) for v in np.linspace(lightest, 1.0, n)] if n else []
 
 
 # --------------------------------------------------------------------------- reversing
