@@ -222,6 +222,8 @@ def test_gif_is_large_and_its_frames_differ(case1, tmp_path):
         return int((np.abs(f - orange).sum(axis=2) < 60).sum())
 
     assert n_orange(frames[-1]) > n_orange(frames[0]) + 100
+    assert n_orange(frames[0]) > 20  # the legend's entry keeps its colour in every frame
+    assert all(tuple(f[2, 2]) == (255, 255, 255) for f in frames)  # white stays white
 
 
 def test_gif_counts_the_sweeps(case1):
