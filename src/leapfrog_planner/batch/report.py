@@ -451,7 +451,7 @@ def _success_figure(rep: Report):
     from ..viz.style import new_figure
 
     names = [m.method for m in rep.methods]
-    fig = new_figure(figsize=(1.8 + 1.2 * len(names), 3.8))
+    fig = new_figure(figsize=(max(5.4, 1.8 + 1.2 * len(names)), 3.8))  # room for the title
     ax = fig.add_subplot()
     rate = np.array([m.success_rate for m in rep.methods])
     err = np.array(
@@ -461,15 +461,13 @@ def _success_figure(rep: Report):
         ]
     )
     colors = [method_style(k)["color"] for k in range(len(names))]
-    bars = ax.bar(names, rate, yerr=err, capsize=4, color=colors, alpha=0.85, ecolor="0.2")
-    for bar, m in zip(bars, rep.methods, strict=True):
-        ax.annotate(
-            f"{m.converged}/{m.runs}", (bar.get_x() + bar.get_width() / 2, 0.02), ha="center",
-            va="bottom", fontsize="small", color="white", fontweight="bold",
-        )  # fmt: skip
+    ticks = [f"{m.method}\n{m.converged}/{m.runs}" for m in rep.methods]  # names are unique
+    ax.bar(ticks, rate, yerr=err, capsize=4, color=colors, alpha=0.85, ecolor="0.2")
+    pad = max(0.0, (3 - len(names)) / 2)  # one or two bars no wider than three would be
+    ax.set_xlim(-0.6 - pad, len(names) - 0.4 + pad)
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("success rate")
-    ax.tick_params(axis="x", rotation=20)
+    ax.tick_params(axis="x", rotation=0 if max(map(len, names), default=0) <= 16 else 20)
     ax.set_title(f"Success per method, 95% Wilson intervals ({rep.scenarios} scenarios)")
     return fig
 
