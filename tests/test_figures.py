@@ -278,3 +278,89 @@ def test_report_curves_stay_apart_and_every_figure_has_a_title():
         labels = [t.get_text() for t in ax.get_legend().get_texts()]
         shooting = 6 if name == "cost_ratio_ecdf.png" else 12  # converged runs; all runs
         assert labels[0] == "newton (n = 12)" and labels[3] == f"shooting (n = {shooting})"
+
+
+# --------------------------------------------------------------------------- benchmark figures
+
+
+def _bench_result(solvers, failed=()):
+    """A synthetic peer benchmark on two scenarios: every solver succeeds except ``failed``
+    (solver, scenario) pairs."""
+    from leapfrog_planner.experiments.bench import BenchResult, BenchSettings
+    from leapfrog_planner.experiments.peers import PeerOutcome
+
+    names = ("paper-case-1", "random-0")
+    outcomes = []
+    for k, s in enumerate(solvers):
+        for i, name in enumerate(names):
+            ok = (s, name) not in failed
+            cost = 10.0 * (1 + 1e-4 * k) if ok else float("nan")
+            t = 1e-3 * (k + 1) * (i + 1)
+            outcomes.append(PeerOutcome(s, name, ok, cost, 1e-9, t, (t,), "" if ok else "no"))
+    return BenchResult(BenchSettings(cases=(1,), random=1), names, tuple(outcomes), (), None,
+                       (), {}, 0.0)  # fmt: skip
+
+
+def _bench_checks(fig, solvers):
+    """The legend below both axes and inside the figure, one title, and per solver one colour
+    that no other solver has, the same on its bars and its legend swatch."""
+    from matplotlib.patches import Patch
+
+    (legend,) = fig.legends
+    fig.canvas.draw()
+    lb, fb = legend.get_window_extent(), fig.bbox
+    for ax in fig.axes:
+        ab = ax.get_window_extent()
+        assert ax.get_legend() is None
+        assert lb.y1 <= ab.y0 + 1  # below the axes, not at their side
+        assert lb.x0 < ab.x1 - 0.5 * ab.width  # not a strip to the right
+    assert fb.x0 - 1 <= lb.x0 and lb.x1 <= fb.x1 + 1 and lb.y0 >= fb.y0 - 1
+    (title,) = titles(fig)
+    assert "\n" not in title
+    swatches = [h for h in legend.legend_handles if isinstance(h, Patch)]
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels[: len(solvers)] == list(solvers)
+    colours = [to_rgba(h.get_facecolor()) for h in swatches[: len(solvers)]]
+    assert len(set(colours)) == len(solvers)  # pairwise distinct
+    assert not any(h.get_hatch() for h in swatches[: len(solvers)])  # a method is never hatched
+    ax_t = fig.axes[0]
+    for s, c in zip(solvers, colours, strict=True):
+        bars = [p for p in ax_t.patches if p.get_gid() == f"time:{s}"]
+        assert bars and all(
+            (p.get_hatch() and to_rgba(p.get_edgecolor()) == c) or to_rgba(p.get_facecolor()) == c
+            for p in bars
+        )
+    return legend, swatches, labels
+
+
+def test_bench_figure_legend_below_with_distinct_colours_and_no_hatch_when_none_failed():
+    from leapfrog_planner.batch.report import method_style
+    from leapfrog_planner.experiments.bench import bench_figure
+
+    solvers = ["leapfrog-mnm", "leapfrog-mnm-1path", "shooting", "bvp-line"]
+    fig = bench_figure(_bench_result(solvers))
+    legend, swatches, labels = _bench_checks(fig, solvers)
+    assert len(labels) == len(solvers)  # no 'failed' entry: nothing failed
+    assert not any(p.get_hatch() for ax in fig.axes for p in ax.patches)
+    # The report figures' palette, in the same order.
+    assert [to_rgba(h.get_facecolor()) for h in swatches] == [
+        to_rgba(method_style(k)["color"]) for k in range(len(solvers))
+    ]
+
+
+def test_bench_figure_thirteen_solvers_and_a_failure_has_one_hatched_entry():
+    from leapfrog_planner.experiments.bench import bench_figure
+
+    solvers = ["leapfrog-mnm", "leapfrog-mnm-1path", "leapfrog-nm", "leapfrog-nleq-err",
+               "shooting", "bvp-line", "bvp-path"]  # fmt: skip
+    solvers += [f"direct-N{n}-{g}" for n in (100, 200) for g in ("line", "path", "paths")]
+    # The first solver fails on the first scenario: its swatch used to come out hatched.
+    failed = {("leapfrog-mnm", "paper-case-1"), ("direct-N200-line", "random-0")}
+    fig = bench_figure(_bench_result(solvers, failed))
+    legend, swatches, labels = _bench_checks(fig, solvers)
+    assert len(labels) == len(solvers) + 1 and "failed" in labels[-1]
+    assert [bool(h.get_hatch()) for h in swatches] == [False] * len(solvers) + [True]
+    hatched = [p for p in fig.axes[0].patches if p.get_hatch()]
+    assert len(hatched) == len(failed)
+    crosses = [line for line in fig.axes[1].lines if line.get_marker() == "x"]
+    assert sum(len(line.get_xdata()) for line in crosses) == len(failed)

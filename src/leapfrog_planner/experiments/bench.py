@@ -444,20 +444,61 @@ def bench_json(result: BenchResult) -> str:
 
 
 FLOOR_REL = 1e-10  # relative cost differences below this are shown at this height
+FAILED_HATCH = "//"
+
+
+def solver_colors(n: int) -> list:
+    """``n`` pairwise distinct colours: the report figures' ten (``batch.report.method_style``,
+    Matplotlib's tab10) first, then the light tab20 shades and tab20b/tab20c (60 in all, then
+    again). The benchmark has up to 13 solver rows with two meshes."""
+    from matplotlib import colormaps
+    from matplotlib.colors import to_hex
+
+    from ..batch.report import method_style
+
+    palette = [to_hex(method_style(k)["color"]) for k in range(10)]
+    palette += [to_hex(colormaps["tab20"](2 * j + 1)) for j in range(10)]
+    for name in ("tab20b", "tab20c"):
+        palette += [to_hex(c) for c in colormaps[name].colors]
+    palette = list(dict.fromkeys(palette))
+    return [palette[k % len(palette)] for k in range(n)]
+
+
+def _bench_legend(fig, handles: list):
+    """The legend under the axes, across the figure, in as many columns as fit its width (at
+    most five), the figure made taller by the legend's height."""
+    renderer = fig.canvas.get_renderer()
+    w, h = fig.get_size_inches()
+    for ncols in range(min(5, len(handles)), 0, -1):
+        legend = fig.legend(handles=handles, loc="outside lower center", ncols=ncols,
+                            fontsize="small", frameon=False)  # fmt: skip
+        box = legend.get_window_extent(renderer)
+        if ncols == 1 or box.width <= 0.97 * fig.bbox.width:
+            break
+        legend.remove()
+    fig.set_size_inches(w, h + box.height / fig.dpi)
+    return legend
 
 
 def bench_figure(result: BenchResult):
-    """Median time (log scale) and cost relative to the best, per scenario and solver."""
-    from matplotlib.figure import Figure
+    """Median time (log scale) and cost relative to the best, per scenario and solver: a bar per
+    solver in its own colour; a failed solve's time bar hatched and unfilled, its cost an x. The
+    legend below the axes names the solvers (plain swatches) and, when a solve failed, the
+    hatching."""
+    from matplotlib.patches import Patch
+
+    from ..viz.style import new_figure
 
     solvers = list(dict.fromkeys(o.solver for o in result.outcomes))
+    colors = solver_colors(len(solvers))
     names = list(result.scenarios)
     best = _best_costs(result)
-    fig = Figure(figsize=(max(8.0, 1.3 * len(names) + 3), 7.5), layout="constrained")
+    fig = new_figure(figsize=(max(8.0, 1.3 * len(names) + 2), 7.0))
     ax_t, ax_c = fig.subplots(2, 1, sharex=True)
     width = 0.8 / max(1, len(solvers))
     x = np.arange(len(names))
-    for k, s in enumerate(solvers):
+    any_failed = False
+    for k, (s, color) in enumerate(zip(solvers, colors, strict=True)):
         t, rel, fail = [], [], []
         for name in names:
             o = result.outcome(name, s)
@@ -467,20 +508,30 @@ def bench_figure(result: BenchResult):
             rel.append(max(r, FLOOR_REL) if ok else np.nan)
             fail.append(o is not None and not o.success)
         pos = x + (k - (len(solvers) - 1) / 2) * width
-        bars = ax_t.bar(pos, t, width, label=s, color=f"C{k % 10}")
+        bars = ax_t.bar(pos, t, width, color=color, gid=f"time:{s}")
         for b, f in zip(bars, fail, strict=True):
-            if f:
-                b.set_hatch("//")
-                b.set_alpha(0.45)
-        ax_c.bar(pos, rel, width, color=f"C{k % 10}")
-        ax_c.plot(pos[np.array(fail)], np.full(sum(fail), FLOOR_REL), "x", color=f"C{k % 10}", ms=7)
+            if f:  # unfilled, hatched in the solver's colour
+                b.set(facecolor="white", edgecolor=color, hatch=FAILED_HATCH, lw=0.8)
+        ax_c.bar(pos, rel, width, color=color, gid=f"cost:{s}")
+        if any(fail):
+            any_failed = True
+            ax_c.plot(pos[np.array(fail)], np.full(sum(fail), FLOOR_REL), ls="none", marker="x",
+                      color=color, ms=7, mew=1.5, gid=f"failed:{s}")  # fmt: skip
     ax_t.set_yscale("log")
-    ax_t.set_ylabel("median time (s); hatched: failed")
+    ax_t.set_ylabel("median time (s)")
     ax_c.set_yscale("log")
     ax_c.set_ylim(FLOOR_REL / 3, None)
-    ax_c.set_ylabel(f"cost / best - 1 (floored at {FLOOR_REL:g}; x: failed)")
-    ax_c.set_xticks(x, names, rotation=30, ha="right")
-    fig.legend(loc="outside right upper", fontsize="small")
+    ax_c.set_ylabel(f"cost / best cost - 1\n(floored at {FLOOR_REL:g})")
+    ax_c.set_xticks(
+        x, names, rotation=30 if len(names) > 1 else 0, ha="right" if len(names) > 1 else "center"
+    )
+    handles = [
+        Patch(facecolor=c, edgecolor="none", label=s) for s, c in zip(solvers, colors, strict=True)
+    ]
+    if any_failed:
+        handles.append(Patch(facecolor="white", edgecolor="0.3", hatch=FAILED_HATCH,
+                             label="failed (hatched time bar, x for the cost)"))  # fmt: skip
+    _bench_legend(fig, handles)
     fig.suptitle("Peer benchmark: time and cost per scenario")
     return fig
 
