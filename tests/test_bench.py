@@ -10,7 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from leapfrog_planner.cli import main
+from leapfrog_planner.cli.main import main
 from leapfrog_planner.errors import SettingsError
 from leapfrog_planner.experiments import bench, peers
 from leapfrog_planner.experiments.bench import BenchSettings, run_bench, target_ratios

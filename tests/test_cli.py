@@ -72,7 +72,7 @@ def test_module_runs_main():
     import leapfrog_planner.cli as cli
 
     text = (Path(cli.__file__).parent / "__main__.py").read_text()
-    assert re.search(r"^from \.main import run\n\nrun\(\)$", text, re.M)
+    assert re.search(r"^from \. import run\n\nrun\(\)$", text, re.M)
     (script,) = entry_points(group="console_scripts", name="leapfrog")
     assert script.value == "leapfrog_planner.cli:run"
 

@@ -51,6 +51,8 @@ def _wait_gone(pgid: int, seconds: float = 10.0) -> bool:
 @pytest.mark.parametrize(
     "args, delay",
     [
+        (["solve", "paper-case-1", "--quiet"], 0.15),  # while Python imports the command
+        (["solve", "paper-case-1", "--quiet"], 0.35),  # (numba, SciPy, click: 0.05-0.7 s)
         (["paper", "--out", "p", "--repeat", "20", "--quiet"], 0.5),  # while loading kernels
         (["paper", "--out", "p", "--repeat", "20", "--quiet"], 2.5),  # while planning
         (["sweep", "--n", "200", "--out", "r.jsonl", "--quiet"], 3.0),  # workers running

@@ -10,7 +10,7 @@ import re
 import matplotlib.image as mpimg
 import pytest
 
-from leapfrog_planner.cli import main
+from leapfrog_planner.cli.main import main
 from leapfrog_planner.errors import SettingsError
 from leapfrog_planner.experiments.paper import COLUMNS, PAPER_TABLE1, PaperSettings
 from leapfrog_planner.planning.planner import plan

@@ -2,19 +2,38 @@
 
 import importlib
 
-# first: importing _cache sets numba's cache up before any compiled function is defined
-from . import _cache, _compat  # noqa: F401
-from .bvp.shooting import ShootingResult, ShootingSettings, affine_costate_guess, solve_shooting
-from .errors import LeapfrogError, ModelError, ScenarioError, SettingsError
-from .integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
-from .model import MODELS, get_model
-from .model.kernels import ModelInfo, model_info
-from .model.problem import ObstaclePenalty, OptimalControlProblem, obstacle_penalty
-from .planning.scenario import Scenario, builtin_scenarios, load_scenario
+# First, and light: where numba keeps its compiled code (before any compiled function is defined).
+from . import _cache, _compat
 
-# SymPy-backed names load on first use, so that `import leapfrog_planner` stays fast.
-# The planner too: it loads the initial-path kernels.
+_cache.use_writable_numba_cache()
+
+# Every public name loads on first use, so that `import leapfrog_planner` takes milliseconds
+# (numba, SciPy and SymPy load with the first name that needs them) and the `leapfrog` command
+# can report a Ctrl-C during its start as one line.
 _LAZY = {
+    "ShootingResult": ".bvp.shooting",
+    "ShootingSettings": ".bvp.shooting",
+    "affine_costate_guess": ".bvp.shooting",
+    "solve_shooting": ".bvp.shooting",
+    "LeapfrogError": ".errors",
+    "ModelError": ".errors",
+    "ScenarioError": ".errors",
+    "SettingsError": ".errors",
+    "Flow": ".integrate.flow",
+    "FlowResult": ".integrate.flow",
+    "FlowStatus": ".integrate.flow",
+    "IntegratorSettings": ".integrate.flow",
+    "Trajectory": ".integrate.flow",
+    "MODELS": ".model",
+    "get_model": ".model",
+    "ModelInfo": ".model.kernels",
+    "model_info": ".model.kernels",
+    "ObstaclePenalty": ".model.problem",
+    "OptimalControlProblem": ".model.problem",
+    "obstacle_penalty": ".model.problem",
+    "Scenario": ".planning.scenario",
+    "builtin_scenarios": ".planning.scenario",
+    "load_scenario": ".planning.scenario",
     "VehicleModel": ".model.base",
     "CanonicalSystem": ".model.pmp",
     "derive": ".model.pmp",
@@ -29,8 +48,14 @@ _LAZY = {
 
 def __getattr__(name):
     if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value  # the next access is a plain attribute
+        return value
     raise AttributeError(f"module 'leapfrog_planner' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *_LAZY})
 
 
 _compat.install(__name__)  # the flat layout's module paths, for one release

@@ -14,11 +14,9 @@ from __future__ import annotations
 import logging
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
-
-import numba
-from numba.core.caching import _CacheLocator
 
 from ._atomic import write_atomic
 
@@ -76,15 +74,21 @@ def _writable(folder: Path) -> bool:
 def use_writable_numba_cache() -> None:
     """If numba cannot write beside the package, give it a writable cache folder, seeded with
     the package's compiled files (numba keys them by the source's content, so copies are valid).
-    ``NUMBA_CACHE_DIR``, when set, is the user's choice and is left alone."""
-    if numba.config.CACHE_DIR or _writable(PACKAGE / "model" / "__pycache__"):
+    ``NUMBA_CACHE_DIR``, when set, is the user's choice and is left alone. Cheap when the
+    package is writable: numba is not even imported."""
+    numba = sys.modules.get("numba")
+    chosen = numba.config.CACHE_DIR if numba else os.environ.get("NUMBA_CACHE_DIR")
+    if chosen or _writable(PACKAGE / "model" / "__pycache__"):
         return
     try:
         target = writable_dir("numba")
     except OSError as exc:
         log.info("no writable folder for numba's cache (%s): compiling without it", exc)
         return
-    numba.config.CACHE_DIR = str(target)
+    os.environ["NUMBA_CACHE_DIR"] = str(target)  # read by numba when it is imported
+    import numba
+
+    numba.config.CACHE_DIR = str(target)  # in case it was imported before
     for pycache in sorted(PACKAGE.rglob("__pycache__")):
         try:
             copy_compiled(pycache, numba_cache_of(pycache.parent))
@@ -95,6 +99,9 @@ def use_writable_numba_cache() -> None:
 
 def numba_cache_of(folder: Path) -> Path:
     """Where numba keeps the compiled code of the modules in ``folder``."""
+    import numba
+    from numba.core.caching import _CacheLocator
+
     if not numba.config.CACHE_DIR:
         return folder / "__pycache__"
     subpath = _CacheLocator.get_suitable_cache_subpath(str(folder / "module.py"))
@@ -107,6 +114,3 @@ def copy_compiled(source: Path, target: Path, stem: str = "") -> None:
     for f in sorted(source.glob(f"{stem or '*'}.*nb[ic]")):
         if not (target / f.name).exists():
             copy_atomic(f, target / f.name)
-
-
-use_writable_numba_cache()  # on import: the package imports this module before the others

@@ -1,5 +1,5 @@
 """``python -m leapfrog_planner.cli``: the ``leapfrog`` command."""
 
-from .main import run
+from . import run
 
 run()
