@@ -1,8 +1,10 @@
 """Bounded controls and the car against the direct method, on random layouts.
 
-    python benchmarks/bench_vehicles.py [--n 100] [--seed 11] [--vmax 3.0] [--car 50]
+    python benchmarks/bench_vehicles.py [--n 100] [--seed 11] [--vmax 3.0] [--omega 4.0]
+                                        [--car 50]
 
-1. Control bounds: each default-preset scenario with ``v = [0, vmax]``, planned, and solved by
+1. Control bounds: each default-preset scenario with ``v = [0, vmax]`` (and ``omega = [-omega,
+   omega]`` unless ``--omega 0``), planned, and solved by
    IPOPT with the same box constraints (meshes of 100 and 200 intervals from the planner's
    initial paths, Richardson-extrapolated). Prints how many converged, how many match IPOPT to
    1e-3, the median relative difference, where IPOPT found a cheaper optimum, and the largest
@@ -41,18 +43,26 @@ def bounded_direct(sc: Scenario, box) -> float:
     return richardson(coarse.cost, fine.cost)
 
 
-def bounds_table(n: int, seed: int, vmax: float) -> None:
+def bounds_table(n: int, seed: int, vmax: float, omega: float) -> None:
     converged, match, rel, cheaper, excess, failed_direct = 0, 0, [], [], 0.0, 0
+    bounds = {"v": (0.0, vmax), **({"omega": (-omega, omega)} if omega else {})}
+    box = (bounds["v"], bounds.get("omega"))
+    active = 0
     for base in generate(GeneratorSpec(n=n, seed=seed)):
-        sc = dataclasses.replace(base, control_bounds={"v": (0.0, vmax)})
+        sc = dataclasses.replace(base, control_bounds=bounds)
         r = plan(sc)
         if not r.success:
             print(f"{sc.name}: {r.status}: {r.message}")
             continue
         converged += 1
-        v = r.trajectory.u[:, 0]
+        v, w = r.trajectory.u[:, 0], r.trajectory.u[:, 1]
         excess = max(excess, -v.min(), v.max() - vmax)
-        ref = bounded_direct(sc, ((0.0, vmax), None))
+        if omega:
+            excess = max(excess, np.abs(w).max() - omega)
+        active += bool(
+            v.min() < 1e-3 or v.max() > vmax - 1e-3 or (omega and np.abs(w).max() > omega - 1e-3)
+        )
+        ref = bounded_direct(sc, box)
         if not math.isfinite(ref):
             failed_direct += 1
             continue
@@ -61,7 +71,8 @@ def bounds_table(n: int, seed: int, vmax: float) -> None:
         rel.append(d)
         if ref < r.cost * (1 - 1e-3):
             cheaper.append(f"{sc.name} ({r.cost:.6g} vs IPOPT {ref:.6g})")
-    print(f"\ncontrol bounds v in [0, {vmax:g}], {n} scenarios (seed {seed}):")
+    where = f"v in [0, {vmax:g}]" + (f", omega in [-{omega:g}, {omega:g}]" if omega else "")
+    print(f"\ncontrol bounds {where}, {n} scenarios (seed {seed}); a bound active in {active}:")
     print(
         f"  converged {converged}/{n}; match IPOPT to 1e-3: {match}; IPOPT failed: {failed_direct}"
     )
@@ -90,11 +101,13 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=100)
     ap.add_argument("--seed", type=int, default=11)
     ap.add_argument("--vmax", type=float, default=3.0)
+    ap.add_argument("--omega", type=float, default=4.0, help="0: omega unbounded")
     ap.add_argument("--car", type=int, default=50)
     ap.add_argument("--car-seed", type=int, default=3)
     a = ap.parse_args()
-    bounds_table(a.n, a.seed, a.vmax)
-    car_table(a.car, a.car_seed)
+    bounds_table(a.n, a.seed, a.vmax, a.omega)
+    if a.car:
+        car_table(a.car, a.car_seed)
 
 
 if __name__ == "__main__":

@@ -90,6 +90,37 @@ def test_a_robot_that_never_reverses_matches_the_bounded_direct_method(case):
     assert abs(r.cost - _direct(sc, bounds)) <= 1e-5 * r.cost
 
 
+@pytest.mark.parametrize("case, w", [(1, 4.0), (2, 3.0), (3, 2.5), (4, 2.5)])
+def test_speed_and_turn_rate_bounds_match_the_bounded_direct_method(case, w):
+    """v in [0, 6] and |omega| <= w, each chosen so that the turn-rate bound is active (the free
+    optima turn at up to 4.54, 4.16, 2.51 and 2.94): the cost matches IPOPT with the same box
+    to 1e-5, the turn rate rides its bound, and no control leaves its bounds by 1e-6."""
+    bounds = {"v": (0.0, 6.0), "omega": (-w, w)}
+    sc = dataclasses.replace(load_scenario(f"paper-case-{case}"), control_bounds=bounds)
+    r = plan(sc, threads=1)
+    assert r.success, r.message
+    v, omega = r.trajectory.u[:, 0], r.trajectory.u[:, 1]
+    assert v.min() >= -1e-6 and v.max() <= 6.0 + 1e-6
+    assert np.abs(omega).max() <= w + 1e-6
+    assert np.abs(omega).max() >= w - 1e-3  # active
+    assert abs(r.cost - _direct(sc, bounds)) <= 1e-5 * r.cost
+
+
+def test_a_turn_rate_too_low_for_the_task_fails_honestly():
+    """Paper case 1 with v in [0, 6] and |omega| <= 3 is barely feasible: the robot must turn in
+    place at the bound, cross at top speed and turn again; IPOPT with the same box stops short
+    of its tolerance too (cost 10.526). The planner says it failed and hands back a path that
+    stays within the bounds."""
+    bounds = {"v": (0.0, 6.0), "omega": (-3.0, 3.0)}
+    sc = dataclasses.replace(load_scenario("paper-case-1"), control_bounds=bounds)
+    r = plan(sc, threads=1)
+    assert not r.success and str(r.status) == "failed"
+    assert "continuation to the problem itself stopped" in r.message
+    assert not r.optimal
+    v, omega = r.trajectory.u[:, 0], r.trajectory.u[:, 1]
+    assert v.min() >= -1e-6 and v.max() <= 6.0 + 1e-6 and np.abs(omega).max() <= 3.0 + 1e-6
+
+
 def test_bounds_far_outside_the_optimum_change_nothing():
     free = plan("paper-case-4", threads=1)
     wide = dataclasses.replace(load_scenario("paper-case-4"), control_bounds={"v": (-50, 50)})
