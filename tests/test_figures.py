@@ -4,6 +4,7 @@ the GIF's size and frames, and report curves that stay apart where they overlap.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 
 import matplotlib
@@ -12,6 +13,7 @@ import pytest
 from matplotlib.axes import Axes
 from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
+from matplotlib.transforms import Bbox
 from PIL import Image
 
 from leapfrog_planner.batch.report import build_report, report_figures
@@ -364,3 +366,69 @@ def test_bench_figure_thirteen_solvers_and_a_failure_has_one_hatched_entry():
     assert len(hatched) == len(failed)
     crosses = [line for line in fig.axes[1].lines if line.get_marker() == "x"]
     assert sum(len(line.get_xdata()) for line in crosses) == len(failed)
+
+
+def _wp_result(n_scenarios=5, marks=True):
+    """A synthetic work-precision run: per scenario a curve per method, with (``marks``) one
+    solve_bvp failure and one IPOPT point on another extremal in the first scenario."""
+    from leapfrog_planner.experiments.work_precision import (
+        METHODS,
+        Point,
+        Reference,
+        WorkPrecisionResult,
+        WorkPrecisionSettings,
+    )
+
+    points, refs = [], []
+    for i in range(n_scenarios):
+        name = f"paper-case-{i + 1}" if i < 4 else f"general-s1-{i - 4:05d}"
+        refs.append(Reference(name, 10.0, 10.0))
+        for k, m in enumerate(METHODS):
+            for j, knob in enumerate((1e-4, 1e-6, 1e-8)):
+                err, t = 10.0 ** (-3 - 2 * j - k), 1e-3 * (k + 1) * (j + 1)
+                points.append(Point(name, m, knob, t, 10.0 * (1 + err), err, "ok"))
+        if marks and i == 0:
+            points.append(Point(name, "solve_bvp", 1e-9, 0.5, math.nan, math.nan, "failed"))
+            points.append(Point(name, "ipopt", 50, 0.2, 12.0, 0.2, "other extremal"))
+    settings = WorkPrecisionSettings(cases=(1,), general=0, repeat=1)
+    return WorkPrecisionResult(settings, tuple(points), tuple(refs), {}, ())
+
+
+@pytest.mark.parametrize("n, marks", [(5, True), (1, False)])
+def test_work_precision_figure_legend_below_and_a_style_per_method(n, marks):
+    from leapfrog_planner.experiments.work_precision import LABELS, METHODS, work_precision_figure
+
+    fig = work_precision_figure(_wp_result(n, marks))
+    fig.canvas.draw()
+    (legend,) = fig.legends
+    lb, fb = legend.get_window_extent(), fig.bbox
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == n
+    for ax in axes:
+        assert lb.y1 <= ax.get_window_extent().y0 + 1  # below every panel
+        assert ax.get_legend() is None
+        assert "(s)" in ax.get_ylabel() and "relative cost error" in ax.get_xlabel()
+    panels = Bbox.union([ax.get_window_extent() for ax in axes])
+    assert lb.x0 < panels.x0 + 0.5 * panels.width < lb.x1  # centred under them, not at the side
+    assert fb.x0 - 1 <= lb.x0 and lb.x1 <= fb.x1 + 1 and lb.y0 >= fb.y0 - 1
+    # One figure title (the panels' titles name their scenarios), inside the figure.
+    assert fig._suptitle.get_text() and "\n" not in fig._suptitle.get_text()
+    assert fig._suptitle.get_window_extent().x0 >= fb.x0 - 1
+    assert fig._suptitle.get_window_extent().x1 <= fb.x1 + 1
+    assert [ax.get_title() for ax in axes] == [f"paper-case-{i + 1}" for i in range(min(n, 4))] + [
+        f"general-s1-{i:05d}" for i in range(n - 4)
+    ]
+    # Every method in the legend, in a colour and a marker no other method has, as drawn.
+    texts = [t.get_text() for t in legend.get_texts()]
+    assert texts[: len(METHODS)] == [LABELS[m] for m in METHODS]
+    handles = legend.legend_handles[: len(METHODS)]
+    assert len({to_rgba(h.get_color()) for h in handles}) == len(METHODS)
+    assert len({h.get_marker() for h in handles}) == len(METHODS)
+    for m, h in zip(METHODS, handles, strict=True):
+        (line,) = [line for line in axes[0].lines if line.get_gid() == m]
+        assert to_rgba(line.get_color()) == to_rgba(h.get_color())
+        assert line.get_marker() == h.get_marker() and dashes(line) == dashes(h)
+    # The target line explained; the open marker and the cross only when drawn.
+    assert any("1e-6" in t for t in texts)
+    assert any("another extremal" in t for t in texts) == marks
+    assert any("failed" in t for t in texts) == marks

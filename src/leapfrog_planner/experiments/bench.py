@@ -464,12 +464,12 @@ def solver_colors(n: int) -> list:
     return [palette[k % len(palette)] for k in range(n)]
 
 
-def _bench_legend(fig, handles: list):
+def legend_below_axes(fig, handles: list, max_cols: int = 5):
     """The legend under the axes, across the figure, in as many columns as fit its width (at
-    most five), the figure made taller by the legend's height."""
+    most ``max_cols``), the figure made taller by the legend's height."""
     renderer = fig.canvas.get_renderer()
     w, h = fig.get_size_inches()
-    for ncols in range(min(5, len(handles)), 0, -1):
+    for ncols in range(min(max_cols, len(handles)), 0, -1):
         legend = fig.legend(handles=handles, loc="outside lower center", ncols=ncols,
                             fontsize="small", frameon=False)  # fmt: skip
         box = legend.get_window_extent(renderer)
@@ -531,7 +531,7 @@ def bench_figure(result: BenchResult):
     if any_failed:
         handles.append(Patch(facecolor="white", edgecolor="0.3", hatch=FAILED_HATCH,
                              label="failed (hatched time bar, x for the cost)"))  # fmt: skip
-    _bench_legend(fig, handles)
+    legend_below_axes(fig, handles)
     fig.suptitle("Peer benchmark: time and cost per scenario")
     return fig
 

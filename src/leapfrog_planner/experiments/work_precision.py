@@ -290,20 +290,22 @@ def ratios(result: WorkPrecisionResult) -> list[Ratio]:
 
 # --------------------------------------------------------------------------- files
 
-STYLE = {  # method -> (colour, marker, line style)
-    "leapfrog": ("C0", "o", "-"),
-    "leapfrog-1path": ("C0", "o", ":"),
-    "ipopt": ("C3", "s", "-"),
-    "ipopt-1path": ("C3", "s", ":"),
-    "solve_bvp": ("C2", "^", "-"),
+STYLE = {  # method -> (colour, marker, line style): one colour and one marker per method,
+    # a family in one hue (Leapfrog blue/cyan, IPOPT red/orange), one path dotted
+    "leapfrog": ("tab:blue", "o", "-"),
+    "leapfrog-1path": ("tab:cyan", "D", ":"),
+    "ipopt": ("tab:red", "s", "-"),
+    "ipopt-1path": ("tab:orange", "v", ":"),
+    "solve_bvp": ("tab:green", "^", "-"),
 }
 LABELS = {
-    "leapfrog": "Leapfrog (default planner), final tol",
-    "leapfrog-1path": "Leapfrog, one path",
-    "ipopt": "IPOPT from the same paths, mesh",
-    "ipopt-1path": "IPOPT from one path",
-    "solve_bvp": "solve_bvp from one path, tol",
+    "leapfrog": "Leapfrog, default planner (over final tol)",
+    "leapfrog-1path": "Leapfrog from one path (over final tol)",
+    "ipopt": "IPOPT from the same paths (over mesh size)",
+    "ipopt-1path": "IPOPT from one path (over mesh size)",
+    "solve_bvp": "solve_bvp from one path (over tol)",
 }
+GID_TARGET = "target-error"
 
 
 def work_precision_csv(result: WorkPrecisionResult) -> str:
@@ -354,15 +356,41 @@ def work_precision_markdown(result: WorkPrecisionResult) -> str:
     return "\n".join(out) + "\n"
 
 
+def _wp_legend_handles(result: WorkPrecisionResult) -> list:
+    """A line per method drawn in any panel, the target error's line, and grey markers for
+    'another extremal' and 'failed' when a panel shows one."""
+    from matplotlib.lines import Line2D
+
+    drawn = {p.method for p in result.points}
+    handles = [
+        Line2D([], [], color=STYLE[m][0], marker=STYLE[m][1], ls=STYLE[m][2], ms=5, lw=1.4,
+               label=LABELS[m])
+        for m in METHODS
+        if m in drawn
+    ]  # fmt: skip
+    target = f"{TARGET_ERROR:.0e}".replace("e-0", "e-")
+    handles.append(Line2D([], [], color="0.5", lw=0.8, ls="--",
+                          label=f"relative error {target}, the ratios' target"))  # fmt: skip
+    status = {p.status for p in result.points}
+    if "other extremal" in status:
+        handles.append(Line2D([], [], ls="none", marker="o", mfc="none", color="0.3", ms=6,
+                              label="open marker: another extremal (> 1% off)"))  # fmt: skip
+    if "failed" in status:
+        handles.append(Line2D([], [], ls="none", marker="x", color="0.3", ms=6,
+                              label="x at error 1: failed"))  # fmt: skip
+    return handles
+
+
 def work_precision_figure(result: WorkPrecisionResult):
     """Time against relative cost error, log-log, one panel per scenario; failures as crosses
-    at the top of their panel, other extremals as open markers."""
-    from matplotlib.figure import Figure
+    at error 1, other extremals as open markers. One legend below the panels for them all."""
+    from ..viz.style import new_figure
+    from .bench import legend_below_axes
 
     names = [r.scenario for r in result.references]
     cols = min(4, max(1, len(names)))
     rows = math.ceil(len(names) / cols)
-    fig = Figure(figsize=(4.2 * cols, 3.6 * rows + 0.8), layout="constrained")
+    fig = new_figure(figsize=(max(4.2 * cols, 6.4), 3.6 * rows + 0.5))  # room for the title
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
     for ax, name in zip(axes, names, strict=False):
         for method in METHODS:
@@ -371,28 +399,28 @@ def work_precision_figure(result: WorkPrecisionResult):
             ok = [p for p in curve if p.status == "ok" and p.error > 0]
             if ok:
                 ax.plot([p.error for p in ok], [p.time_s for p in ok], color=color,
-                        marker=marker, ls=ls, ms=4, lw=1.2, label=LABELS[method])  # fmt: skip
+                        marker=marker, ls=ls, ms=4, lw=1.2, label=LABELS[method],
+                        gid=method)  # fmt: skip
             other = [p for p in curve if p.status == "other extremal"]
             if other:
                 ax.plot([p.error for p in other], [p.time_s for p in other], ls="none",
-                        marker=marker, mfc="none", color=color, ms=6)  # fmt: skip
+                        marker=marker, mfc="none", color=color, ms=6,
+                        gid=f"{method}:other")  # fmt: skip
             failed = [p for p in curve if p.status == "failed"]
             if failed:
                 ax.plot([1.0] * len(failed), [p.time_s for p in failed], ls="none", marker="x",
-                        color=color, ms=6)  # fmt: skip
-        ax.axvline(TARGET_ERROR, color="0.5", lw=0.8, ls="--")
+                        color=color, ms=6, gid=f"{method}:failed")  # fmt: skip
+        ax.axvline(TARGET_ERROR, color="0.5", lw=0.8, ls="--", gid=GID_TARGET)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_title(name, fontsize="medium")
-        ax.set_xlabel("relative cost error")
+        ax.set_xlabel("relative cost error |J / J_ref - 1|")
         ax.set_ylabel("time (s)")
         ax.grid(True, which="major", alpha=0.3)
     for ax in axes[len(names) :]:
         ax.set_visible(False)
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=3, fontsize="small")
-    fig.suptitle("Work against precision: time to an answer this accurate "
-                 "(open: another extremal, x: failed)")  # fmt: skip
+    legend_below_axes(fig, _wp_legend_handles(result), max_cols=3)
+    fig.suptitle("Work against precision: time against relative cost error")
     return fig
 
 
