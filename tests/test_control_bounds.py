@@ -8,8 +8,10 @@ import dataclasses
 import numpy as np
 import pytest
 
+from leapfrog_planner.batch.generate import GeneratorSpec, generate
 from leapfrog_planner.errors import ScenarioError
 from leapfrog_planner.model.bounds import smooth_clip
+from leapfrog_planner.planning.bounded import exceeded
 from leapfrog_planner.planning.planner import plan
 from leapfrog_planner.planning.scenario import load_scenario, load_scenario_text
 
@@ -119,6 +121,25 @@ def test_a_turn_rate_too_low_for_the_task_fails_honestly():
     assert not r.optimal
     v, omega = r.trajectory.u[:, 0], r.trajectory.u[:, 1]
     assert v.min() >= -1e-6 and v.max() <= 6.0 + 1e-6 and np.abs(omega).max() <= 3.0 + 1e-6
+
+
+def test_only_the_bounds_the_initial_path_leaves_are_relaxed():
+    u = np.array([[1.0, -5.0], [2.0, 13.0]])  # v within [0, 3], omega beyond +-4
+    bounds = {"v": (0.0, 3.0), "omega": (-4.0, 4.0)}
+    assert exceeded(bounds, ("v", "omega"), u) == ("omega",)
+    assert exceeded(bounds, ("v", "omega"), np.clip(u, -3.0, 3.0)) == ("v", "omega")  # none: all
+
+
+def test_a_relaxed_turn_rate_keeps_the_forward_only_class():
+    """A random layout whose initial paths turn at up to 13-27 rad/s, within v in [0, 3]: with
+    both bounds relaxed, the cheapest class's continuation folded at 86% and the plan returned
+    a dearer optimum (6.32424); with the turn rate alone relaxed it finds IPOPT's 4.82898."""
+    (base,) = [s for s in generate(GeneratorSpec(n=10, seed=11)) if s.name.endswith("00009")]
+    bounds = {"v": (0.0, 3.0), "omega": (-4.0, 4.0)}
+    sc = dataclasses.replace(base, control_bounds=bounds)
+    r = plan(sc, threads=1)
+    assert r.success, r.message
+    assert abs(r.cost - _direct(sc, bounds)) <= 1e-4 * r.cost
 
 
 def test_bounds_far_outside_the_optimum_change_nothing():

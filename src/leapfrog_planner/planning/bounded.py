@@ -2,7 +2,10 @@
 
 Leapfrog solves the problem whose controls saturate smoothly with the widest width (see
 :mod:`..model.bounds`); where the initial paths ask more of the controls than the bounds allow,
-it solves the problem with the bounds relaxed far outside instead. That extremal is continued
+it solves the problem with those controls' bounds relaxed far outside instead (only those: a
+turn-rate bound relaxed keeps a forward-only speed bound, and with it the forward-only family;
+relaxing both, that family was measured to fold before the bounds were reached, and the
+cheapest class was lost on 1 of 100 layouts). That extremal is continued
 along ``s`` from 0 to 1: the bounds move linearly from where Leapfrog solved to the scenario's,
 and the width shrinks geometrically to the narrowest. Each step is warm from the extremal before:
 simple shooting, else multiple shooting over :data:`JUNCTIONS` arcs of that extremal (better
@@ -35,12 +38,13 @@ def schedule(
     problem: OptimalControlProblem,
     bounds: dict[str, tuple[float, float]],
     widths: tuple[float, ...],
-    relaxed: bool,
+    relaxed: tuple[str, ...] = (),
     assist: tuple[float, float] | None = None,
 ) -> Callable[[float], OptimalControlProblem]:
-    """The problem at ``s`` in [0, 1]: the bounds from relaxed (or the scenario's) at 0 to the
-    scenario's at 1, the width from ``widths[0]`` to ``widths[-1]`` geometrically, and the car's
-    turn assist linearly from ``assist[0]`` to ``assist[1]``."""
+    """The problem at ``s`` in [0, 1]: the bounds of the ``relaxed`` controls from relaxed at 0
+    to the scenario's at 1 (the others at the scenario's throughout), the width from
+    ``widths[0]`` to ``widths[-1]`` geometrically, and the car's turn assist linearly from
+    ``assist[0]`` to ``assist[1]``."""
     names = problem.model.parameters
     base = np.array(problem.parameters, dtype=float)
     used = (*sum((bound_names(c) for c in bounds), ()), *((SMOOTHING,) if bounds else ()))
@@ -49,7 +53,7 @@ def schedule(
     def at(s: float) -> OptimalControlProblem:
         p = base.copy()
         for c, (lo, hi) in bounds.items():
-            pull = RELAXED * (hi - lo) * (1.0 - s) if relaxed else 0.0
+            pull = RELAXED * (hi - lo) * (1.0 - s) if c in relaxed else 0.0
             lo_name, hi_name = bound_names(c)
             p[index[lo_name]], p[index[hi_name]] = lo - pull, hi + pull
         if bounds:
@@ -59,6 +63,17 @@ def schedule(
         return replace(problem, parameters=tuple(p.tolist()))
 
     return at
+
+
+def exceeded(bounds: dict[str, tuple[float, float]], names, u: np.ndarray) -> tuple[str, ...]:
+    """The bounded controls that the controls ``u`` (rows; columns ``names``) leave their
+    bounds at, all of them if none does."""
+    tol = 1e-9
+    out = tuple(
+        c for c, (lo, hi) in bounds.items()
+        if np.any(u[:, names.index(c)] < lo - tol) or np.any(u[:, names.index(c)] > hi + tol)
+    )  # fmt: skip
+    return out or tuple(bounds)
 
 
 @dataclass(frozen=True)

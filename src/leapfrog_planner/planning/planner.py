@@ -20,7 +20,7 @@ from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, IntegratorSettings, Trajectory
 from ..model.problem import OptimalControlProblem
 from ..roots import RootSettings
-from .bounded import continue_to_bounds, schedule
+from .bounded import continue_to_bounds, exceeded, schedule
 from .initial_path import InitialPath, initial_paths
 from .leapfrog import LeapfrogSettings, LeapfrogSolution, SweepRecord, leapfrog
 from .path_ranking import PathGuide, path_states, rank_paths
@@ -299,7 +299,10 @@ class Planner:
         continued to the scenario's problem; where it failed with bounds, Leapfrog again with
         the bounds relaxed, then continued (see :mod:`.bounded`)."""
         s, st = self.scenario, self.settings
-        relaxed = not run.success and bool(s.control_bounds)
+        relaxed = ()
+        if not run.success and s.control_bounds:  # relax the bounds the initial path leaves
+            u = guide.trajectory().u
+            relaxed = exceeded(s.control_bounds, problem.model.controls, u)
         assist = None if self._assist is None else (ASSIST, self._assist)
         at = schedule(problem, s.control_bounds, s.smoothing_widths, relaxed, assist)
         if relaxed:
