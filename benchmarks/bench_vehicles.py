@@ -65,6 +65,7 @@ def bounds_table(n: int, seed: int, vmax: float, omega: float) -> None:
         ref = bounded_direct(sc, box)
         if not math.isfinite(ref):
             failed_direct += 1
+            print(f"{sc.name}: IPOPT did not converge (planner: {r.cost:.6g})")
             continue
         d = abs(r.cost - ref) / ref
         match += d <= 1e-3
