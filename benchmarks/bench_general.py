@@ -1,7 +1,8 @@
 """In-process time of the default planner on a preset's random scenarios (default: general).
 
     python benchmarks/bench_general.py [--preset general] [--n 200] [--seed 1]
-                                       [--method modified-newton] [--out FILE.json]
+                                       [--method modified-newton] [--initial-paths 3]
+                                       [--out FILE.json]
 
 Each scenario is planned once after a warm-up plan of the first (kernels loaded), with the
 default planner settings (three initial paths, one thread per path), in this process. Prints
@@ -35,14 +36,15 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=200)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--method", default="modified-newton")
+    ap.add_argument("--initial-paths", type=int, default=3)
     ap.add_argument("--out", default=None, help="write the per-scenario rows as JSON")
     a = ap.parse_args()
     scenarios = list(generate(GeneratorSpec.preset(a.preset, n=a.n, seed=a.seed)))
-    plan(scenarios[0], method=a.method)  # warm-up
+    plan(scenarios[0], method=a.method, initial_paths=a.initial_paths)  # warm-up
     rows = []
     for sc in scenarios:
         t = time.perf_counter()
-        r = plan(sc, method=a.method)
+        r = plan(sc, method=a.method, initial_paths=a.initial_paths)
         dt = time.perf_counter() - t
         rows.append({"scenario": sc.name, "status": str(r.status), "cost": r.cost, "time_s": dt})
     times = [r["time_s"] for r in rows]
