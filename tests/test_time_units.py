@@ -54,3 +54,43 @@ def test_penalty_margin_grows_with_the_horizon():
     assert margins[3] < r  # ln(W / e)^(1/4) < 2 for any sane weight and horizon
     assert penalty_margin(replace(sc, obstacles=np.zeros((0, 3)))) == 0.0
     assert penalty_margin(replace(sc, weight=0.0)) == 0.0
+
+
+def _layout(name: str, horizon: float):
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+
+    (sc,) = [s for s in generate(GeneratorSpec(n=40, seed=1)) if s.name == name]
+    return replace(sc, horizon=horizon)
+
+
+def test_penalty_timing_hurries_where_the_penalty_is_high():
+    """Beltrami's identity on the path's own geometry: v^2 / 2 - P is constant along it, the
+    whole path takes the horizon, start and goal stay where they are."""
+    from leapfrog_planner.planning.path_ranking import penalty_timed
+    from leapfrog_planner.planning.planner import Planner
+
+    sc = _layout("random-s1-00030", 100.0)  # its start lies 1.43 radii from an obstacle's centre
+    pl = Planner(sc)
+    path = pl.initial_paths()[0]
+    timed = penalty_timed(pl.problem, path, sc.horizon)
+    assert timed.label.endswith("penalty-timed") and timed.signature == path.signature
+    s = np.linspace(0.0, 1.0, 4001)
+    xy, th = timed.curve(s)
+    np.testing.assert_allclose(xy[[0, -1]], path.curve([0.0, 1.0])[0], atol=1e-12)
+    plane = np.hypot(*np.diff(xy, axis=0).T)
+    step = np.where(plane > 1e-9 * plane.sum(), plane, np.abs(np.diff(th)))  # drive or turn
+    v = step / (np.diff(s) * sc.horizon)  # the speed in the unicycle's metric
+    c = 0.5 * v**2 - pl.problem.penalty(0.5 * (xy[1:] + xy[:-1]))
+    # constant but where the speed changes within a sample (measured: 99% within 1e-4)
+    assert np.quantile(np.abs(c - np.median(c)), 0.95) <= 1e-3 * np.median(0.5 * v**2)
+    assert v[:4].mean() > 10.0 * np.median(v)  # out of the penalty's grip fast
+
+
+@pytest.mark.parametrize("name", ["random-s1-00018", "random-s1-00030"])
+def test_a_start_in_the_penalty_grip_converges_at_a_long_horizon(name):
+    """T = 100 (the penalty 1e4 times stronger against the control energy than at T = 1) and a
+    start within 1.6 radii of an obstacle's centre: no initial path at constant speed gave an
+    extremal; timed by the penalty, one does."""
+    r = plan(_layout(name, 100.0))
+    assert r.success, r.message
+    assert r.min_clearance >= 0.0

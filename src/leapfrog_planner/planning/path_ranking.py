@@ -9,6 +9,8 @@ cheapest estimates lead to the cheapest optima, which the shortest paths miss).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..integrate.flow import Trajectory
@@ -160,3 +162,50 @@ class PathGuide:
 
 #: Step in normalised time of the central difference of :meth:`PathGuide.costate`.
 _DIFFERENCE_STEP = 1e-4
+
+
+class _Retimed:
+    """A path's pose curve followed on another clock: ``evaluate(s)`` is the base curve at
+    ``sigma(s)`` (a monotone table on a uniform grid of ``s``)."""
+
+    __slots__ = ("base", "grid", "sigma")
+
+    def __init__(self, base, sigma: np.ndarray):
+        self.base, self.sigma = base, sigma
+        self.grid = np.linspace(0.0, 1.0, sigma.size)
+
+    def evaluate(self, s: np.ndarray):
+        return self.base.evaluate(np.interp(s, self.grid, self.sigma))
+
+
+def penalty_timed(
+    problem: OptimalControlProblem, path: InitialPath, horizon: float, samples: int = 2001
+) -> InitialPath:
+    """``path`` with its time shared by the penalty: followed at the speed that is optimal for
+    its own geometry. Along a fixed curve, ``int (v^2 / 2 + P) dt`` in a fixed time is least when
+    ``v^2 / 2 - P`` is constant (Beltrami's identity), so the robot hurries where the penalty is
+    high (next to an obstacle it starts beside) and slows where it is low. ``v`` is the speed in
+    the unicycle's metric (a turn in place counts its radians as path), the constant is found by
+    bisection so that the whole path takes ``horizon``."""
+    base = path._curve
+    u = np.linspace(0.0, 1.0, samples)
+    xy, th = base.evaluate(u)
+    plane = np.hypot(np.diff(xy[:, 0]), np.diff(xy[:, 1]))
+    step = np.where(plane > 1e-9 * plane.sum(), plane, np.abs(np.diff(th)))  # drive, or turn
+    P = problem.penalty(0.5 * (xy[1:] + xy[:-1]))
+    if not step.sum() > 0.0 or not np.all(np.isfinite(P)):
+        return path
+
+    def duration(c: float) -> np.ndarray:
+        return np.cumsum(step / np.sqrt(2.0 * (P + c)))
+
+    lo, hi = -P.min() + 1e-300, 1.0
+    while duration(hi)[-1] > horizon:  # faster until the path takes no more than the horizon
+        hi *= 4.0
+    for _ in range(200):  # the duration falls as c grows
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if duration(mid)[-1] > horizon else (lo, mid)
+    t = np.concatenate(([0.0], duration(hi)))
+    sigma = np.interp(np.linspace(0.0, t[-1], samples), t, u)
+    sigma[0], sigma[-1] = 0.0, 1.0
+    return replace(path, _curve=_Retimed(base, sigma), label=f"{path.label}, penalty-timed")

@@ -23,7 +23,7 @@ from ..roots import RootSettings
 from .bounded import continue_to_bounds, exceeded, schedule
 from .initial_path import InitialPath, initial_paths
 from .leapfrog import LeapfrogSettings, LeapfrogSolution, SweepRecord, leapfrog
-from .path_ranking import PathGuide, path_states, rank_paths
+from .path_ranking import PathGuide, path_states, penalty_timed, rank_paths
 from .result_files import plain
 from .results import (
     PathOutcome,
@@ -347,6 +347,11 @@ class Planner:
             paths = self._wider_paths(wide, paths)
             t_paths += time.perf_counter() - t0
             runs += self._run_paths(paths, 0)
+        if not any(r.extremal for r in runs) and self.scenario.weight > 0.0:
+            # Still none: a start or goal in the penalty's grip. The paths timed by it.
+            log.info("no extremal: the paths again, timed by the penalty")
+            timed = [penalty_timed(self.problem, p, self.scenario.horizon) for p in paths]
+            runs += self._run_paths(timed, 0)
         # No path clears at the scenario's weight, and some extremal passed through an obstacle:
         # those paths again with the weight raised, until one clears (also where the run at the
         # last raise failed: a higher weight may still clear).
