@@ -464,22 +464,6 @@ def solver_colors(n: int) -> list:
     return [palette[k % len(palette)] for k in range(n)]
 
 
-def legend_below_axes(fig, handles: list, max_cols: int = 5):
-    """The legend under the axes, across the figure, in as many columns as fit its width (at
-    most ``max_cols``), the figure made taller by the legend's height."""
-    renderer = fig.canvas.get_renderer()
-    w, h = fig.get_size_inches()
-    for ncols in range(min(max_cols, len(handles)), 0, -1):
-        legend = fig.legend(handles=handles, loc="outside lower center", ncols=ncols,
-                            fontsize="small", frameon=False)  # fmt: skip
-        box = legend.get_window_extent(renderer)
-        if ncols == 1 or box.width <= 0.97 * fig.bbox.width:
-            break
-        legend.remove()
-    fig.set_size_inches(w, h + box.height / fig.dpi)
-    return legend
-
-
 def bench_figure(result: BenchResult):
     """Median time (log scale) and cost relative to the best, per scenario and solver: a bar per
     solver in its own colour; a failed solve's time bar hatched and unfilled, its cost an x. The
@@ -487,7 +471,7 @@ def bench_figure(result: BenchResult):
     hatching."""
     from matplotlib.patches import Patch
 
-    from ..viz.style import new_figure
+    from ..viz.style import legend_below, new_figure
 
     solvers = list(dict.fromkeys(o.solver for o in result.outcomes))
     colors = solver_colors(len(solvers))
@@ -531,7 +515,8 @@ def bench_figure(result: BenchResult):
     if any_failed:
         handles.append(Patch(facecolor="white", edgecolor="0.3", hatch=FAILED_HATCH,
                              label="failed (hatched time bar, x for the cost)"))  # fmt: skip
-    legend_below_axes(fig, handles)
+    w, h = fig.get_size_inches()
+    legend_below(fig, handles, lambda lh: (w, h + lh), max_cols=5)
     fig.suptitle("Peer benchmark: time and cost per scenario")
     return fig
 

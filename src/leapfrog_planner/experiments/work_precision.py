@@ -384,8 +384,7 @@ def _wp_legend_handles(result: WorkPrecisionResult) -> list:
 def work_precision_figure(result: WorkPrecisionResult):
     """Time against relative cost error, log-log, one panel per scenario; failures as crosses
     at error 1, other extremals as open markers. One legend below the panels for them all."""
-    from ..viz.style import new_figure
-    from .bench import legend_below_axes
+    from ..viz.style import legend_below, new_figure
 
     names = [r.scenario for r in result.references]
     cols = min(4, max(1, len(names)))
@@ -419,7 +418,8 @@ def work_precision_figure(result: WorkPrecisionResult):
         ax.grid(True, which="major", alpha=0.3)
     for ax in axes[len(names) :]:
         ax.set_visible(False)
-    legend_below_axes(fig, _wp_legend_handles(result), max_cols=3)
+    w, h = fig.get_size_inches()
+    legend_below(fig, _wp_legend_handles(result), lambda lh: (w, h + lh), max_cols=3)
     fig.suptitle("Work against precision: time against relative cost error")
     return fig
 

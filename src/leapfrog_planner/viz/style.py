@@ -117,12 +117,12 @@ def path_figsize(sc: Scenario, result: PlanResult, legend_h: float, width: float
     return (width, axes_h + 1.0 + legend_h)
 
 
-def legend_below(fig: Figure, handles: list, height=None, fontsize="small"):
-    """The legend under the axes, across the figure: in two columns where they fit the figure's
-    width, else in one. With ``height`` (a function of the legend's height in inches giving the
-    figure's size) the figure is resized to make room for it."""
+def legend_below(fig: Figure, handles: list, height=None, fontsize="small", max_cols: int = 2):
+    """The legend under the axes, across the figure: in as many columns as fit the figure's
+    width (at most ``max_cols``). With ``height`` (a function of the legend's height in inches
+    giving the figure's size) the figure is resized to make room for it."""
     renderer = fig.canvas.get_renderer()
-    for ncols in (2, 1):
+    for ncols in range(max(1, min(max_cols, len(handles))), 0, -1):
         legend = fig.legend(
             handles=handles, loc="outside lower center", ncols=ncols, fontsize=fontsize,
             frameon=False,
