@@ -9,8 +9,6 @@ cheapest estimates lead to the cheapest optima, which the shortest paths miss).
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from ..integrate.flow import Trajectory
@@ -164,20 +162,6 @@ class PathGuide:
 _DIFFERENCE_STEP = 1e-4
 
 
-class _Retimed:
-    """A path's pose curve followed on another clock: ``evaluate(s)`` is the base curve at
-    ``sigma(s)`` (a monotone table on a uniform grid of ``s``)."""
-
-    __slots__ = ("base", "grid", "sigma")
-
-    def __init__(self, base, sigma: np.ndarray):
-        self.base, self.sigma = base, sigma
-        self.grid = np.linspace(0.0, 1.0, sigma.size)
-
-    def evaluate(self, s: np.ndarray):
-        return self.base.evaluate(np.interp(s, self.grid, self.sigma))
-
-
 def penalty_timed(
     problem: OptimalControlProblem, path: InitialPath, horizon: float, samples: int = 2001
 ) -> InitialPath:
@@ -187,9 +171,8 @@ def penalty_timed(
     high (next to an obstacle it starts beside) and slows where it is low. ``v`` is the speed in
     the unicycle's metric (a turn in place counts its radians as path), the constant is found by
     bisection so that the whole path takes ``horizon``."""
-    base = path._curve
     u = np.linspace(0.0, 1.0, samples)
-    xy, th = base.evaluate(u)
+    xy, th = path.curve(u)
     plane = np.hypot(np.diff(xy[:, 0]), np.diff(xy[:, 1]))
     step = np.where(plane > 1e-9 * plane.sum(), plane, np.abs(np.diff(th)))  # drive, or turn
     P = problem.penalty(0.5 * (xy[1:] + xy[:-1]))
@@ -208,4 +191,4 @@ def penalty_timed(
     t = np.concatenate(([0.0], duration(hi)))
     sigma = np.interp(np.linspace(0.0, t[-1], samples), t, u)
     sigma[0], sigma[-1] = 0.0, 1.0
-    return replace(path, _curve=_Retimed(base, sigma), label=f"{path.label}, penalty-timed")
+    return path.retimed(sigma, f"{path.label}, penalty-timed")

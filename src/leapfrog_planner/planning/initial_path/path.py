@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -122,6 +122,26 @@ class InitialPath:
         X[0] = self.start
         X[-1] = self.goal
         return t, X
+
+    def retimed(self, sigma, label: str) -> InitialPath:
+        """The same path on another clock: at normalised time ``s`` it is where this one is at
+        ``sigma(s)`` (``sigma`` rising from 0 to 1, tabulated on a uniform grid of ``s``)."""
+        sigma = np.asarray(sigma, dtype=np.float64)
+        return replace(self, _curve=_Retimed(self._curve, sigma), label=label)
+
+
+class _Retimed:
+    """A pose curve followed on another clock: ``evaluate(s)`` is the base curve at
+    ``sigma(s)`` (a monotone table on a uniform grid of ``s``)."""
+
+    __slots__ = ("base", "grid", "sigma")
+
+    def __init__(self, base, sigma: np.ndarray):
+        self.base, self.sigma = base, sigma
+        self.grid = np.linspace(0.0, 1.0, sigma.size)
+
+    def evaluate(self, s: np.ndarray):
+        return self.base.evaluate(np.interp(s, self.grid, self.sigma))
 
 
 def _make_path(poly, S, G, obs, label, tol, signature=None, modes=FORWARD) -> InitialPath:
