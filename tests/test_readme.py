@@ -9,20 +9,18 @@ that is neither run nor excused fails the test that lists them, so a new one can
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import shlex
 import signal
-import socket
 import subprocess
 import sys
-import time
 import urllib.request
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+from tests.serving import free_port, wait_ready
 from tests.test_cli import cli_env
 
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -76,28 +74,22 @@ def _shrunk(command: str) -> str:
 def _serve(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
     """``leapfrog serve`` runs until it is stopped: start it on a free port, wait until its
     solver processes are ready, load the page, stop it (Ctrl-C) and take its exit code."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_port()
     argv = [sys.executable, "-m", "leapfrog_planner.cli", *args[1:], "--port", str(port)]
     proc = subprocess.Popen(argv, cwd=cwd, env=cli_env(), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, encoding="utf-8")  # fmt: skip
-    url, end, page = f"http://127.0.0.1:{port}", time.monotonic() + TIMEOUT, ""
+    url, page = f"http://127.0.0.1:{port}", ""
     try:
-        while time.monotonic() < end and proc.poll() is None and not page:
-            try:
-                with urllib.request.urlopen(url + "/api/health", timeout=2) as r:
-                    if json.load(r)["ready"] >= 1:
-                        with urllib.request.urlopen(url, timeout=10) as r:
-                            page = r.read().decode()
-            except OSError:
-                time.sleep(0.2)
+        not_ready = wait_ready(proc, url, TIMEOUT)
+        if not_ready is None:
+            with urllib.request.urlopen(url, timeout=10) as r:
+                page = r.read().decode()
     finally:
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=30)
     if "<title>leapfrog planner" in page and proc.returncode in (0, 130):
         return subprocess.CompletedProcess(argv, 0, out, err)
-    why = f"exit {proc.returncode}, page {page[:200]!r}"
+    why = f"{not_ready or ''}; exit {proc.returncode}, page {page[:200]!r}"
     return subprocess.CompletedProcess(argv, 1, out, f"{err}\n{why}")
 
 

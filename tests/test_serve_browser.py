@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import json
 import shutil
-import socket
 import subprocess
 import sys
 import time
-import urllib.request
 from pathlib import Path
 
 import pytest
+from tests.serving import free_port, wait_ready
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 DRIVER = shutil.which("chromedriver")
@@ -36,32 +35,16 @@ READY_TIMEOUT = 120.0  # a fresh machine compiles the kernels first
 WAIT = 20.0
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def server():
-    port = _free_port()
+    port = free_port()
     argv = [sys.executable, "-m", "leapfrog_planner.cli", "serve", "--port", str(port)]
     proc = subprocess.Popen([*argv, "--workers", "1"], stdout=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}"
-    end = time.monotonic() + READY_TIMEOUT
     try:
-        while True:
-            try:
-                with urllib.request.urlopen(url + "/api/health", timeout=2) as r:
-                    if json.load(r)["ready"] >= 1:
-                        break
-            except OSError:
-                pass
-            if proc.poll() is not None:
-                pytest.fail(f"leapfrog serve ended with exit code {proc.returncode}")
-            if time.monotonic() > end:
-                pytest.fail(f"leapfrog serve was not ready within {READY_TIMEOUT:g} s")
-            time.sleep(0.1)
+        not_ready = wait_ready(proc, url, READY_TIMEOUT)
+        if not_ready:
+            pytest.fail(not_ready)
         yield url
     finally:
         proc.terminate()
