@@ -149,7 +149,8 @@ def continue_to_bounds(
     if reached:
         note = f"; continued to the problem itself ({_what(current)})"
     else:
-        note = f"; the continuation to the problem itself stopped at {100 * s:.0f}%"
+        done = np.floor(1000.0 * s) / 10.0  # never rounded up to a 100% that was not reached
+        note = f"; the continuation to the problem itself stopped at {done:g}%"
     one = arcs is not None and arcs.t.size == 2
     run = replace(
         run,
