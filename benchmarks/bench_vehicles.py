@@ -1,9 +1,9 @@
 """Bounded controls and the car against the direct method, on random layouts.
 
     python benchmarks/bench_vehicles.py [--n 100] [--seed 11] [--vmax 3.0] [--omega 4.0]
-                                        [--car 50]
+                                        [--preset default] [--car 50]
 
-1. Control bounds: each default-preset scenario with ``v = [0, vmax]`` (and ``omega = [-omega,
+1. Control bounds: each scenario of ``--preset`` with ``v = [0, vmax]`` (and ``omega = [-omega,
    omega]`` unless ``--omega 0``), planned, and solved by
    IPOPT with the same box constraints (meshes of 100 and 200 intervals from the planner's
    initial paths, Richardson-extrapolated). Prints how many converged, how many match IPOPT to
@@ -43,12 +43,12 @@ def bounded_direct(sc: Scenario, box) -> float:
     return richardson(coarse.cost, fine.cost)
 
 
-def bounds_table(n: int, seed: int, vmax: float, omega: float) -> None:
+def bounds_table(n: int, seed: int, vmax: float, omega: float, preset: str = "default") -> None:
     converged, match, rel, cheaper, excess, failed_direct = 0, 0, [], [], 0.0, 0
     bounds = {"v": (0.0, vmax), **({"omega": (-omega, omega)} if omega else {})}
     box = (bounds["v"], bounds.get("omega"))
     active = 0
-    for base in generate(GeneratorSpec(n=n, seed=seed)):
+    for base in generate(GeneratorSpec.preset(preset, n=n, seed=seed)):
         sc = dataclasses.replace(base, control_bounds=bounds)
         r = plan(sc)
         if not r.success:
@@ -73,7 +73,7 @@ def bounds_table(n: int, seed: int, vmax: float, omega: float) -> None:
         if ref < r.cost * (1 - 1e-3):
             cheaper.append(f"{sc.name} ({r.cost:.6g} vs IPOPT {ref:.6g})")
     where = f"v in [0, {vmax:g}]" + (f", omega in [-{omega:g}, {omega:g}]" if omega else "")
-    print(f"\ncontrol bounds {where}, {n} scenarios (seed {seed}); a bound active in {active}:")
+    print(f"\ncontrol bounds {where}, {n} {preset} scenarios (seed {seed}); active in {active}:")
     print(
         f"  converged {converged}/{n}; match IPOPT to 1e-3: {match}; IPOPT failed: {failed_direct}"
     )
@@ -100,13 +100,14 @@ def car_table(n: int, seed: int) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=100)
+    ap.add_argument("--preset", default="default", help="generator preset of the bounds table")
     ap.add_argument("--seed", type=int, default=11)
     ap.add_argument("--vmax", type=float, default=3.0)
     ap.add_argument("--omega", type=float, default=4.0, help="0: omega unbounded")
     ap.add_argument("--car", type=int, default=50)
     ap.add_argument("--car-seed", type=int, default=3)
     a = ap.parse_args()
-    bounds_table(a.n, a.seed, a.vmax, a.omega)
+    bounds_table(a.n, a.seed, a.vmax, a.omega, a.preset)
     if a.car:
         car_table(a.car, a.car_seed)
 
