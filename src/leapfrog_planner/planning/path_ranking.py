@@ -43,6 +43,16 @@ def estimated_costs(
     the NumPy calls are paid once, not once per path. ``ends`` (the full start and goal
     states) fill a model's further states (see :func:`path_states`).
     """
+    t, X, u, R = _followed(problem, paths, horizon, samples, ends)
+    energy = 0.5 * np.einsum("kni,knij,knj->kn", u, R, u)
+    running = energy + problem.penalty(X[:, :, :2])
+    return np.sum(0.5 * (running[:, 1:] + running[:, :-1]) * np.diff(t), axis=1)  # trapezoid
+
+
+def _followed(problem, paths, horizon, samples, ends):
+    """Times ``(samples,)``, and per path the states ``(samples, nx)``, the controls
+    ``(samples, nu)`` that follow it (least squares of ``f(x, u) = xdot``) and the control cost
+    Hessians ``R``, for all paths at once."""
     s = np.linspace(0.0, 1.0, samples)
     t = s * horizon
     model = problem.model
@@ -62,9 +72,41 @@ def estimated_costs(
     r = Xdot.reshape(n, nx) - f
     Bt = np.swapaxes(B, 1, 2)
     u = np.linalg.solve(Bt @ B, (Bt @ r[..., None]))[..., 0]  # least squares, all samples
-    energy = 0.5 * np.einsum("ni,nij,nj->n", u, R, u)
-    running = energy.reshape(-1, samples) + problem.penalty(X[:, :, :2])
-    return np.sum(0.5 * (running[:, 1:] + running[:, :-1]) * np.diff(t), axis=1)  # trapezoid
+    shape = (len(paths), samples)
+    return t, X, u.reshape(*shape, nu), R.reshape(*shape, nu, nu)
+
+
+def drivable(
+    problem: OptimalControlProblem,
+    paths: list[InitialPath],
+    horizon: float,
+    bounds: dict[str, tuple[float, float]],
+    ends=None,
+    samples: int = 201,
+) -> list[bool]:
+    """Per path: whether the controls that follow it keep the signs the ``bounds`` (control
+    name: ``(lo, hi)``) allow. A robot that cannot reverse (``v = [0, vmax]``) cannot follow a
+    path driven backwards or a three-point turn, however it is timed: such a path leads Leapfrog
+    to an extremal that the continuation to the bounds loses (measured on random layouts with
+    any headings: the cheapest optimum lost on 8 of 50). Magnitudes are not judged: a slower or
+    faster clock changes them, a sign it does not."""
+    if not bounds or not paths:
+        return [True] * len(paths)
+    u = _followed(problem, paths, horizon, samples, ends)[2]
+    names = problem.model.controls
+    ok = np.ones(len(paths), dtype=bool)
+    for c, (lo, hi) in bounds.items():
+        uc = u[:, :, names.index(c)]
+        tol = _SIGN_TOLERANCE * (hi - lo)
+        if lo >= 0.0:
+            ok &= uc.min(axis=1) >= -tol
+        if hi <= 0.0:
+            ok &= uc.max(axis=1) <= tol
+    return ok.tolist()
+
+
+#: A control counts as of the wrong sign beyond this share of its bounds' range.
+_SIGN_TOLERANCE = 1e-3
 
 
 def path_states(path: InitialPath, s: np.ndarray, ends=None) -> np.ndarray:
