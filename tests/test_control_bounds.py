@@ -154,3 +154,46 @@ def test_a_speed_too_low_for_every_path_fails_honestly():
     sc = dataclasses.replace(load_scenario("paper-case-2"), control_bounds={"v": (0.0, 4.0)})
     r = plan(sc, threads=1)
     assert not r.success and str(r.status) == "failed"
+
+
+def _general(name: str):
+    (base,) = [
+        s for s in generate(GeneratorSpec.preset("general", n=50, seed=11)) if s.name == name
+    ]
+    return base
+
+
+def test_a_robot_that_cannot_reverse_is_given_only_paths_it_can_drive():
+    """The goal lies behind the robot: a free robot is offered reverse legs and three-point
+    turns, one with ``v = [0, vmax]`` only paths driven forwards (with turns in place)."""
+    from leapfrog_planner.planning.path_ranking import drivable
+    from leapfrog_planner.planning.planner import Planner
+
+    base = _general("general-s11-00013")
+    free = Planner(base, initial_paths=12).initial_paths()  # every variant
+    assert any(p.modes.reverse or p.modes.cusp for p in free)
+    bounded = Planner(dataclasses.replace(base, control_bounds={"v": (0.0, 8.0)})).initial_paths()
+    assert bounded and not any(p.modes.reverse or p.modes.cusp for p in bounded)
+    planner = Planner(base)
+    ends = (base.start, base.goal)
+    backwards = [p for p in free if p.modes.reverse and not p.modes.cusp]
+    forwards = [p for p in free if not (p.modes.reverse or p.modes.cusp)]
+    assert backwards and forwards
+    args = (planner.problem, backwards + forwards, base.horizon)
+    keep = drivable(*args, {"v": (0.0, 8.0)}, ends)
+    assert keep == [False] * len(backwards) + [True] * len(forwards)
+    assert drivable(*args, {"v": (-8.0, 0.0)}, ends) == [True] * len(backwards) + [False] * len(
+        forwards
+    )
+    assert all(drivable(*args, {"v": (-8.0, 8.0)}, ends))
+
+
+def test_headings_in_every_direction_find_the_bounded_optimum():
+    """A layout with the goal behind the robot, ``v = [0, 8]``, ``|omega| <= 6``: from a
+    three-point turn relaxed to reverse, the continuation to the bounds ended on an extremal of
+    cost 31.01; from the forward paths the plan finds IPOPT's 6.60."""
+    bounds = {"v": (0.0, 8.0), "omega": (-6.0, 6.0)}
+    sc = dataclasses.replace(_general("general-s11-00013"), control_bounds=bounds)
+    r = plan(sc, threads=1)
+    assert r.success, r.message
+    assert abs(r.cost - _direct(sc, bounds)) <= 1e-4 * r.cost
