@@ -183,7 +183,6 @@ def test_pruned_tangent_graph_finds_the_same_paths(monkeypatch):
     runs = []
     for limit in (10**9, 10):
         monkeypatch.setattr(tangent_graph, "PRUNE_ABOVE", limit)
-        monkeypatch.setattr(tangent_graph, "PAIR_CHUNK", 999)
         runs.append(initial_paths(sc.start, sc.goal, sc.footprint_obstacles, k=4))
     full, pruned = runs
     assert [p.signature for p in full] == [p.signature for p in pruned]

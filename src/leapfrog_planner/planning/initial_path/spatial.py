@@ -121,21 +121,26 @@ def disc_pairs(C, R, pad, starts, items, ox, oy, h, nx, ny):
 
 
 @njit(cache=True, error_model="numpy")
+def _point_inside(x, y, C, R, tol, starts, items, ox, oy, h, nx, ny):
+    """Whether ``(x, y)`` lies deeper than ``tol`` inside some disc of its cell."""
+    fx, fy = (x - ox) / h, (y - oy) / h
+    if not (0.0 <= fx < nx and 0.0 <= fy < ny):
+        return False  # outside every disc's box (nan too)
+    c = min(int(fy), ny - 1) * nx + min(int(fx), nx - 1)
+    for k in range(starts[c], starts[c + 1]):
+        j = items[k]
+        if math.hypot(x - C[j, 0], y - C[j, 1]) < R[j] - tol:
+            return True
+    return False
+
+
+@njit(cache=True, error_model="numpy")
 def points_inside(xy, C, R, tol, starts, items, ox, oy, h, nx, ny):
     """Per point, whether it lies deeper than ``tol`` inside some disc
     (``hypot(p - c) < R - tol``)."""
     out = np.zeros(xy.shape[0], np.bool_)
     for p in range(xy.shape[0]):
-        x, y = xy[p, 0], xy[p, 1]
-        fx, fy = (x - ox) / h, (y - oy) / h
-        if not (0.0 <= fx < nx and 0.0 <= fy < ny):
-            continue  # outside every disc's box (nan too)
-        c = min(int(fy), ny - 1) * nx + min(int(fx), nx - 1)
-        for k in range(starts[c], starts[c + 1]):
-            j = items[k]
-            if math.hypot(x - C[j, 0], y - C[j, 1]) < R[j] - tol:
-                out[p] = True
-                break
+        out[p] = _point_inside(xy[p, 0], xy[p, 1], C, R, tol, starts, items, ox, oy, h, nx, ny)
     return out
 
 
@@ -148,50 +153,102 @@ def segments_cut(a, b, C, R, tol, starts, items, ox, oy, h, nx, ny):
     out = np.zeros(E, np.bool_)
     stamp = np.full(R.size, -1, np.int64)
     for e in range(E):
-        ax, ay, bx, by = a[e, 0], a[e, 1], b[e, 0], b[e, 1]
-        abx, aby = bx - ax, by - ay
-        den = abx * abx + aby * aby
-        x_lo, x_hi = min(ax, bx), max(ax, bx)
-        y_lo, y_hi = min(ay, by), max(ay, by)
-        if not (x_hi >= ox and y_hi >= oy and x_lo <= ox + nx * h and y_lo <= oy + ny * h):
-            continue  # outside the grid, or nan (no disc is closer than nan)
-        kx0 = _cell(x_lo, ox, h, nx) if x_lo == x_lo else 0
-        kx1 = _cell(x_hi, ox, h, nx) if x_hi == x_hi else nx - 1
-        hit = False
-        for kx in range(kx0, kx1 + 1):
-            # The segment's y range over this column (all of it for a vertical segment).
-            if abx != 0.0 and x_lo == x_lo:
-                xa = max(x_lo, ox + kx * h)
-                xb = min(x_hi, ox + (kx + 1) * h)
-                ya = ay + (xa - ax) / abx * aby
-                yb = ay + (xb - ax) / abx * aby
-                c_lo, c_hi = min(ya, yb), max(ya, yb)
-            else:
-                c_lo, c_hi = y_lo, y_hi
-            if c_lo == c_lo and c_hi == c_hi:
-                ky0 = max(_cell(c_lo, oy, h, ny) - 1, 0)
-                ky1 = min(_cell(c_hi, oy, h, ny) + 1, ny - 1)
-            else:
-                ky0, ky1 = 0, ny - 1
-            for ky in range(ky0, ky1 + 1):
-                c = ky * nx + kx
-                for k in range(starts[c], starts[c + 1]):
-                    j = items[k]
-                    if stamp[j] == e:
-                        continue
-                    stamp[j] = e
-                    acx, acy = C[j, 0] - ax, C[j, 1] - ay
-                    t = (acx * abx + acy * aby) / den
-                    if np.isnan(t):
-                        t = 0.0
-                    t = t if t > 0.0 else 0.0
-                    t = t if t < 1.0 else 1.0
-                    if math.hypot(acx - t * abx, acy - t * aby) < R[j] - tol:
-                        hit = True
-                        break
-                if hit:
-                    break
-            if hit:
-                break
-        out[e] = hit
+        out[e] = _segment_cut(
+            a[e, 0], a[e, 1], b[e, 0], b[e, 1], e, stamp, C, R, tol,
+            starts, items, ox, oy, h, nx, ny,
+        )  # fmt: skip
     return out
+
+
+@njit(cache=True, error_model="numpy")
+def _segment_cut(ax, ay, bx, by, e, stamp, C, R, tol, starts, items, ox, oy, h, nx, ny):
+    """Whether some disc comes closer than ``R - tol`` to the segment ``a -> b``; ``stamp``
+    (one entry per disc, never ``e`` before) marks the discs tested, each once."""
+    abx, aby = bx - ax, by - ay
+    den = abx * abx + aby * aby
+    x_lo, x_hi = min(ax, bx), max(ax, bx)
+    y_lo, y_hi = min(ay, by), max(ay, by)
+    if not (x_hi >= ox and y_hi >= oy and x_lo <= ox + nx * h and y_lo <= oy + ny * h):
+        return False  # outside the grid, or nan (no disc is closer than nan)
+    kx0 = _cell(x_lo, ox, h, nx) if x_lo == x_lo else 0
+    kx1 = _cell(x_hi, ox, h, nx) if x_hi == x_hi else nx - 1
+    for kx in range(kx0, kx1 + 1):
+        # The segment's y range over this column (all of it for a vertical segment).
+        if abx != 0.0 and x_lo == x_lo:
+            xa = max(x_lo, ox + kx * h)
+            xb = min(x_hi, ox + (kx + 1) * h)
+            ya = ay + (xa - ax) / abx * aby
+            yb = ay + (xb - ax) / abx * aby
+            c_lo, c_hi = min(ya, yb), max(ya, yb)
+        else:
+            c_lo, c_hi = y_lo, y_hi
+        if c_lo == c_lo and c_hi == c_hi:
+            ky0 = max(_cell(c_lo, oy, h, ny) - 1, 0)
+            ky1 = min(_cell(c_hi, oy, h, ny) + 1, ny - 1)
+        else:
+            ky0, ky1 = 0, ny - 1
+        for ky in range(ky0, ky1 + 1):
+            c = ky * nx + kx
+            for k in range(starts[c], starts[c + 1]):
+                j = items[k]
+                if stamp[j] == e:
+                    continue
+                stamp[j] = e
+                acx, acy = C[j, 0] - ax, C[j, 1] - ay
+                t = (acx * abx + acy * aby) / den
+                if np.isnan(t):
+                    t = 0.0
+                t = t if t > 0.0 else 0.0
+                t = t if t < 1.0 else 1.0
+                if math.hypot(acx - t * abx, acy - t * aby) < R[j] - tol:
+                    return True
+    return False
+
+
+@njit(cache=True, error_model="numpy")
+def common_tangents(C, R, act, sigma, sgn, prune, tol, starts, items, ox, oy, h, nx, ny):
+    """One family of common tangents of the pairs ``act[a] < act[b]`` of discs, in
+    ``np.triu_indices`` order: outer (``sigma = 1``) or inner (``sigma = -1``), on the side
+    ``sgn``. Returns the tangent points ``Ti, Tj`` and the discs ``ci, cj``. With ``prune``,
+    only the tangents whose ends lie in no disc and that no disc cuts (the grid's discs,
+    deeper than ``tol``), so that memory grows with the free tangents, not with the pairs."""
+    k = act.size
+    cap = 4 * k + 16
+    T = np.empty((cap, 4))
+    cc = np.empty((cap, 2), np.int64)
+    n = 0
+    stamp = np.full(R.size, -1, np.int64)
+    tested = 0
+    for a in range(k):
+        i = act[a]
+        for b in range(a + 1, k):
+            j = act[b]
+            wx, wy = C[j, 0] - C[i, 0], C[j, 1] - C[i, 1]
+            d = math.hypot(wx, wy)
+            ux, uy = wx / d, wy / d
+            cosb = (R[i] - sigma * R[j]) / d
+            if not abs(cosb) < 1.0 - 1e-12:
+                continue
+            angle = sgn * math.acos(cosb)
+            co, si = math.cos(angle), math.sin(angle)
+            vx, vy = ux * co - uy * si, ux * si + uy * co
+            tix, tiy = C[i, 0] + R[i] * vx, C[i, 1] + R[i] * vy
+            tjx, tjy = C[j, 0] + sigma * R[j] * vx, C[j, 1] + sigma * R[j] * vy
+            if prune:
+                if _point_inside(tix, tiy, C, R, tol, starts, items, ox, oy, h, nx, ny):
+                    continue
+                if _point_inside(tjx, tjy, C, R, tol, starts, items, ox, oy, h, nx, ny):
+                    continue
+                tested += 1
+                if _segment_cut(
+                    tix, tiy, tjx, tjy, tested, stamp, C, R, tol, starts, items, ox, oy, h, nx, ny
+                ):
+                    continue
+            if n == cap:
+                cap *= 2
+                T = np.concatenate((T, np.empty((cap - n, 4))))
+                cc = np.concatenate((cc, np.empty((cap - n, 2), np.int64)))
+            T[n, 0], T[n, 1], T[n, 2], T[n, 3] = tix, tiy, tjx, tjy
+            cc[n, 0], cc[n, 1] = i, j
+            n += 1
+    return T[:n, :2].copy(), T[:n, 2:].copy(), cc[:n, 0].copy(), cc[:n, 1].copy()

@@ -10,7 +10,7 @@ from numba import njit
 
 from .curve import _TWO_PI
 from .geometry import _clean, _close_and_round, _cross, _rot
-from .spatial import DiscGrid, disc_pairs, points_inside, segments_cut
+from .spatial import DiscGrid, common_tangents, disc_pairs, points_inside, segments_cut
 
 #: Arcs of the tangent graph are sampled with at most this angle between polyline vertices.
 ARC_STEP = _TWO_PI / 36
@@ -18,29 +18,8 @@ ARC_STEP = _TWO_PI / 36
 
 #: Above this many active circles, the common tangents are kept only when usable and free.
 PRUNE_ABOVE = 100
-#: Circle pairs per chunk when pruning.
-PAIR_CHUNK = 1 << 16
 
 # --------------------------------------------------------------------------- tangent graph
-
-
-def _pair_chunks(k: int, size: int | None):
-    """The pairs ``i < j`` of ``range(k)`` in ``np.triu_indices`` order, in chunks of about
-    ``size`` pairs (one chunk when ``size`` is None)."""
-    if size is None:
-        yield np.triu_indices(k, 1)
-        return
-    i = 0
-    while i < k - 1:
-        rows = [i]
-        total = k - 1 - i
-        while rows[-1] + 1 < k - 1 and total + (k - 2 - rows[-1]) <= size:
-            rows.append(rows[-1] + 1)
-            total += k - 1 - rows[-1]
-        ci = np.repeat(np.array(rows), [k - 1 - r for r in rows])
-        cj = np.concatenate([np.arange(r + 1, k) for r in rows])
-        yield ci, cj
-        i = rows[-1] + 1
 
 
 def _active_circles(C: np.ndarray, R: np.ndarray, tol: float) -> np.ndarray:
@@ -141,46 +120,25 @@ class _TangentGraph:
     def _pair_tangents(self, points: _Points) -> list:
         """Common tangents of each pair of circles: outer (sigma = +1) and inner (sigma = -1).
 
-        With more than :data:`PRUNE_ABOVE` active circles, the pairs are taken in chunks and
-        only the tangents that are usable and free are kept (in the same order), so memory
-        grows with the free tangents rather than with all pairs; the arcs then join fewer
-        tangent points (the same shortest paths, lengths summed over fewer arcs)."""
+        With more than :data:`PRUNE_ABOVE` active circles, only the tangents that are usable
+        and free are kept (in the same order), so memory grows with the free tangents rather
+        than with all pairs; the arcs then join fewer tangent points (the same shortest paths,
+        lengths summed over fewer arcs)."""
         act = self.active
         segs = []
         if act.size < 2:
             return segs
         prune = act.size > PRUNE_ABOVE
+        grid = self._grid().arrays()
         for sigma in (1.0, -1.0):
             for sgn in (1.0, -1.0):
-                chunks = _pair_chunks(act.size, PAIR_CHUNK if prune else None)
-                for ci, cj in chunks:
-                    seg = self._tangent_family(points, act[ci], act[cj], sigma, sgn, prune)
-                    segs.append(seg)
+                Ti, Tj, ci, cj = common_tangents(
+                    self.C, self.R, act, sigma, sgn, prune, self.tol, *grid
+                )
+                pi, pj = points.add(Ti, ci), points.add(Tj, cj)
+                o_i, o_j = self._orient(Ti, ci, Tj - Ti), self._orient(Tj, cj, Tj - Ti)
+                segs.append((pi, o_i, pj, o_j))
         return segs
-
-    def _tangent_family(self, points: _Points, ci, cj, sigma: float, sgn: float, prune: bool):
-        """One family of common tangents of the circle pairs ``(ci, cj)``, added to ``points``
-        (only the usable, free ones when ``prune``)."""
-        C, R = self.C, self.R
-        w = C[cj] - C[ci]
-        d = np.hypot(w[:, 0], w[:, 1])
-        u = w / d[:, None]
-        cosb = (R[ci] - sigma * R[cj]) / d
-        ok = np.abs(cosb) < 1.0 - 1e-12
-        beta = np.arccos(cosb[ok])
-        ci_ok, cj_ok = ci[ok], cj[ok]
-        n = _rot(u[ok], sgn * beta)
-        Ti = C[ci_ok] + R[ci_ok][:, None] * n
-        Tj = C[cj_ok] + sigma * R[cj_ok][:, None] * n
-        if prune and ci_ok.size:
-            grid = self._grid().arrays()
-            free = ~points_inside(Ti, C, R, self.tol, *grid)
-            free &= ~points_inside(Tj, C, R, self.tol, *grid)
-            free[free] = ~segments_cut(Ti[free], Tj[free], C, R, self.tol, *grid)
-            Ti, Tj, ci_ok, cj_ok = Ti[free], Tj[free], ci_ok[free], cj_ok[free]
-        pi, pj = points.add(Ti, ci_ok), points.add(Tj, cj_ok)
-        o_i, o_j = self._orient(Ti, ci_ok, Tj - Ti), self._orient(Tj, cj_ok, Tj - Ti)
-        return pi, o_i, pj, o_j
 
     def _usable_points(self) -> np.ndarray:
         """Tangent points inside another inflated disc are no use; the ends always are."""
