@@ -55,7 +55,7 @@ def _wait_gone(pgid: int, seconds: float = 10.0) -> bool:
         (["solve", "paper-case-1", "--quiet"], 0.35),  # (numba, SciPy, click: 0.05-0.7 s)
         (["paper", "--out", "p", "--repeat", "20", "--quiet"], 0.5),  # while loading kernels
         (["paper", "--out", "p", "--repeat", "20", "--quiet"], 2.5),  # while planning
-        (["sweep", "--n", "200", "--out", "r.jsonl", "--quiet"], 3.0),  # workers running
+        (["sweep", "--n", "5000", "--out", "r.jsonl", "--quiet"], 3.0),  # workers running
     ],
 )
 def test_ctrl_c_gives_one_line_and_exit_130(tmp_path, args, delay):
@@ -72,7 +72,7 @@ def test_ctrl_c_gives_one_line_and_exit_130(tmp_path, args, delay):
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM, signal.SIGHUP])
 def test_a_killed_sweep_leaves_no_process_and_no_temporary_folder(tmp_path, sig):
     """Its forkserver, resource tracker and workers die with it (they used to stay, 400 MB)."""
-    p = _start(["sweep", "--n", "200", "--out", "r.jsonl", "--quiet"], tmp_path)
+    p = _start(["sweep", "--n", "5000", "--out", "r.jsonl", "--quiet"], tmp_path)
     time.sleep(4.0)  # the workers are running pairs
     assert (tmp_path / "r.jsonl").exists()
     os.kill(p.pid, sig)
