@@ -99,3 +99,33 @@ wheelbase = 0.4
     r = plan(sc, threads=1)
     assert r.success and r.state_names == ("x", "y", "theta", "delta")
     np.testing.assert_allclose(r.trajectory.x[-1], sc.goal, atol=1e-8)
+
+
+def test_a_car_is_given_no_turn_in_place_and_finds_the_cheaper_manoeuvre():
+    """A layout with headings in every direction: the car cannot turn on the spot, so it is
+    offered no initial path that does at an end. From one that did (the turn continued away
+    with the turn assist), the plan ended on an extremal of cost 10.775; from a three-point
+    turn it finds 5.018, which IPOPT from that motion confirms."""
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+    from leapfrog_planner.planning.planner import Planner
+
+    (base,) = [
+        s
+        for s in generate(GeneratorSpec.preset("general", n=30, seed=3))
+        if s.name.endswith("00026")
+    ]
+    sc = Scenario(
+        name="car-turn", horizon=base.horizon, start=[*base.start, 0.0],
+        goal=[*base.goal, 0.0], obstacles=base.obstacles, model="car",
+    )  # fmt: skip
+    paths = Planner(sc, initial_paths=12).initial_paths()
+    assert paths and not any(p.modes.turn_start or p.modes.turn_goal for p in paths)
+    free = Planner(base, initial_paths=12)  # the unicycle may turn on the spot
+    assert any(p.modes.turn_start or p.modes.turn_goal for p in free.initial_paths())
+    r = plan(sc, threads=1)
+    assert r.success, r.message
+    assert r.cost < 6.0
+    guess = (r.trajectory.t, r.trajectory.x)
+    c100 = car_direct(sc, r.weight, 100, guess)
+    c200 = car_direct(sc, r.weight, 200, guess)
+    assert abs(r.cost - (c200 + (c200 - c100) / 3)) <= 1e-4 * r.cost
