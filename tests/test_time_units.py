@@ -94,3 +94,14 @@ def test_a_start_in_the_penalty_grip_converges_at_a_long_horizon(name):
     r = plan(_layout(name, 100.0))
     assert r.success, r.message
     assert r.min_clearance >= 0.0
+
+
+def test_a_failure_at_a_long_horizon_hands_back_the_cheapest_path():
+    """A layout that still fails at T = 100: what comes back is the cheapest initial path as
+    timed, here one timed by the penalty (cost 3.27), not the first path at constant speed,
+    which sat in the penalty's grip (90.26)."""
+    r = plan(_layout("random-s1-00032", 100.0))
+    assert not r.success and r.trajectory_source == "initial path, not optimal"
+    assert r.initial_path.endswith("penalty-timed")
+    assert r.cost < 4.0
+    assert r.min_clearance >= 0.0
