@@ -668,3 +668,19 @@ def test_next_level_is_a_pure_rule_of_the_sweep_record():
     # The level's sweep budget ends it whatever the progress.
     last = LevelState(s.sweeps_per_level - 1, 0, 0)
     assert next_level(_rec(50.0), 100.0, last, s)[0] is Level.HALVE
+
+
+def test_a_sweep_that_moved_no_junction_ends_its_level():
+    """Every local problem failed (or was rejected): the next sweep would repeat it, so the
+    level ends at once, refined while refinements are left, else halved."""
+    from leapfrog_planner.planning.leapfrog import Level, LevelState, next_level
+    from leapfrog_planner.planning.leapfrog.levels import idle
+
+    s = LeapfrogSettings()
+    stuck = _rec(100.0, failures=7)  # q = 8: seven local problems, all failed
+    assert idle(stuck) and not idle(_rec(100.0, failures=6)) and not idle(_rec(100.0))
+    assert next_level(stuck, 100.0, LevelState(), s) == (Level.REFINE, LevelState(0, 0, 1))
+    spent = LevelState(0, 0, s.max_refinements)
+    assert next_level(stuck, 100.0, spent, s)[0] is Level.HALVE
+    # one failure short of idle, and settled: the level sweeps once more, as before
+    assert next_level(_rec(100.0, failures=6), 100.0, LevelState(), s)[0] is Level.STAY

@@ -18,7 +18,7 @@ from ...roots import RootResult
 from ..path_ranking import PathGuide
 from .arcs import Arcs, Junctions
 from .final import FinalSolver
-from .levels import Level, LevelState, next_level
+from .levels import Level, LevelState, idle, next_level
 from .local import LocalSolver
 from .settings import LeapfrogSettings
 from .sweep import SweepRecord, fit_initial_path, sweep
@@ -153,14 +153,23 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
     """The final solve; if it fails after the sweeps reached ``q = 2`` from a level left with a
     large costate jump, that level swept on (at most ``final_retry_sweeps`` more sweeps, until
     its jump is below ``final_retry_jump`` or a sweep no longer lowers the cost) and the final
-    solve again. (A run that spent ``max_sweeps`` before reaching ``q = 2`` is not retried.)"""
+    solve again. (A run that spent ``max_sweeps`` before reaching ``q = 2`` is not retried, nor
+    one whose last sweep at that level moved no junction: another would repeat it.)"""
     sweep_time = time.perf_counter() - t_start
     arcs, level = state.arcs, state.last_multi
     final_jump = arcs.max_jump()
     t_final = time.perf_counter()
     retry_time, first_failure, swept = 0.0, None, len(state.history)
     extremal, solver, root = final.solve(arcs.lam0[0], level)
-    if extremal is None and settings.final_retry_sweeps and arcs.q == 2 and level.q > 2:
+    last = state.history[-1] if state.history else None
+    stuck = last is not None and last.q == level.q and idle(last)
+    if (
+        extremal is None
+        and settings.final_retry_sweeps
+        and arcs.q == 2
+        and level.q > 2
+        and not stuck
+    ):
         t_more = time.perf_counter()
         first_failure = root
         for _ in range(settings.final_retry_sweeps):

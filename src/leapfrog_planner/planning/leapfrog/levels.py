@@ -2,11 +2,13 @@
 
 After a sweep, the level ends when the sweep had no failed local problem and lowered the cost by
 less than ``reduce_tol`` (relative) or brought the largest costate jump below ``jump_tol``; when
-two sweeps in a row made no such progress (failures or not); or when ``sweeps_per_level`` sweeps
-were made at this ``q``. A level that ends with a local problem still failing is refined (every
-arc split at its middle: shorter local problems) rather than halved, at most ``max_refinements``
-times per run: halving on would hand the final solve a large costate jump. After ``k``
-refinements a level must lower the cost by less than ``reduce_tol * 0.1**k`` to count as settled.
+two sweeps in a row made no such progress (failures or not); when a sweep moved no junction
+(each local problem failed or was rejected: the next sweep would only repeat it); or when
+``sweeps_per_level`` sweeps were made at this ``q``. A level that ends with a local problem
+still failing is refined (every arc split at its middle: shorter local problems) rather than
+halved, at most ``max_refinements`` times per run: halving on would hand the final solve a
+large costate jump. After ``k`` refinements a level must lower the cost by less than
+``reduce_tol * 0.1**k`` to count as settled.
 """
 
 from __future__ import annotations
@@ -43,8 +45,15 @@ def next_level(
         or rec.max_costate_jump < settings.jump_tol
     )
     stalls = state.stalls + 1 if settled else 0
-    if not ((settled and rec.failures == 0) or stalls >= 2 or sweeps >= settings.sweeps_per_level):
+    ended = (settled and rec.failures == 0) or stalls >= 2 or idle(rec)
+    if not (ended or sweeps >= settings.sweeps_per_level):
         return Level.STAY, LevelState(sweeps, stalls, state.refinements)
     if rec.failures and state.refinements < settings.max_refinements:
         return Level.REFINE, LevelState(0, 0, state.refinements + 1)
     return Level.HALVE, LevelState(0, 0, state.refinements)
+
+
+def idle(rec: SweepRecord) -> bool:
+    """The sweep moved no junction: its ``q - 1`` local problems all failed or were rejected
+    (at 1000 obstacles, three such sweeps in a row took 0.7 s of a stuck path's 1.9)."""
+    return rec.failures > 0 and rec.failures + rec.rejected >= rec.q - 1
