@@ -205,7 +205,7 @@ def _segment_cut(ax, ay, bx, by, e, stamp, C, R, tol, starts, items, ox, oy, h, 
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def common_tangents(C, R, act, sigma, sgn, prune, tol, starts, items, ox, oy, h, nx, ny):
     """One family of common tangents of the pairs ``act[a] < act[b]`` of discs, in
     ``np.triu_indices`` order: outer (``sigma = 1``) or inner (``sigma = -1``), on the side

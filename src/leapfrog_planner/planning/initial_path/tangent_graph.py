@@ -4,6 +4,8 @@ with barrier rays, winding of each step, ray crossings)."""
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
@@ -130,14 +132,21 @@ class _TangentGraph:
             return segs
         prune = act.size > PRUNE_ABOVE
         grid = self._grid().arrays()
-        for sigma in (1.0, -1.0):
-            for sgn in (1.0, -1.0):
-                Ti, Tj, ci, cj = common_tangents(
-                    self.C, self.R, act, sigma, sgn, prune, self.tol, *grid
-                )
-                pi, pj = points.add(Ti, ci), points.add(Tj, cj)
-                o_i, o_j = self._orient(Ti, ci, Tj - Ti), self._orient(Tj, cj, Tj - Ti)
-                segs.append((pi, o_i, pj, o_j))
+
+        def family(signs):
+            return common_tangents(self.C, self.R, act, *signs, prune, self.tol, *grid)
+
+        families = [(sigma, sgn) for sigma in (1.0, -1.0) for sgn in (1.0, -1.0)]
+        workers = min(len(families), os.cpu_count() or 1) if prune else 1
+        if workers > 1:  # the compiled loop releases the GIL: the families run side by side
+            with ThreadPoolExecutor(workers, thread_name_prefix="tangents") as pool:
+                found = list(pool.map(family, families))
+        else:
+            found = [family(signs) for signs in families]
+        for Ti, Tj, ci, cj in found:  # in the families' order, however they ran
+            pi, pj = points.add(Ti, ci), points.add(Tj, cj)
+            o_i, o_j = self._orient(Ti, ci, Tj - Ti), self._orient(Tj, cj, Tj - Ti)
+            segs.append((pi, o_i, pj, o_j))
         return segs
 
     def _usable_points(self) -> np.ndarray:
