@@ -430,7 +430,7 @@ class Planner:
                 q = r.run.arcs.t.size - 1
                 return status, r, Answer(tr, None, f"Leapfrog iterate (q = {q}), not optimal")
         # The cheapest initial path followed as timed (a penalty-timed one may be far cheaper
-        # than the constant-speed paths: at T = 100, 0.3 against 35).
+        # than the constant-speed paths: at T = 100, 0.86 against 34.8).
         paths = list(dict.fromkeys(r.path for r in runs))  # in order: the scenario's weight first
         s = self.scenario
         cost = estimated_costs(self.problem, paths, s.horizon, ends=(s.start, s.goal))
