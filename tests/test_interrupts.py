@@ -83,6 +83,18 @@ def test_a_killed_sweep_leaves_no_process_and_no_temporary_folder(tmp_path, sig)
     assert leftovers == []
 
 
+@pytest.mark.parametrize("delay", [1.0, 1.5, 2.0, 2.5, 3.0])
+def test_a_sweep_killed_while_its_pool_starts_leaves_no_process(tmp_path, delay):
+    """Killed while its forkserver or workers were still starting (before they asked to die
+    with their parent), they stayed and held the caller's pipes: measured at 2 s."""
+    p = _start(["sweep", "--n", "5000", "--out", "r.jsonl", "--quiet"], tmp_path)
+    time.sleep(delay)
+    os.kill(p.pid, signal.SIGTERM)
+    p.communicate(timeout=30)
+    assert p.returncode == -signal.SIGTERM
+    assert _wait_gone(p.pid), "processes of the sweep's group outlived it"
+
+
 def test_a_finished_sweep_leaves_nothing_in_the_temporary_directory(tmp_path):
     p = _start(["sweep", "--n", "2", "--out", "r.jsonl", "--quiet"], tmp_path)
     p.communicate(timeout=300)

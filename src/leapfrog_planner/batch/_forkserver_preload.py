@@ -1,5 +1,9 @@
 """Imported by multiprocessing's forkserver only (its preload): it dies with the sweep."""
 
-from .orphans import die_with_parent
+import os
 
-die_with_parent()
+from .orphans import die_with_parent, expected_parent
+
+die_with_parent(expected_parent())
+#: The parent of every worker forked from this server.
+SERVER = os.getpid()

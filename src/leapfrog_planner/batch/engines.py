@@ -29,6 +29,7 @@ from collections import deque
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
+from .orphans import mark_parent
 from .tasks import (
     PairTask,
     SweepError,
@@ -43,6 +44,7 @@ from .tasks import (
 def _context():
     # forkserver: workers are forked from a clean, thread-free server (the sweep's own process
     # runs the progress display's thread; forking it would be unsafe).
+    mark_parent()  # the pool's processes check that they start while the sweep lives
     methods = mp.get_all_start_methods()
     if "forkserver" not in methods:
         return mp.get_context("spawn")

@@ -10,6 +10,7 @@ import math
 import os
 import signal
 import socket
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -25,7 +26,7 @@ from ..model.kernels import model_info
 from ..planning.planner import END_STATE_TOLERANCE, Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate
 from ..planning.scenario import Scenario
-from .orphans import die_with_parent
+from .orphans import die_with_parent, expected_parent
 
 PLANNER_METHODS = ("newton", "modified-newton", "nleq-err")
 BUILTIN_METHODS = (*PLANNER_METHODS, "shooting", "direct")
@@ -170,7 +171,10 @@ _STARTED = None
 def init_local_worker(started) -> None:
     global _STARTED
     _STARTED = started
-    die_with_parent()  # with the forkserver, and so with the sweep
+    # With the forkserver (its preload set SERVER before forking this worker), and so with the
+    # sweep; a spawned worker's parent is the sweep itself.
+    server = getattr(sys.modules.get(f"{__package__}._forkserver_preload"), "SERVER", None)
+    die_with_parent(server if server not in (None, os.getpid()) else expected_parent())
 
 
 def _warm_up(model: str) -> float:
