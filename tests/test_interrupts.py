@@ -16,6 +16,13 @@ from tests.test_cli import cli_env
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="signals and prctl: Linux")
 
 
+def _default_signals():
+    """The command's signals as a terminal gives them, whatever this run inherited (under
+    ``nohup`` SIGHUP is ignored, and a sweep then rightly outlives it)."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def _start(args, tmp_path):
     env = {**cli_env(), "TMPDIR": str(tmp_path / "tmp")}
     (tmp_path / "tmp").mkdir(exist_ok=True)
@@ -27,7 +34,7 @@ def _start(args, tmp_path):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,  # its own process group: what it leaves behind is findable
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        preexec_fn=_default_signals,
     )
 
 
