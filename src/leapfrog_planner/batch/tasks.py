@@ -174,7 +174,7 @@ def init_local_worker(started) -> None:
     # With the forkserver (its preload set SERVER before forking this worker), and so with the
     # sweep; a spawned worker's parent is the sweep itself.
     server = getattr(sys.modules.get(f"{__package__}._forkserver_preload"), "SERVER", None)
-    die_with_parent(server if server not in (None, os.getpid()) else expected_parent())
+    die_with_parent(server if server is not None else expected_parent())
 
 
 def _warm_up(model: str) -> float:
