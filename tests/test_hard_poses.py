@@ -72,7 +72,7 @@ def test_goal_behind_is_reached_in_reverse():
 
 def test_failed_segments_name_what_was_tried_and_the_strategies_are_counted():
     r = Planner(Scenario(name="k", **KINDS["facing-away"]), initial_paths=1)
-    run = r._run_path(0, r.initial_paths()[0], 1, 0).run
+    run = r.run_path(r.initial_paths()[0]).run
     solved = {k: v for k, v in run.fit_strategies.items() if k not in ("failed", "split")}
     # every segment of the initial path (8, plus two for each split) was solved by one of them
     assert sum(solved.values()) == LeapfrogSettings().partitions + run.fit_strategies.get(

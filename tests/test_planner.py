@@ -620,6 +620,21 @@ def test_parallel_paths_give_the_same_result_as_sequential(planned):
         assert got[-1].stage == "final"
 
 
+def test_run_path_is_the_plans_run_of_that_path(planned):
+    """Leapfrog from one chosen initial path (what a study of initial paths runs): the same
+    extremal, bit for bit, as the plan's run of that path; its answer validated and clear."""
+    par = planned(3, MNM).result
+    planner = Planner(CASES[3].name)
+    paths = {p.label: p for p in planner.initial_paths()}
+    run = planner.run_path(paths[par.initial_path])
+    assert run.clear and run.validation.cost == par.cost
+    np.testing.assert_array_equal(run.run.costate0, par.costate0)
+    others = {a.label: a for a in par.alternatives}
+    for label, path in paths.items():
+        if label in others and others[label].status is PlanStatus.CONVERGED:
+            assert planner.run_path(path).validation.cost == others[label].cost
+
+
 def test_a_single_candidate_path_is_not_ranked(monkeypatch):
     """Ranking estimates each candidate's cost (0.6 ms on paper case 1); with one candidate there
     is nothing to rank. With several, the ranking still orders them."""

@@ -277,9 +277,10 @@ class Planner:
                 self._weighted[weight] = (problem, Flow(problem, self.flow.settings))
             return self._weighted[weight]
 
-    def _run_path(self, k: int, path: InitialPath, paths: int, raises: int) -> PathRun:
-        """Leapfrog from ``path`` with the obstacle weight raised ``raises`` times, and the
-        validation of its answer."""
+    def run_path(self, path: InitialPath, k: int = 0, paths: int = 1, raises: int = 0) -> PathRun:
+        """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) with the
+        obstacle weight raised ``raises`` times, and the validation of its answer; progress
+        names it path ``k`` of ``paths``."""
         s, st = self.scenario, self.settings
         T0 = 0.0
         weight = float(s.weight) * WEIGHT_FACTOR**raises
@@ -344,14 +345,14 @@ class Planner:
         return done.run, done.problem
 
     def _run_paths(self, paths: list[InitialPath], raises: int) -> list[PathRun]:
-        """:meth:`_run_path` for each path, in parallel threads (see ``threads``)."""
+        """:meth:`run_path` for each path, in parallel threads (see ``threads``)."""
         n = len(paths)
         workers = min(n, self.settings.threads or n)
-        args = (range(n), paths, [n] * n, [raises] * n)
+        args = (paths, range(n), [n] * n, [raises] * n)
         if workers > 1:
             with ThreadPoolExecutor(workers, thread_name_prefix="leapfrog-path") as pool:
-                return list(pool.map(self._run_path, *args))
-        return list(map(self._run_path, *args))
+                return list(pool.map(self.run_path, *args))
+        return list(map(self.run_path, *args))
 
     def _plan(self) -> PlanResult:
         t_begin = time.perf_counter()
