@@ -13,14 +13,12 @@ import time
 import pytest
 
 pytest.importorskip("starlette")
-pytest.importorskip("httpx")
+pytest.importorskip("httpx2")
 
 from starlette.testclient import TestClient  # noqa: E402
 
 from leapfrog_planner.planning.scenario import load_scenario  # noqa: E402
 from leapfrog_planner.web.app import create_app  # noqa: E402
-
-pytestmark = pytest.mark.filterwarnings("ignore:Using `httpx` with `starlette.testclient`")
 
 CASE4 = load_scenario("paper-case-4").to_dict()
 #: Options that make paper case 4 take seconds (16 initial paths, 256 junctions each).
