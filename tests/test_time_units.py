@@ -7,6 +7,8 @@ horizon ``T`` and weight ``W`` is the problem at horizon 1 and weight ``W T^2``,
 path and ``1 / T`` times the cost.
 """
 
+import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -14,7 +16,7 @@ import numpy as np
 import pytest
 
 from leapfrog_planner import plan
-from leapfrog_planner.planning.planner import penalty_margin
+from leapfrog_planner.planning.path_ranking import penalty_margin
 from leapfrog_planner.planning.scenario import load_scenario
 
 DATA = Path(__file__).parent / "data"
@@ -105,3 +107,39 @@ def test_a_failure_at_a_long_horizon_hands_back_the_cheapest_path():
     assert r.initial_path.endswith("penalty-timed")
     assert r.cost < 4.0
     assert r.min_clearance >= 0.0
+
+
+def test_a_cheaper_collision_free_iterate_is_reported_with_a_converged_extremal():
+    """Default layout 15 of seed 1 at T = 100: the extremal found (0.2110) is not the optimum;
+    another path's last Leapfrog iterate, collision-free but not an extremal, costs 0.0934,
+    and IPOPT, independently, finds 0.0934 too. The result stays converged (it is a validated
+    extremal), and its message says that a cheaper optimum exists and what it costs."""
+    from rich.console import Console
+
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+    from leapfrog_planner.cli.solve import _summary
+    from leapfrog_planner.experiments.direct import solve_direct
+
+    sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=100.0), 15)
+    r = plan(sc)
+    assert r.success and r.optimal
+    match = re.search(
+        r"a collision-free motion that is not an extremal .* costing (\S+), less", r.message
+    )
+    assert match, r.message
+    assert "a cheaper optimum exists that no run converged to" in r.message
+    iterate = float(match.group(1))
+    assert iterate < 0.5 * r.cost
+    ipopt = solve_direct(sc.start, sc.goal, sc.horizon, sc.obstacles, weight=sc.weight)
+    assert ipopt.success and ipopt.cost < 0.5 * r.cost
+    assert iterate == pytest.approx(ipopt.cost, rel=1e-2)
+    assert r.cheaper_motion == pytest.approx(iterate, rel=1e-5)  # the same figure, a number
+    console = Console(width=200, record=True)
+    console.print(_summary(r))  # what `leapfrog solve` shows: a warning row
+    text = console.export_text()
+    assert "warning" in text and "a cheaper optimum exists" in text
+
+
+def test_no_cheaper_iterate_is_claimed_where_the_extremal_is_the_optimum():
+    r = plan("paper-case-3")
+    assert "cheaper optimum" not in r.message and math.isnan(r.cheaper_motion)

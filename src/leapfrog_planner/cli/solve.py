@@ -293,8 +293,10 @@ def _summary(r) -> Table:
             ("end-state error", f"{r.end_state_error:.2e}"),
             ("final solve", f"{r.final_solver} from initial path {r.initial_path}"),
         ]
-        if "raised" in r.message:
-            rows.append(("obstacle weight", r.message.split("; ", 1)[1]))
+        raised = [part for part in r.message.split("; ") if "weight was raised" in part]
+        rows += [("obstacle weight", part) for part in raised]
+        if math.isfinite(r.cheaper_motion):
+            rows.append(("warning", r.message.split("; but ", 1)[1]))
     else:
         rows += [
             ("returned", f"the {r.trajectory_source} (from initial path {r.initial_path})"),

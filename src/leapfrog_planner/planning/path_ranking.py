@@ -9,11 +9,16 @@ cheapest estimates lead to the cheapest optima, which the shortest paths miss).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..integrate.flow import Trajectory
 from ..model.problem import OptimalControlProblem
 from .initial_path import InitialPath
+
+if TYPE_CHECKING:
+    from .scenario import Scenario
 
 
 def estimated_cost(
@@ -234,3 +239,29 @@ def penalty_timed(
     sigma = np.interp(np.linspace(0.0, t[-1], samples), t, u)
     sigma[0], sigma[-1] = 0.0, 1.0
     return path.retimed(sigma, f"{path.label}, penalty-timed")
+
+
+#: The penalty-aware margin keeps the initial path where the penalty is at most this multiple of
+#: the running energy of driving the straight line at constant speed over the horizon.
+PENALTY_TO_ENERGY = 1.0
+
+
+def penalty_margin(scenario: Scenario) -> float:
+    """How far from an obstacle of mean radius ``r`` the penalty falls to the running energy.
+
+    ``W exp(-(d / r)^(2n)) = c e`` at ``d = r ln(W / (c e))^(1/2n)`` with ``e = (L / T)^2 / 2``
+    (``L`` the start-goal distance, at least the mean radius); the margin is ``d - r`` (0 when
+    the penalty never exceeds ``c e``). Units of time enter the problem only through ``W T^2``
+    (for control-affine models with a quadratic control cost, time scaling maps ``(T, W)`` to
+    ``(1, W T^2)``), and so they do here.
+    """
+    obs = scenario.footprint_obstacles
+    if obs.shape[0] == 0 or not scenario.weight > 0.0:
+        return 0.0
+    r = float(np.mean(obs[:, 2]))
+    length = max(float(np.hypot(*(scenario.goal[:2] - scenario.start[:2]))), r)
+    energy = 0.5 * (length / scenario.horizon) ** 2
+    ratio = scenario.weight / (PENALTY_TO_ENERGY * energy)
+    if not ratio > np.e:
+        return 0.0
+    return r * (np.log(ratio) ** (1.0 / (2 * scenario.exponent)) - 1.0)

@@ -114,6 +114,7 @@ def result_to_dict(r) -> dict:
         "optimal": r.optimal,
         "trajectory_source": r.trajectory_source,
         "weight": r.weight,
+        "cheaper_motion": _num(r.cheaper_motion),
         "cost": _num(r.cost),
         "energy": _num(r.energy),
         "penalty": _num(r.penalty),
@@ -246,6 +247,7 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
             trajectory_source=d["trajectory_source"],
             task=None if task is None else scenario_from_dict(task, source),
             settings=d["settings"],
+            cheaper_motion=_float(d.get("cheaper_motion")),  # absent from older files
         )
     except (KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, LeapfrogError):

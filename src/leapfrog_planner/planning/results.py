@@ -12,7 +12,9 @@ stable contract for other tools:
   ``trajectory_source`` (``"extremal"``, or for the best collision-free motion of a failure
   ``"Leapfrog iterate (q = 4), not optimal"`` or ``"initial path, not optimal"``) and
   ``weight`` (the obstacle weight of the problem the trajectory solves: the scenario's, unless
-  it was raised to clear the obstacles).
+  it was raised to clear the obstacles), ``cheaper_motion`` (converged only: the cost of a
+  collision-free motion cheaper than the extremal, another path's Leapfrog iterate: a cheaper
+  optimum exists that no run converged to; ``null`` when none was found).
 - numbers (of the returned trajectory): ``cost`` (= ``energy`` + ``penalty``),
   ``min_clearance`` (smallest distance from the path to an obstacle edge; ``null`` without
   obstacles), ``end_state_error`` (|x(T) - goal| after re-integrating the extremal arc by arc
@@ -218,6 +220,10 @@ class PlanResult:
     trajectory_source: str  # "extremal", "Leapfrog iterate (q = 4), not optimal", ...
     task: Scenario | None = None  # the scenario planned (end states, obstacles, robot, penalty)
     settings: dict | None = None  # the planner's settings, as JSON values
+    # Converged only: the cost of a collision-free motion cheaper than the extremal (another
+    # path's last Leapfrog iterate, not an extremal): a cheaper optimum exists that no run
+    # converged to. NaN when none was found.
+    cheaper_motion: float = float("nan")
 
     @classmethod
     def load(cls, path) -> PlanResult:
