@@ -217,7 +217,8 @@ def solve(
         if v is not None
     }
     planner = Planner(sc, **options)  # settings errors surface here, before any display
-    ensure_compiled([sc.model], show=not quiet)  # so the time reported is the plan's own
+    # Loaded before planning, so that the time reported is the plan's own.
+    ensure_compiled([sc.model], show=not quiet, methods=[planner.settings.leapfrog.method])
     result = planner.plan() if quiet else _plan_with_progress(planner)
     if outputs["--json"]:
         write_output(result.save_json, outputs["--json"], "--json")

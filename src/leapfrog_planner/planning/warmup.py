@@ -16,16 +16,18 @@ from .planner import plan
 from .scenario import Scenario
 
 #: What warming up runs: every local method, then the multiple-shooting final solve.
+MS = "multiple-shooting"
 RUNS = (
     {"method": "modified-newton"},
     {"method": "newton"},
     {"method": "nleq-err"},
-    {"final": "multiple-shooting"},
+    {"final": MS},
 )
 
 
-def warm_up(model: str = "unicycle") -> float:
-    """Compile (or load from the disk cache) every kernel of ``model``; returns the seconds taken
+def warm_up(model: str = "unicycle", methods=None) -> float:
+    """Compile (or load from the disk cache) every kernel of ``model``, or only those that the
+    local ``methods`` (and their multiple-shooting final solve) use; returns the seconds taken
     (about 40 on a fresh machine, well under one once cached)."""
     t0 = time.perf_counter()
     extra = [0.0] * (model_info(model).nx - 3)  # a model's further states (the car's steering)
@@ -37,6 +39,9 @@ def warm_up(model: str = "unicycle") -> float:
         obstacles=[[0.5, 0.25, 0.1]],
         model=model,
     )
-    for options in RUNS:
+    runs = RUNS
+    if methods is not None:
+        runs = [r for m in methods for r in ({"method": m}, {"method": m, "final": MS})]
+    for options in runs:
         plan(sc, threads=1, initial_paths=1, **options)
     return time.perf_counter() - t0
