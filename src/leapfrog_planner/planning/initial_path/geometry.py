@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 from numba import njit
-from scipy.spatial import cKDTree
 
 from ... import checks
 from ...errors import ScenarioError
@@ -172,6 +171,8 @@ def _clearance(xy: np.ndarray, obs: np.ndarray) -> float:
     xy = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
     if obs.shape[0] <= 32 or xy.shape[0] == 0 or not np.all(np.isfinite(xy)):
         return _clearance_loops(xy, obs)
+    from scipy.spatial import cKDTree  # here: scipy.spatial takes 0.08 s to import
+
     tree = cKDTree(obs[:, :2])
     rmax = float(np.max(obs[:, 2]))
     # An upper bound: each point's nearest centre. Any closer edge has its centre within
