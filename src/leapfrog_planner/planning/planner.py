@@ -17,16 +17,22 @@ import numpy as np
 
 from .._blas import held_by_parent, single_threaded_blas
 from ..errors import ScenarioError, SettingsError, require_integer
-from ..integrate.flow import Flow, IntegratorSettings, Trajectory
+from ..integrate.flow import Flow, IntegratorSettings
 from ..model.problem import OptimalControlProblem
-from ..roots import RootSettings
+from .answer import (
+    END_STATE_FACTOR,
+    Context,
+    PathRun,
+    best_of,
+    choose_answer,
+    plan_message,
+)
 from .bounded import continue_to_bounds, exceeded, schedule
 from .initial_path import InitialPath, initial_paths
-from .leapfrog import LeapfrogSettings, LeapfrogSolution, SweepRecord, leapfrog
+from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
 from .path_ranking import (
     PathGuide,
     drivable,
-    estimated_costs,
     path_states,
     penalty_margin,
     penalty_timed,
@@ -34,24 +40,13 @@ from .path_ranking import (
 )
 from .result_files import plain
 from .results import (
-    PathOutcome,
     PlanResult,
-    PlanStatus,
-    Validation,
     penalty_integral,
-    piecewise_trajectory,
     validate_arcs,
 )
 from .scenario import Scenario, load_scenario
 
 log = logging.getLogger(__name__)
-
-# A result whose re-integrated end state misses the goal by more than this (times the final
-# solve's |F| tolerance) is not converged: 1e-8 by default. The re-integration runs at the final
-# solve's tolerances (DOP853 at rtol 1e-12 by default), so that the final settings set the
-# answer's accuracy in one place.
-END_STATE_FACTOR = 100.0
-END_STATE_TOLERANCE = END_STATE_FACTOR * RootSettings().tol
 
 
 @dataclass(frozen=True)
@@ -120,74 +115,6 @@ ASSIST = 1.0
 #: (64 W in all; see docs/tuning.md).
 WEIGHT_FACTOR = 4.0
 WEIGHT_RAISES = 3
-
-
-@dataclass(frozen=True)
-class PathRun:
-    """Leapfrog from one initial path at one obstacle weight: the run and its validated answer
-    (``None`` when the run failed)."""
-
-    path: InitialPath
-    guide: PathGuide
-    run: LeapfrogSolution
-    junctions: tuple[np.ndarray, np.ndarray]  # (t, X) of the initial path
-    validation: Validation | None
-    weight: float
-    raises: int  # how often the weight was raised from the scenario's for this run
-    validation_time_s: float
-    end_tolerance: float = END_STATE_TOLERANCE
-    margin: float = 0.0  # the clearance a clear run keeps (the scenario's robot margin)
-
-    @property
-    def extremal(self) -> bool:
-        """A validated extremal (through an obstacle or not)."""
-        return _valid(self.validation, self.end_tolerance)
-
-    @property
-    def collides(self) -> bool:
-        return self.extremal and _touches(self.validation.clearance, self.margin)
-
-    @property
-    def clear(self) -> bool:
-        return self.extremal and not _touches(self.validation.clearance, self.margin)
-
-    def outcome(self) -> PathOutcome:
-        v = self.validation
-        status = PlanStatus.CONVERGED if self.clear else PlanStatus.FAILED
-        if self.collides:
-            status = PlanStatus.COLLIDES
-        return PathOutcome(
-            label=self.path.label,
-            status=status,
-            cost=v.cost if self.extremal else float("nan"),
-            initial_cost=self.run.initial_cost,
-            sweeps=len(self.run.history),
-            message=self.run.message,
-            weight=self.weight,
-            trajectory=v.trajectory if self.extremal else None,
-        )
-
-
-@dataclass(frozen=True)
-class Answer:
-    """The trajectory a plan returns, its validation (extremals only) and where it came from."""
-
-    trajectory: Trajectory
-    validation: Validation | None
-    source: str
-    # Converged only: a collision-free Leapfrog iterate of another path that costs less than
-    # the extremal, as (its run, its cost): a cheaper optimum exists that no run converged to.
-    cheaper: tuple[PathRun, float] | None = None
-
-
-def _touches(clearance: np.ndarray, margin: float = 0.0) -> bool:
-    """Closer than ``margin`` to an obstacle (grown by the footprint), or through one."""
-    return bool(clearance.size) and not clearance.min() >= margin
-
-
-def _clearance(problem: OptimalControlProblem, tr: Trajectory) -> float:
-    c = problem.penalty.clearance(tr.x[:, :2])
-    return float(c.min()) if c.size else np.inf
 
 
 # Scenario [solver] keys mapped to settings names.
@@ -280,6 +207,9 @@ class Planner:
                 problem = self.problem.with_weight(weight)
                 self._weighted[weight] = (problem, Flow(problem, self.flow.settings))
             return self._weighted[weight]
+
+    def _flow_at(self, weight: float) -> Flow:
+        return self._at_weight(weight)[1]
 
     def run_path(self, path: InitialPath, k: int = 0, paths: int = 1, raises: int = 0) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) with the
@@ -408,57 +338,9 @@ class Planner:
             with self._progress_lock:  # paths run in threads: one event at a time
                 self.progress(event)
 
-    def _answer(self, runs: list[PathRun]) -> tuple[PlanStatus, PathRun, Answer]:
-        """The status, the run it rests on, and the trajectory returned.
-
-        Converged: the collision-free extremal at the lowest obstacle weight (the scenario's own
-        when any path clears there), the cheapest of those. Otherwise the cheapest piecewise
-        extremal of the sweeps (at the lowest weight) that is collision-free, else the cheapest
-        initial path followed as timed: a feasible motion, marked as not optimal."""
-        clear = [r for r in runs if r.clear]
-        if clear:
-            best = min(clear, key=lambda r: (r.weight, r.validation.cost))
-            v = best.validation
-            rivals = [r for r in runs if r.weight == best.weight and r is not best]
-            found = self._clear_iterate(rivals, below=(1.0 - CHEAPER_BY) * v.cost)
-            cheaper = None if found is None else (found[0], float(found[0].run.arcs.cost.sum()))
-            return PlanStatus.CONVERGED, best, Answer(v.trajectory, v, "extremal", cheaper)
-        extremals = [r for r in runs if r.extremal]
-        status = PlanStatus.COLLIDES if extremals else PlanStatus.FAILED
-        found = self._clear_iterate(runs)
-        if found is not None:
-            r, tr = found
-            q = r.run.arcs.t.size - 1
-            return status, r, Answer(tr, None, f"Leapfrog iterate (q = {q}), not optimal")
-        # The cheapest initial path followed as timed (a penalty-timed one may be far cheaper
-        # than the constant-speed paths: at T = 100, 0.86 against 34.8).
-        paths = list(dict.fromkeys(r.path for r in runs))  # in order: the scenario's weight first
-        s = self.scenario
-        cost = estimated_costs(self.problem, paths, s.horizon, ends=(s.start, s.goal))
-        cheapest = paths[int(np.argmin(cost))]
-        run = next(r for r in runs if r.path is cheapest)
-        tr = run.guide.trajectory(self.settings.samples)
-        return status, run, Answer(tr, None, "initial path, not optimal")
-
-    def _clear_iterate(self, runs: list[PathRun], below: float = np.inf):
-        """The cheapest last Leapfrog iterate (a piecewise extremal: a motion from start to
-        goal) of ``runs`` that clears the obstacles and costs less than ``below``, at the lowest
-        obstacle weight first: ``(run, its trajectory)``, or None."""
-        for r in sorted(
-            (r for r in runs if r.run.arcs is not None and r.run.arcs.cost.sum() < below),
-            key=lambda r: (r.weight, float(r.run.arcs.cost.sum())),
-        ):
-            flow = self._at_weight(r.weight)[1]
-            try:
-                tr = piecewise_trajectory(flow, r.run.arcs, self.settings.samples)
-            except ValueError:
-                continue
-            if _clearance(self.problem, tr) >= self.scenario.margin:
-                return r, tr
-        return None
-
     def _result(self, runs, t_paths, t_runs, wall) -> PlanResult:
-        status, best, answer = self._answer(runs)
+        ctx = Context(self.scenario, self.problem, self.settings.samples, self._flow_at)
+        status, best, answer = choose_answer(runs, ctx)
         s, info, run, v = self.scenario, self.problem.model, best.run, answer.validation
         tr = answer.trajectory
         problem = self._at_weight(best.weight)[0]
@@ -470,7 +352,7 @@ class Planner:
         finals = sum(r.run.final_time_s for r in runs)
         share = t_runs / max(sweeps + finals + t_val, 1e-300)
         alternatives = tuple(
-            _best_of([r for r in runs if r.path is path]).outcome()
+            best_of([r for r in runs if r.path is path]).outcome()
             for path in dict.fromkeys(r.path for r in runs)
             if path is not best.path
         )
@@ -484,7 +366,7 @@ class Planner:
             clearance = problem.penalty.clearance(tr.x[:, :2])
         return PlanResult(
             status=status,
-            message=self._message(status, best, answer, runs),
+            message=plan_message(status, best, answer, runs, s.margin),
             scenario=s.name,
             model=info.name,
             state_names=info.states,
@@ -521,65 +403,6 @@ class Planner:
             settings=plain(self.settings),
             cheaper_motion=nan if answer.cheaper is None else answer.cheaper[1],
         )
-
-    def _too_close(self, clearance: float) -> str:
-        if clearance < 0.0:
-            return f"passed {-clearance:.3g} inside one"
-        return (
-            f"came within {clearance:.3g} of one, closer than the margin {self.scenario.margin:g}"
-        )
-
-    def _message(self, status, best: PathRun, answer: Answer, runs) -> str:
-        if status is PlanStatus.CONVERGED:
-            msg = best.run.message
-            if best.raises:
-                first = next(r for r in runs if r.path is best.path and r.raises == 0)
-                msg += (
-                    f"; the obstacle weight was raised from {first.weight:g} to"
-                    f" {best.weight:g} to clear the obstacles (at {first.weight:g} the extremal"
-                    f" {self._too_close(first.validation.clearance.min())})"
-                )
-            if answer.cheaper is not None:
-                other, cost = answer.cheaper
-                msg += (
-                    f"; but path {other.path.label} left a collision-free motion that is not an"
-                    f" extremal (its Leapfrog iterate) costing {cost:.6g}, less than this"
-                    f" extremal's {best.validation.cost:.6g}: a cheaper optimum exists that no"
-                    " run converged to"
-                )
-            return msg
-        if status is PlanStatus.COLLIDES:
-            worst = min(r.validation.clearance.min() for r in runs if r.extremal)
-            top = max(r.weight for r in runs)
-            weights = f"obstacle weight up to {top:g}" if top > 0 else "the obstacle weight is 0"
-            if worst < 0.0:
-                what = (
-                    f"every extremal found passes through an obstacle (down to {-worst:.3g}"
-                    f" inside, {weights})"
-                )
-            else:
-                what = f"every extremal found {self._too_close(worst)} ({weights})"
-        else:
-            what = "; ".join(f"path {r.path.label}: {r.run.message}" for r in runs if r.raises == 0)
-            what = f"no initial path led to an extremal ({what})"
-        return f"{what}; returned: the {answer.source}"
-
-
-#: A collision-free iterate of another path this much cheaper (relative) than a converged
-#: extremal is reported in the message: 3 of 305 plans, all at horizons of 10 or 100.
-CHEAPER_BY = 1e-3
-
-
-def _best_of(runs: list[PathRun]) -> PathRun:
-    """A path's run to report: the first that clears, else the first extremal, else the last."""
-    return next((r for r in runs if r.clear), None) or next(
-        (r for r in runs if r.extremal), runs[-1]
-    )
-
-
-def _valid(v, end_tolerance: float = END_STATE_TOLERANCE) -> bool:
-    """A validated extremal: re-integrated without failure, reaching the goal."""
-    return v is not None and np.isfinite(v.cost) and v.end_state_error <= end_tolerance
 
 
 def plan(scenario: Scenario | str, *, progress=None, **options) -> PlanResult:

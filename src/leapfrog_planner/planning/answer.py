@@ -1,0 +1,219 @@
+"""What a plan hands back, from the runs of Leapfrog it made: one run per initial path and
+obstacle weight (:class:`PathRun`), the answer chosen among them (:func:`choose_answer`) and the
+message that says why (:func:`plan_message`).
+
+Converged: the collision-free extremal at the lowest obstacle weight, the cheapest of those,
+checked against the other runs' collision-free iterates (a cheaper one is said). Otherwise the
+best collision-free motion computed, marked as not optimal.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..integrate.flow import Flow, Trajectory
+from ..model.problem import OptimalControlProblem
+from ..roots import RootSettings
+from .initial_path import InitialPath
+from .leapfrog import LeapfrogSolution
+from .path_ranking import PathGuide, estimated_costs
+from .results import PathOutcome, PlanStatus, Validation, piecewise_trajectory
+from .scenario import Scenario
+
+# A result whose re-integrated end state misses the goal by more than this (times the final
+# solve's |F| tolerance) is not converged: 1e-8 by default. The re-integration runs at the final
+# solve's tolerances (DOP853 at rtol 1e-12 by default), so that the final settings set the
+# answer's accuracy in one place.
+END_STATE_FACTOR = 100.0
+END_STATE_TOLERANCE = END_STATE_FACTOR * RootSettings().tol
+
+#: A collision-free iterate of another path this much cheaper (relative) than a converged
+#: extremal is reported in the message: 3 of 305 plans, all at horizons of 10 or 100.
+CHEAPER_BY = 1e-3
+
+
+@dataclass(frozen=True)
+class PathRun:
+    """Leapfrog from one initial path at one obstacle weight: the run and its validated answer
+    (``None`` when the run failed)."""
+
+    path: InitialPath
+    guide: PathGuide
+    run: LeapfrogSolution
+    junctions: tuple[np.ndarray, np.ndarray]  # (t, X) of the initial path
+    validation: Validation | None
+    weight: float
+    raises: int  # how often the weight was raised from the scenario's for this run
+    validation_time_s: float
+    end_tolerance: float = END_STATE_TOLERANCE
+    margin: float = 0.0  # the clearance a clear run keeps (the scenario's robot margin)
+
+    @property
+    def extremal(self) -> bool:
+        """A validated extremal (through an obstacle or not)."""
+        return _valid(self.validation, self.end_tolerance)
+
+    @property
+    def collides(self) -> bool:
+        return self.extremal and _touches(self.validation.clearance, self.margin)
+
+    @property
+    def clear(self) -> bool:
+        return self.extremal and not _touches(self.validation.clearance, self.margin)
+
+    def outcome(self) -> PathOutcome:
+        v = self.validation
+        status = PlanStatus.CONVERGED if self.clear else PlanStatus.FAILED
+        if self.collides:
+            status = PlanStatus.COLLIDES
+        return PathOutcome(
+            label=self.path.label,
+            status=status,
+            cost=v.cost if self.extremal else float("nan"),
+            initial_cost=self.run.initial_cost,
+            sweeps=len(self.run.history),
+            message=self.run.message,
+            weight=self.weight,
+            trajectory=v.trajectory if self.extremal else None,
+        )
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The trajectory a plan returns, its validation (extremals only) and where it came from."""
+
+    trajectory: Trajectory
+    validation: Validation | None
+    source: str
+    # Converged only: a collision-free Leapfrog iterate of another path that costs less than
+    # the extremal, as (its run, its cost): a cheaper optimum exists that no run converged to.
+    cheaper: tuple[PathRun, float] | None = None
+
+
+@dataclass(frozen=True)
+class Context:
+    """What choosing the answer needs of the plan: the scenario and its problem, the samples of
+    a returned trajectory, and the flow of the problem at an obstacle weight."""
+
+    scenario: Scenario
+    problem: OptimalControlProblem
+    samples: int
+    flow_at: Callable[[float], Flow]
+
+
+def choose_answer(runs: list[PathRun], ctx: Context) -> tuple[PlanStatus, PathRun, Answer]:
+    """The status, the run it rests on, and the trajectory returned.
+
+    Converged: the collision-free extremal at the lowest obstacle weight (the scenario's own
+    when any path clears there), the cheapest of those. Otherwise the cheapest piecewise
+    extremal of the sweeps (at the lowest weight) that is collision-free, else the cheapest
+    initial path followed as timed: a feasible motion, marked as not optimal."""
+    clear = [r for r in runs if r.clear]
+    if clear:
+        best = min(clear, key=lambda r: (r.weight, r.validation.cost))
+        v = best.validation
+        rivals = [r for r in runs if r.weight == best.weight and r is not best]
+        found = clear_iterate(rivals, ctx, below=(1.0 - CHEAPER_BY) * v.cost)
+        cheaper = None if found is None else (found[0], float(found[0].run.arcs.cost.sum()))
+        return PlanStatus.CONVERGED, best, Answer(v.trajectory, v, "extremal", cheaper)
+    extremals = [r for r in runs if r.extremal]
+    status = PlanStatus.COLLIDES if extremals else PlanStatus.FAILED
+    found = clear_iterate(runs, ctx)
+    if found is not None:
+        r, tr = found
+        q = r.run.arcs.t.size - 1
+        return status, r, Answer(tr, None, f"Leapfrog iterate (q = {q}), not optimal")
+    # The cheapest initial path followed as timed (a penalty-timed one may be far cheaper than
+    # the constant-speed paths: at T = 100, 0.86 against 34.8).
+    paths = list(dict.fromkeys(r.path for r in runs))  # in order: the scenario's weight first
+    s = ctx.scenario
+    cost = estimated_costs(ctx.problem, paths, s.horizon, ends=(s.start, s.goal))
+    cheapest = paths[int(np.argmin(cost))]
+    run = next(r for r in runs if r.path is cheapest)
+    return status, run, Answer(run.guide.trajectory(ctx.samples), None, "initial path, not optimal")
+
+
+def clear_iterate(runs: list[PathRun], ctx: Context, below: float = np.inf):
+    """The cheapest last Leapfrog iterate (a piecewise extremal: a motion from start to goal)
+    of ``runs`` that clears the obstacles and costs less than ``below``, at the lowest obstacle
+    weight first: ``(run, its trajectory)``, or None."""
+    for r in sorted(
+        (r for r in runs if r.run.arcs is not None and r.run.arcs.cost.sum() < below),
+        key=lambda r: (r.weight, float(r.run.arcs.cost.sum())),
+    ):
+        try:
+            tr = piecewise_trajectory(ctx.flow_at(r.weight), r.run.arcs, ctx.samples)
+        except ValueError:
+            continue
+        if min_clearance(ctx.problem, tr) >= ctx.scenario.margin:
+            return r, tr
+    return None
+
+
+def plan_message(status, best: PathRun, answer: Answer, runs: list[PathRun], margin: float):
+    """What the plan's message says: how the answer was found, or why none converged and what
+    was returned instead."""
+    if status is PlanStatus.CONVERGED:
+        msg = best.run.message
+        if best.raises:
+            first = next(r for r in runs if r.path is best.path and r.raises == 0)
+            msg += (
+                f"; the obstacle weight was raised from {first.weight:g} to"
+                f" {best.weight:g} to clear the obstacles (at {first.weight:g} the extremal"
+                f" {_too_close(first.validation.clearance.min(), margin)})"
+            )
+        if answer.cheaper is not None:
+            other, cost = answer.cheaper
+            msg += (
+                f"; but path {other.path.label} left a collision-free motion that is not an"
+                f" extremal (its Leapfrog iterate) costing {cost:.6g}, less than this"
+                f" extremal's {best.validation.cost:.6g}: a cheaper optimum exists that no"
+                " run converged to"
+            )
+        return msg
+    if status is PlanStatus.COLLIDES:
+        worst = min(r.validation.clearance.min() for r in runs if r.extremal)
+        top = max(r.weight for r in runs)
+        weights = f"obstacle weight up to {top:g}" if top > 0 else "the obstacle weight is 0"
+        if worst < 0.0:
+            what = (
+                f"every extremal found passes through an obstacle (down to {-worst:.3g}"
+                f" inside, {weights})"
+            )
+        else:
+            what = f"every extremal found {_too_close(worst, margin)} ({weights})"
+    else:
+        what = "; ".join(f"path {r.path.label}: {r.run.message}" for r in runs if r.raises == 0)
+        what = f"no initial path led to an extremal ({what})"
+    return f"{what}; returned: the {answer.source}"
+
+
+def best_of(runs: list[PathRun]) -> PathRun:
+    """A path's run to report: the first that clears, else the first extremal, else the last."""
+    return next((r for r in runs if r.clear), None) or next(
+        (r for r in runs if r.extremal), runs[-1]
+    )
+
+
+def min_clearance(problem: OptimalControlProblem, tr: Trajectory) -> float:
+    c = problem.penalty.clearance(tr.x[:, :2])
+    return float(c.min()) if c.size else np.inf
+
+
+def _too_close(clearance: float, margin: float) -> str:
+    if clearance < 0.0:
+        return f"passed {-clearance:.3g} inside one"
+    return f"came within {clearance:.3g} of one, closer than the margin {margin:g}"
+
+
+def _touches(clearance: np.ndarray, margin: float = 0.0) -> bool:
+    """Closer than ``margin`` to an obstacle (grown by the footprint), or through one."""
+    return bool(clearance.size) and not clearance.min() >= margin
+
+
+def _valid(v, end_tolerance: float = END_STATE_TOLERANCE) -> bool:
+    """A validated extremal: re-integrated without failure, reaching the goal."""
+    return v is not None and np.isfinite(v.cost) and v.end_state_error <= end_tolerance
