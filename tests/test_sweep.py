@@ -284,6 +284,9 @@ def test_direct_method_is_an_independent_multistart(tmp_path):
         assert d["end_state_error"] < 1e-6  # the controls, driven exactly, reach the goal
         # The mesh's error lies above the true optimum, within about 1e-3.
         assert lf["cost"] <= d["cost"] <= lf["cost"] * (1 + 2e-3)
+        # No cheaper motion was seen (a number where one was: see test_time_units).
+        assert "cheaper_motion" in lf and lf["cheaper_motion"] is None
+        assert d["cheaper_motion"] is None
 
 
 def test_direct_method_without_casadi_is_refused(monkeypatch):

@@ -30,8 +30,10 @@ Record fields: ``scenario``, ``method``, ``status`` (``converged``/``failed``), 
 (``null``, ``solver``, ``collides`` (the path found passes through an obstacle), ``timeout``,
 ``crash`` or ``error``), ``message``, ``cost``,
 ``min_clearance``, ``end_state_error``, ``newton_iterations``, ``f_evals``, ``sweeps``,
-``final_solver``, ``obstacles`` (count), ``scenario_hash`` and ``settings_hash`` (what was run;
-a resume with other content or settings is refused), and the timings ``wall_time_s`` (the
+``final_solver``, ``cheaper_motion`` (Leapfrog only: the cost of a collision-free motion
+cheaper than the converged extremal, when one was seen; else ``null``), ``obstacles`` (count),
+``scenario_hash`` and ``settings_hash`` (what was run; a resume with other content or settings
+is refused), and the timings ``wall_time_s`` (the
 solver's own), ``task_time_s`` (in the worker, with setup) and ``warmup_s`` (kernel loading, the
 first pair of each worker process only). Timing fields end in ``_s``; the rest is deterministic.
 """

@@ -242,6 +242,7 @@ def _run_planner(sc: Scenario, method: str, options: dict, deadline: float) -> d
         "f_evals": int(r.f_evals),
         "sweeps": r.sweeps,
         "final_solver": r.final_solver,
+        "cheaper_motion": _num(r.cheaper_motion),
         "wall_time_s": r.wall_time_s,
     }
 
@@ -327,6 +328,7 @@ _RECORD_FIELDS = (
     "f_evals",
     "sweeps",
     "final_solver",
+    "cheaper_motion",
 )
 
 
