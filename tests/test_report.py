@@ -73,6 +73,7 @@ def test_per_method_numbers(results):
     assert a.cost_ratio.median == 1.0 and a.cost_ratio.max == pytest.approx(1.2)
     assert b.cost_ratio.max == 1.0
     assert sorted(rep.cost_ratios["A"]) == pytest.approx([1.0, 1.0, 1.2])
+    assert a.cheaper_seen == b.cheaper_seen == 0  # these records predate the field
     # Times of all runs: A 0.1 0.3 0.2 1.0 0.6, B 0.2 0.1 0.5 0.4 0.2.
     assert a.time_s.median == pytest.approx(0.3) and a.time_s.mean == pytest.approx(0.44)
     assert b.time_s.median == pytest.approx(0.2) and b.time_s.mean == pytest.approx(0.28)
@@ -159,3 +160,14 @@ def test_holm_adjusts_step_down_and_leaves_nan_out():
     assert math.isnan(adj[2])
     assert holm([0.9, 0.8]) == [1.0, 1.0]
     assert holm([]) == []
+
+
+def test_converged_runs_that_saw_a_cheaper_motion_are_counted():
+    """A Leapfrog record with ``cheaper_motion`` (a collision-free motion cheaper than its
+    extremal): counted for converged runs, shown in the cost table."""
+    recs = [_rec("s1", "A", 2.0, 0.1, 10), _rec("s2", "A", 3.0, 0.1, 10)]
+    recs[1]["cheaper_motion"] = 1.5
+    recs.append({**_rec("s3", "A", None, 0.1, 10, "solver"), "cheaper_motion": 1.0})
+    rep = build_report(recs)
+    assert rep.method("A").cheaper_seen == 1  # the failed run's is not counted
+    assert "| A | 2 | 2 | 1 |" in rep.to_markdown()
