@@ -78,6 +78,7 @@ def test_plan_gives_what_the_page_draws(client):
     assert v["cost"] == pytest.approx(4.585248, abs=1e-6)
     assert v["energy"] + v["penalty"] == pytest.approx(v["cost"])
     assert v["min_clearance"] > 0
+    assert v["cheaper_motion"] is None  # no other path left a cheaper motion
     path = v["path"]
     assert len(path["t"]) == len(path["x"]) == len(path["v"]) == len(path["reverse"]) == 401
     assert path["x"][0] == 0.0 and path["x"][-1] == pytest.approx(2.0, abs=1e-6)
@@ -86,6 +87,21 @@ def test_plan_gives_what_the_page_draws(client):
     assert frames[0]["sweep"] == 0 and len(frames) == v["sweeps"] + 1
     assert frames[-1]["cost"] == pytest.approx(v["cost"], rel=1e-3)
     assert len(frames[0]["x"]) == frames[0]["q"] + 1
+
+
+def test_a_cheaper_motion_beside_a_converged_extremal_reaches_the_page(client):
+    """Default layout 15 of seed 1 at T = 100 (see test_time_units): converged, with a cheaper
+    collision-free motion seen; the page marks its status as a caution from this number."""
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+
+    sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=100.0), 15).to_dict()
+    r = client.post("/api/plan", json={"scenario": sc, "session": "c", "seq": 1})
+    assert r.status_code == 200, r.text
+    v = r.json()
+    assert v["status"] == "converged"
+    assert v["cheaper_motion"] == pytest.approx(0.0934, abs=1e-3)
+    assert v["cheaper_motion"] < v["cost"]
+    assert "a cheaper optimum exists" in v["message"]
 
 
 def test_options_are_used(client):

@@ -94,6 +94,7 @@ def result_view(result) -> dict:
         "method": result.method,
         "initial_path": result.initial_path,
         "weight": result.weight,
+        "cheaper_motion": _num(result.cheaper_motion),
         "cost": _num(result.cost),
         "energy": _num(result.energy),
         "penalty": _num(result.penalty),

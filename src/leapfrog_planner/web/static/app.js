@@ -316,7 +316,8 @@ function showResult() {
     $("alternatives").textContent = "";
     return;
   }
-  status.className = r.status;
+  // A converged extremal with a cheaper collision-free motion beside it: a caution, not a pass.
+  status.className = r.cheaper_motion === null ? r.status : `${r.status} caution`;
   status.replaceChildren();
   const b = document.createElement("b");
   b.textContent = r.status;
