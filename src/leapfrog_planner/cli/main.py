@@ -10,6 +10,7 @@ import sys
 import click
 
 from ..errors import LeapfrogError
+from . import interrupted
 from .batch import generate, report, sweep
 from .common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, err
 from .experiments import bench, paper
@@ -104,6 +105,9 @@ def run() -> None:
             print(e.code, file=sys.stderr)
             code = 1
     except KeyboardInterrupt:  # Ctrl-C between main's handlers and here
+        code = EXIT_INTERRUPTED
+    if code == EXIT_OK and interrupted():  # a Ctrl-C whose KeyboardInterrupt was swallowed
+        err.print("interrupted", markup=False, highlight=False)
         code = EXIT_INTERRUPTED
     mp_util = sys.modules.get("multiprocessing.util")
     if mp_util is not None:  # os._exit skips them: they remove multiprocessing's pymp-* folder
