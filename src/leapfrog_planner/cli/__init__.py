@@ -15,13 +15,19 @@ __all__ = ["run"]  # the command itself: :func:`.main.main`
 _interrupted = False
 
 
+def remember_ctrl_c(signum, frame):
+    """Ctrl-C, remembered only: raised later, where :func:`interrupted` is checked (a safe point
+    between steps)."""
+    global _interrupted
+    _interrupted = True
+
+
 def _on_ctrl_c(signum, frame):
     """Ctrl-C: remembered, then raised as usual. CPython can swallow the KeyboardInterrupt: it
     is raised wherever Python code runs next, and C code that calls a ``__hash__`` or a property
     may discard the error (measured: Ctrl-C 0.15 s into ``leapfrog solve``, during numba's
     import, was lost in about 1 run of 10, and the command ended with exit 0)."""
-    global _interrupted
-    _interrupted = True
+    remember_ctrl_c(signum, frame)
     raise KeyboardInterrupt
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import click
 
+from . import interrupted, remember_ctrl_c
 from .common import EXIT_OK, console, err
 
 #: Loading cached kernels takes about 0.3 s; a warm-up still running after this is compiling.
@@ -23,16 +24,15 @@ def held_interrupts():
     """Hold Ctrl-C while numba loads or compiles kernels (interrupted there, the process died
     of a segmentation fault, measured), and raise it once the block ends, or earlier where the
     block calls the function it is given (a safe point between steps)."""
-    caught = []
 
     def pending():
-        if caught:
+        if interrupted():  # here, or earlier where its KeyboardInterrupt was swallowed
             raise KeyboardInterrupt
 
     if threading.current_thread() is not threading.main_thread():
         yield pending
         return
-    previous = signal.signal(signal.SIGINT, lambda *_: caught.append(True))
+    previous = signal.signal(signal.SIGINT, remember_ctrl_c)
     try:
         yield pending
     finally:
