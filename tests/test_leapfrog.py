@@ -188,11 +188,12 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
     (no second solve from the start)."""
     import leapfrog_planner.planning.leapfrog.final as lf
 
-    stages = []
+    stages, arcs = [], []
     real = lf.solve_multiple_shooting
 
     def spy(system, x0, method, settings, compiled):
         r = real(system, x0, method, settings, compiled)
+        arcs.append(system.q)
         if system.q > 2:
             stages.append((system.flow.settings.rtol, settings.tol, r.success, r.iterations))
         return r
@@ -222,6 +223,7 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
     assert rel(v.cost, 5.784293) <= 1e-6  # that path's optimum (README)
 
     stages.clear()
+    arcs.clear()
     monkeypatch.setattr(
         lf, "solve_multiple_shooting", lambda *a: replace(spy(*a), status="stalled")
     )
@@ -233,8 +235,9 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
         settings=LeapfrogSettings(final="multiple-shooting", final_retry_sweeps=0),
     )
     # A failed coarse stage ends that level's attempt: then the refined level's (twice the
-    # junctions) is tried, coarse first too.
-    assert not failed.success and len(stages) == 2
+    # junctions) is tried, coarse first too, and so on: 4, 8 and 16 arcs.
+    assert not failed.success and len(stages) == 3
+    assert arcs == [4, 8, 16] == [4 * 2**k for k in range(LeapfrogSettings().final_refinements + 1)]
     assert all(rtol == local.integrator.rtol for rtol, *_ in stages)
 
 
@@ -303,6 +306,8 @@ def test_default_settings_are_documented_values():
         ("fused_sweeps", 1, "fused_sweeps"),
         ("final_retry_sweeps", -1, "final_retry_sweeps"),
         ("final_retry_jump", 0.0, "final_retry_jump"),
+        ("final_refinements", -1, "final_refinements"),
+        ("final_refinements", 7, "final_refinements"),
     ],
 )
 def test_leapfrog_settings_reject_bad_values(option, value, message):

@@ -31,7 +31,8 @@ END_STATE_FACTOR = 100.0
 END_STATE_TOLERANCE = END_STATE_FACTOR * RootSettings().tol
 
 #: A collision-free iterate of another path this much cheaper (relative) than a converged
-#: extremal is reported in the message: 3 of 305 plans, all at horizons of 10 or 100.
+#: extremal is reported in the message: 1 of 315 converged plans (default and general presets,
+#: T = 0.1 to 100), at T = 10.
 CHEAPER_BY = 1e-3
 
 

@@ -1,7 +1,7 @@
 """The final solve at ``q = 2``: simple shooting over the whole horizon from the first arc's
 costate; if it fails (``final="auto"``), multiple shooting over the junctions of the last level
 with ``q > 2``, then over twice as many (every arc split at its middle: shorter arcs, a better
-conditioned system)."""
+conditioned system), and so on up to ``final_refinements`` times."""
 
 from __future__ import annotations
 
@@ -49,7 +49,10 @@ class FinalSolver:
                 t, ends = np.array([self.T0, self.T1]), np.array([self.start, self.goal])
                 return Arcs(t, ends, r.costate0[None, :]), "shooting", root
         if final in ("auto", "multiple-shooting"):
-            for level in (junctions, junctions.refined(self.local.flow)):
+            level = junctions
+            for refinements in range(self.settings.final_refinements + 1):
+                if refinements:
+                    level = level.refined(self.local.flow)
                 extremal, root = self.multiple_shooting(level)
                 if extremal is not None:
                     return extremal, "multiple-shooting", root

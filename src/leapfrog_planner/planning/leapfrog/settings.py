@@ -44,6 +44,9 @@ class LeapfrogSettings:
     # more sweeps, until its costate jump is below final_retry_jump) and they are tried again.
     final_retry_sweeps: int = 10
     final_retry_jump: float = 1e-4
+    # Multiple shooting's arcs: those of the last level with q > 2, then every arc split in
+    # two, at most this many times (4, 8, 16 arcs from a level of 4).
+    final_refinements: int = 2
     max_split_depth: int = 4  # a failing initial segment is split in two at most this deep
     max_refinements: int = 2  # levels that end with a failing local problem are refined
     attempt_iterations: int = 10  # per attempt at a local problem before the next strategy
@@ -87,6 +90,7 @@ class LeapfrogSettings:
         if not (self.reduce_tol > 0 and self.jump_tol > 0 and self.final_retry_jump > 0):
             raise SettingsError("reduce_tol, jump_tol and final_retry_jump must be > 0")
         require_integer("final_retry_sweeps", self.final_retry_sweeps, 0, 1000)
+        require_integer("final_refinements", self.final_refinements, 0, 6)
         if self.final not in FINAL_MODES:
             raise SettingsError(
                 f"final must be one of {', '.join(FINAL_MODES)}, got {self.final!r}"
