@@ -163,3 +163,44 @@ def test_a_swallowed_ctrl_c_still_ends_as_interrupted(tmp_path, where):
     )
     assert p.returncode == 130, (p.returncode, p.stderr[-2000:])
     assert p.stderr.strip().splitlines() == ["interrupted"], p.stderr[-2000:]
+
+
+@pytest.mark.parametrize("remembered", [False, True])
+def test_a_ctrl_c_wrapped_in_another_error_ends_as_interrupted(tmp_path, remembered):
+    """A KeyboardInterrupt raised while a class is created reaches the command as a
+    RuntimeError ("Error calling __set_name__", its cause the KeyboardInterrupt: seen once in
+    the suite, Ctrl-C 0.35 s into ``leapfrog solve``, which then printed a traceback and exit 1).
+    Any error whose cause is a Ctrl-C, or that follows a remembered one, ends as interrupted;
+    the same error without a Ctrl-C is still a traceback. Simulated with a ``scenarios``
+    command that fails so."""
+    flag = "c._interrupted = True;" if remembered else ""
+    code = (
+        "import leapfrog_planner.cli as c, leapfrog_planner.cli.main as m;"
+        "\ndef boom(*a, **k):\n"
+        "    try:\n        raise KeyboardInterrupt\n"
+        "    except KeyboardInterrupt as e:\n"
+        "        raise RuntimeError('Error calling __set_name__') from e\n"
+        f"m.cli.commands['scenarios'].callback = boom; {flag} m.run()"
+    )
+    p = subprocess.run(
+        [sys.executable, "-c", code, "scenarios"],
+        cwd=tmp_path,
+        env=cli_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert p.returncode == 130, (p.returncode, p.stderr[-2000:])
+    assert p.stderr.strip().splitlines() == ["interrupted"], p.stderr[-2000:]
+
+    plain = code.replace(" from e", "").replace("raise KeyboardInterrupt", "raise ValueError")
+    plain = plain.replace("except KeyboardInterrupt", "except ValueError").replace(flag, "")
+    p = subprocess.run(
+        [sys.executable, "-c", plain, "scenarios"],
+        cwd=tmp_path,
+        env=cli_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert p.returncode == 1 and "RuntimeError" in p.stderr, (p.returncode, p.stderr[-2000:])

@@ -48,6 +48,10 @@ def run() -> None:
         from .main import run as run_command
     except KeyboardInterrupt:
         exit_interrupted()
+    except Exception:  # a Ctrl-C wrapped in another error (see main.main)
+        if interrupted():
+            exit_interrupted()
+        raise
     if interrupted():  # during the imports, and swallowed there
         exit_interrupted()
     run_command()

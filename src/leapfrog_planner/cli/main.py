@@ -85,6 +85,14 @@ def main(argv=None) -> None:
     except LeapfrogError as e:
         err.print(f"error: {e}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
+    except Exception as e:
+        # Any other error after a Ctrl-C is the Ctrl-C: Python may wrap its KeyboardInterrupt
+        # (a class created while it is raised fails with RuntimeError "Error calling
+        # __set_name__", seen during an import 0.35 s into `leapfrog solve`).
+        if not (_interrupted(e) or interrupted()):
+            raise
+        err.print("interrupted", markup=False, highlight=False)
+        sys.exit(EXIT_INTERRUPTED)
     sys.exit(code if isinstance(code, int) else EXIT_OK)
 
 
