@@ -308,12 +308,19 @@ class Planner:
             timed = [penalty_timed(self.problem, p, self.scenario.horizon) for p in paths]
             runs += self._run_paths(timed, 0)
         # No path clears at the scenario's weight, and some extremal passed through an obstacle:
-        # those paths again with the weight raised, until one clears (also where the run at the
-        # last raise failed: a higher weight may still clear).
+        # those paths again with the weight raised, until one clears (also where a path's run at
+        # the last raise failed: a higher weight may still clear), unless every run at the last
+        # raise failed (the higher weights are stiffer still).
         for raises in range(1, WEIGHT_RAISES + 1):
             collided = {r.path for r in runs if r.collides}
-            again = [r.path for r in runs if r.raises == raises - 1 and r.path in collided]
+            last = [r for r in runs if r.raises == raises - 1]
+            again = [r.path for r in last if r.path in collided]
             if any(r.clear for r in runs) or not again or not self.scenario.weight > 0.0:
+                break
+            if raises > 1 and not any(r.extremal for r in last):
+                log.info(
+                    "no extremal at weight x %g: not raised further", WEIGHT_FACTOR ** (raises - 1)
+                )
                 break
             log.info("no extremal clears the obstacles: weight x %g", WEIGHT_FACTOR**raises)
             runs += self._run_paths(again, raises)
