@@ -139,6 +139,23 @@ def test_a_finished_sweep_leaves_nothing_in_the_temporary_directory(tmp_path):
     assert os.listdir(tmp_path / "tmp") == []
 
 
+def _run_python(code: str, cwd) -> subprocess.CompletedProcess:
+    """``python -c code scenarios`` in ``cwd``, as the command runs."""
+    return subprocess.run(
+        [sys.executable, "-c", code, "scenarios"],
+        cwd=cwd,
+        env=cli_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def _assert_interrupted(p: subprocess.CompletedProcess) -> None:
+    assert p.returncode == 130, (p.returncode, p.stderr[-2000:])
+    assert p.stderr.strip().splitlines() == ["interrupted"], p.stderr[-2000:]
+
+
 @pytest.mark.parametrize("where", ["import", "command"])
 def test_a_swallowed_ctrl_c_still_ends_as_interrupted(tmp_path, where):
     """CPython may swallow the KeyboardInterrupt of a Ctrl-C (raised inside a ``__hash__`` or a
@@ -153,54 +170,33 @@ def test_a_swallowed_ctrl_c_still_ends_as_interrupted(tmp_path, where):
             " c._interrupted = True; run()"
         ),
     }[where]
-    p = subprocess.run(
-        [sys.executable, "-c", code, "scenarios"],
-        cwd=tmp_path,
-        env=cli_env(),
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert p.returncode == 130, (p.returncode, p.stderr[-2000:])
-    assert p.stderr.strip().splitlines() == ["interrupted"], p.stderr[-2000:]
+    _assert_interrupted(_run_python(code, tmp_path))
 
 
-@pytest.mark.parametrize("remembered", [False, True])
-def test_a_ctrl_c_wrapped_in_another_error_ends_as_interrupted(tmp_path, remembered):
+#: A ``scenarios`` command that fails with RuntimeError, as a class created while a Ctrl-C's
+#: KeyboardInterrupt is raised fails; {cause}: the KeyboardInterrupt as its cause, or not.
+_WRAPPED = (
+    "import leapfrog_planner.cli as c, leapfrog_planner.cli.main as m\n"
+    "def boom(*a, **k):\n"
+    "    try:\n"
+    "        raise {error}\n"
+    "    except BaseException as e:\n"
+    "        raise RuntimeError('Error calling __set_name__') from e\n"
+    "m.cli.commands['scenarios'].callback = boom\n"
+    "c._interrupted = {remembered}\n"
+    "m.run()"
+)
+
+
+@pytest.mark.parametrize("error, remembered", [("KeyboardInterrupt", False), ("ValueError", True)])
+def test_a_ctrl_c_wrapped_in_another_error_ends_as_interrupted(tmp_path, error, remembered):
     """A KeyboardInterrupt raised while a class is created reaches the command as a
     RuntimeError ("Error calling __set_name__", its cause the KeyboardInterrupt: seen once in
     the suite, Ctrl-C 0.35 s into ``leapfrog solve``, which then printed a traceback and exit 1).
-    Any error whose cause is a Ctrl-C, or that follows a remembered one, ends as interrupted;
-    the same error without a Ctrl-C is still a traceback. Simulated with a ``scenarios``
-    command that fails so."""
-    flag = "c._interrupted = True;" if remembered else ""
-    code = (
-        "import leapfrog_planner.cli as c, leapfrog_planner.cli.main as m;"
-        "\ndef boom(*a, **k):\n"
-        "    try:\n        raise KeyboardInterrupt\n"
-        "    except KeyboardInterrupt as e:\n"
-        "        raise RuntimeError('Error calling __set_name__') from e\n"
-        f"m.cli.commands['scenarios'].callback = boom; {flag} m.run()"
-    )
-    p = subprocess.run(
-        [sys.executable, "-c", code, "scenarios"],
-        cwd=tmp_path,
-        env=cli_env(),
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert p.returncode == 130, (p.returncode, p.stderr[-2000:])
-    assert p.stderr.strip().splitlines() == ["interrupted"], p.stderr[-2000:]
+    An error caused by a Ctrl-C, or any error after a remembered one, ends as interrupted; the
+    same error without a Ctrl-C is still a traceback."""
+    code = _WRAPPED.format(error=error, remembered=remembered)
+    _assert_interrupted(_run_python(code, tmp_path))
 
-    plain = code.replace(" from e", "").replace("raise KeyboardInterrupt", "raise ValueError")
-    plain = plain.replace("except KeyboardInterrupt", "except ValueError").replace(flag, "")
-    p = subprocess.run(
-        [sys.executable, "-c", plain, "scenarios"],
-        cwd=tmp_path,
-        env=cli_env(),
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert p.returncode == 1 and "RuntimeError" in p.stderr, (p.returncode, p.stderr[-2000:])
+    plain = _run_python(_WRAPPED.format(error="ValueError", remembered=False), tmp_path)
+    assert plain.returncode == 1 and "RuntimeError" in plain.stderr, plain.stderr[-2000:]
