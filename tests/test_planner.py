@@ -48,12 +48,13 @@ class Planned:
     result: LeapfrogResult
     events: tuple[PlanEvent, ...]
 
-    def sweep_costs(self) -> dict[int, list[float]]:
-        """Piecewise-optimal cost after each sweep, for every initial path (run)."""
-        runs: dict[int, list[float]] = defaultdict(list)
+    def sweep_costs(self) -> dict[str, list[float]]:
+        """Piecewise-optimal cost after each sweep, for every run (named by its label: a
+        later stage's runs, at a raised weight or another margin, reuse the path indices)."""
+        runs: dict[str, list[float]] = defaultdict(list)
         for e in self.events:
             if e.stage == "sweep":
-                runs[e.path_index].append(e.sweep.cost)
+                runs[e.label].append(e.sweep.cost)
         return runs
 
 

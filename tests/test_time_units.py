@@ -147,6 +147,29 @@ def test_a_cheaper_collision_free_iterate_is_reported_with_a_converged_extremal(
     assert best.cost < iterate  # the extremal, where the iterate was not one
 
 
+def test_paths_at_the_penalty_margin_run_too_where_the_penalty_dominates(monkeypatch):
+    """Default layout 14 of seed 1 at T = 10: followed at their own pace, the paths at the
+    robot's margin are estimated at 8.2 or more, 8.7 times the extremal found from them
+    (0.9448): near the obstacles the penalty dominates. The paths at the penalty's own distance
+    that start cheaper run too, and one converges to 0.5363, the optimum that IPOPT,
+    independently, finds. Without that stage the answer is the dear extremal."""
+    import leapfrog_planner.planning.planner as planner
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+    from leapfrog_planner.experiments.direct import solve_direct
+
+    sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=10.0), 14)
+    r = plan(sc)
+    assert r.success and r.optimal
+    assert r.initial_path.endswith(f"margin {penalty_margin(sc):.3g}")
+    ipopt = solve_direct(sc.start, sc.goal, sc.horizon, sc.obstacles, weight=sc.weight)
+    assert ipopt.success and r.cost == pytest.approx(ipopt.cost, rel=1e-3)
+
+    monkeypatch.setattr(planner, "WIDER_WHEN", math.inf)
+    alone = plan(sc)
+    assert alone.success and alone.cost > 1.5 * r.cost
+    assert "margin" not in alone.initial_path
+
+
 def test_no_cheaper_iterate_is_claimed_where_the_extremal_is_the_optimum():
     r = plan("paper-case-3")
     assert "cheaper optimum" not in r.message and math.isnan(r.cheaper_motion)

@@ -33,6 +33,7 @@ from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
 from .path_ranking import (
     PathGuide,
     drivable,
+    estimated_costs,
     path_states,
     penalty_margin,
     penalty_timed,
@@ -115,6 +116,11 @@ ASSIST = 1.0
 #: (64 W in all; see docs/tuning.md).
 WEIGHT_FACTOR = 4.0
 WEIGHT_RAISES = 3
+
+#: When every initial path, followed at its own pace, is estimated at more than this many times
+#: the cheapest collision-free extremal found, the paths at the penalty's margin whose estimate
+#: is below that extremal's cost are run too (see docs/tuning.md).
+WIDER_WHEN = 4.0
 
 
 # Scenario [solver] keys mapped to settings names.
@@ -293,15 +299,13 @@ class Planner:
         paths = self.initial_paths()
         t_paths = time.perf_counter() - t_begin
         runs = self._run_paths(paths, 0)
-        wide = penalty_margin(self.scenario)
-        if not any(r.extremal for r in runs) and wide > self.settings.margin:
-            # No extremal at all: the paths pass where the penalty dwarfs the control energy (a
-            # long horizon or a heavy weight). Paths that keep the penalty's own distance.
-            log.info("no extremal: initial paths again with margin %.3g", wide)
-            t0 = time.perf_counter()
-            paths = self._wider_paths(wide, paths)
-            t_paths += time.perf_counter() - t0
-            runs += self._run_paths(paths, 0)
+        t0 = time.perf_counter()
+        wider = self._wider_stage(paths, runs)
+        t_paths += time.perf_counter() - t0
+        if wider is not None:
+            if not any(r.extremal for r in runs):
+                paths = wider
+            runs += self._run_paths(wider, 0)
         if not any(r.extremal for r in runs) and self.scenario.weight > 0.0:
             # Still none: a start or goal in the penalty's grip. The paths timed by it.
             log.info("no extremal: the paths again, timed by the penalty")
@@ -328,17 +332,44 @@ class Planner:
         self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
         return self._result(runs, t_paths, t_runs, time.perf_counter() - t_begin)
 
-    def _wider_paths(self, margin: float, paths: list[InitialPath]) -> list[InitialPath]:
-        """Initial paths at ``margin``, relabelled; none when every gap closes at it."""
+    def _estimates(self, paths: list[InitialPath]) -> np.ndarray:
+        s = self.scenario
+        return estimated_costs(self.problem, paths, s.horizon, ends=(s.start, s.goal))
+
+    def _wider_stage(self, paths: list[InitialPath], runs: list[PathRun]):
+        """The paths at the penalty's own distance (:func:`penalty_margin`) to run as well, or
+        None. Where the penalty dwarfs the control energy near the obstacles (a long horizon or
+        a heavy weight), paths at the robot's margin are poor starts. When no run found an
+        extremal, all of them; when the paths run are :meth:`_penalty_dominated`, those
+        estimated cheaper than every path run."""
+        wide = penalty_margin(self.scenario)
+        if not (wide > self.settings.margin and self._penalty_dominated(paths, runs)):
+            return None
+        log.info("initial paths again with margin %.3g", wide)
+        wider = self._wider_paths(wide)
+        if any(r.extremal for r in runs):
+            top = self._estimates(paths).min()
+            wider = [p for p, c in zip(wider, self._estimates(wider), strict=True) if c < top]
+        return wider
+
+    def _penalty_dominated(self, paths: list[InitialPath], runs: list[PathRun]) -> bool:
+        """Whether the paths at the robot's margin are poor starts: no run found an extremal,
+        or every path, followed at its own pace, costs more than ``WIDER_WHEN`` times the
+        cheapest collision-free extremal found (the penalty near the obstacles dominates)."""
+        if not any(r.extremal for r in runs):
+            return True
+        clear = [r.validation.cost for r in runs if r.clear]
+        return (
+            bool(clear) and bool(paths) and self._estimates(paths).min() > WIDER_WHEN * min(clear)
+        )
+
+    def _wider_paths(self, margin: float) -> list[InitialPath]:
+        """Initial paths at ``margin``, labelled with it; none when every gap closes at it."""
         try:
             wide = self.initial_paths(margin)
         except ScenarioError:
             return []
-        known = {p.label for p in paths}
-        return [
-            replace(p, label=f"{p.label}, margin {margin:.3g}") if p.label in known else p
-            for p in wide
-        ]
+        return [replace(p, label=f"{p.label}, margin {margin:.3g}") for p in wide]
 
     def _emit(self, event: PlanEvent):
         if self.progress is not None:
