@@ -13,7 +13,7 @@ same; start and goal at least 0.7 of its side apart) is planned by the default p
 
 A row per scenario, then per size: how many converged, and the median and worst plan time,
 CLI wall time and peak memory over the seeds (one lucky seed says little: at 1,000 obstacles
-the seeds ranged from 2 to 12 s, and some end with every extremal through an obstacle).
+the seeds range from 2 to 5 s, and at 3,000 some end with every extremal through an obstacle).
 
 Targets of the issue: 1,000 obstacles under 2 s and 1 GB (CLI, 2 cores), 100 obstacles under
 300 ms in-process, judged on the medians. No assertions; the figures are printed as tables.

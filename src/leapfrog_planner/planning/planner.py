@@ -339,29 +339,23 @@ class Planner:
     def _wider_stage(self, paths: list[InitialPath], runs: list[PathRun]):
         """The paths at the penalty's own distance (:func:`penalty_margin`) to run as well, or
         None. Where the penalty dwarfs the control energy near the obstacles (a long horizon or
-        a heavy weight), paths at the robot's margin are poor starts. When no run found an
-        extremal, all of them; when the paths run are :meth:`_penalty_dominated`, those
-        estimated cheaper than every path run."""
+        a heavy weight), paths at the robot's margin are poor starts: when no run found an
+        extremal, all of them are run; when every path run, followed at its own pace, is
+        estimated at more than ``WIDER_WHEN`` times the cheapest collision-free extremal found,
+        those estimated cheaper than every path run."""
         wide = penalty_margin(self.scenario)
-        if not (wide > self.settings.margin and self._penalty_dominated(paths, runs)):
+        if not wide > self.settings.margin:
             return None
-        log.info("initial paths again with margin %.3g", wide)
-        wider = self._wider_paths(wide)
-        if any(r.extremal for r in runs):
-            top = self._estimates(paths).min()
-            wider = [p for p, c in zip(wider, self._estimates(wider), strict=True) if c < top]
-        return wider
-
-    def _penalty_dominated(self, paths: list[InitialPath], runs: list[PathRun]) -> bool:
-        """Whether the paths at the robot's margin are poor starts: no run found an extremal,
-        or every path, followed at its own pace, costs more than ``WIDER_WHEN`` times the
-        cheapest collision-free extremal found (the penalty near the obstacles dominates)."""
         if not any(r.extremal for r in runs):
-            return True
+            log.info("no extremal: initial paths again with margin %.3g", wide)
+            return self._wider_paths(wide)
         clear = [r.validation.cost for r in runs if r.clear]
-        return (
-            bool(clear) and bool(paths) and self._estimates(paths).min() > WIDER_WHEN * min(clear)
-        )
+        top = float(self._estimates(paths).min())
+        if not (clear and top > WIDER_WHEN * min(clear)):
+            return None
+        log.info("paths %.3g times the extremal's cost: margin %.3g too", top / min(clear), wide)
+        wider = self._wider_paths(wide)
+        return [p for p, c in zip(wider, self._estimates(wider), strict=True) if c < top]
 
     def _wider_paths(self, margin: float) -> list[InitialPath]:
         """Initial paths at ``margin``, labelled with it; none when every gap closes at it."""
