@@ -229,9 +229,9 @@ def common_tangents(C, R, act, sigma, sgn, prune, tol, starts, items, ox, oy, h,
             cosb = (R[i] - sigma * R[j]) / d
             if not abs(cosb) < 1.0 - 1e-12:
                 continue
-            angle = sgn * math.acos(cosb)
-            co, si = math.cos(angle), math.sin(angle)
-            vx, vy = ux * co - uy * si, ux * si + uy * co
+            # u turned by sgn * acos(cosb): its cosine is cosb, its sine sgn * sqrt(1 - cosb^2)
+            sinb = sgn * math.sqrt(1.0 - cosb * cosb)
+            vx, vy = ux * cosb - uy * sinb, ux * sinb + uy * cosb
             tix, tiy = C[i, 0] + R[i] * vx, C[i, 1] + R[i] * vy
             tjx, tjy = C[j, 0] + sigma * R[j] * vx, C[j, 1] + sigma * R[j] * vy
             if prune:
