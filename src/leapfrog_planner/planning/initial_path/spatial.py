@@ -120,6 +120,12 @@ def disc_pairs(C, R, pad, starts, items, ox, oy, h, nx, ny):
     return pi[:n][order], pj[:n][order]
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _closer(dx, dy, r):
+    """``hypot(dx, dy) < r``, without the square root (False for nan, and for ``r <= 0``)."""
+    return r > 0.0 and dx * dx + dy * dy < r * r
+
+
 @njit(cache=True, error_model="numpy")
 def _point_inside(x, y, C, R, tol, starts, items, ox, oy, h, nx, ny):
     """Whether ``(x, y)`` lies deeper than ``tol`` inside some disc of its cell."""
@@ -129,7 +135,7 @@ def _point_inside(x, y, C, R, tol, starts, items, ox, oy, h, nx, ny):
     c = min(int(fy), ny - 1) * nx + min(int(fx), nx - 1)
     for k in range(starts[c], starts[c + 1]):
         j = items[k]
-        if math.hypot(x - C[j, 0], y - C[j, 1]) < R[j] - tol:
+        if _closer(x - C[j, 0], y - C[j, 1], R[j] - tol):
             return True
     return False
 
@@ -200,7 +206,7 @@ def _segment_cut(ax, ay, bx, by, e, stamp, C, R, tol, starts, items, ox, oy, h, 
                     t = 0.0
                 t = t if t > 0.0 else 0.0
                 t = t if t < 1.0 else 1.0
-                if math.hypot(acx - t * abx, acy - t * aby) < R[j] - tol:
+                if _closer(acx - t * abx, acy - t * aby, R[j] - tol):
                     return True
     return False
 
