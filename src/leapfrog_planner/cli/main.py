@@ -63,7 +63,7 @@ def main(argv=None) -> None:
     """Entry point: maps errors to one line and an exit code instead of a traceback."""
     try:
         code = cli.main(args=argv, prog_name="leapfrog", standalone_mode=False)
-    except (KeyboardInterrupt, click.exceptions.Abort, SystemError) as e:
+    except (KeyboardInterrupt, click.exceptions.Abort) as e:
         if not _interrupted(e):
             if not isinstance(e, click.exceptions.Abort):
                 raise
@@ -86,9 +86,10 @@ def main(argv=None) -> None:
         err.print(f"error: {e}", highlight=False, soft_wrap=True, markup=False)
         sys.exit(EXIT_BAD_INPUT)
     except Exception as e:
-        # Any other error after a Ctrl-C is the Ctrl-C: Python may wrap its KeyboardInterrupt
-        # (a class created while it is raised fails with RuntimeError "Error calling
-        # __set_name__", seen during an import 0.35 s into `leapfrog solve`).
+        # Any other error after a Ctrl-C is the Ctrl-C: Python and numba may wrap its
+        # KeyboardInterrupt (a SystemError from a compiled call; a class created while it is
+        # raised fails with RuntimeError "Error calling __set_name__", seen during an import
+        # 0.35 s into `leapfrog solve`).
         if not (_interrupted(e) or interrupted()):
             raise
         err.print("interrupted", markup=False, highlight=False)
