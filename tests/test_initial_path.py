@@ -16,6 +16,7 @@ from leapfrog_planner.planning.initial_path import (
     end_modes,
     initial_paths,
     plot_initial_paths,
+    search,
 )
 
 PI = math.pi
@@ -433,6 +434,65 @@ def test_narrow_gaps_fall_back_to_a_smaller_margin():
     paths = initial_paths([0.0, 0.0, 0.0], [3.0, 0.0, 0.0], ring, k=1)
     assert "(margin 0.00625)" in paths[0].label
     assert polyline_clearance(paths[0].polyline, ring) > 0.005
+
+
+def _class_retries():
+    """(S, G, obstacles, class, margin) of every class whose smoothed path cuts an obstacle, in
+    layouts where that happens: two of the random presets and one of 1,000 obstacles."""
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+
+    picks = {"random-s1-00039", "random-s1-00080", "general-s1-00041", "general-s1-00047"}
+    scenarios = [s for s in generate(GeneratorSpec(n=100, seed=1)) if s.name in picks]
+    scenarios += [
+        s for s in generate(GeneratorSpec.preset("general", n=50, seed=1)) if s.name in picks
+    ]
+    side = 4.0 * math.sqrt(10.0)  # as in the obstacle-count benchmark
+    scenarios += generate(
+        GeneratorSpec(
+            n=1,
+            seed=4,
+            obstacles=(1000, 1000),
+            workspace=(0.0, 0.0, side, side),
+            radius=(0.03, 0.08),
+            obstacle_gap=0.03,
+            min_distance=0.7 * side,
+            clearance=0.1,
+        )
+    )
+    out = []
+    for sc in scenarios:
+        S, G, obs = sc.start, sc.goal, sc.footprint_obstacles
+        tol = search._tolerance(S, G, obs)
+        for cand in search._plan(S, G, obs, 0.02, 8, tol)[:8]:
+            if any(
+                search._smooth_best(cand.polyline, S, G, obs, tol, cand.signature, m).min_clearance
+                < 0.0
+                for m in end_modes(cand.polyline, S, G)
+            ):
+                out.append((S, G, obs, cand, tol))
+    return out
+
+
+def test_a_class_replanned_among_nearby_obstacles_is_the_class_planned_among_all():
+    # A smoothed path that cuts an obstacle sends its class to be planned again with twice and
+    # four times the margin; that tangent graph holds only the obstacles near the class's path,
+    # and gives the same path as a graph of every obstacle (at 1,000 obstacles in a fraction of
+    # the time).
+    retries = _class_retries()
+    assert len(retries) >= 6 and max(r[2].shape[0] for r in retries) == 1000
+    found = 0
+    for S, G, obs, cand, tol in retries:
+        for f in search._RETRY_MARGIN_FACTORS:
+            whole = search._plan(S, G, obs, 0.02 * f, 8, tol) or []
+            same = [c.polyline for c in whole if c.signature == cand.signature]
+            near = search._replan_class(cand, S, G, obs, 0.02 * f, 8, tol)
+            if not same:
+                assert near is None
+            else:
+                assert near is not None and near.shape == same[0].shape
+                np.testing.assert_allclose(near, same[0], rtol=0, atol=1e-12)
+                found += 1
+    assert found >= 8  # (at 1,000 obstacles the class is lost at the larger margins)
 
 
 def test_junction_errors():

@@ -41,8 +41,10 @@ Method
    arc goes to the side that keeps the homotopy class. The spline's arclength is integrated by
    Gauss-Legendre quadrature on a dense grid and :meth:`InitialPath.curve` is parametrised by
    normalised arclength. When smoothing cuts into an obstacle (negative clearance), mid-leg
-   points are inserted (twice at most) and the path is re-planned with twice and four times the
-   margin; when nothing helps, the path with the best clearance is kept and its
+   points are inserted (twice at most) and the class is re-planned with twice and four times the
+   margin (a tangent graph of the obstacles near the class's path only, five times the new
+   margin at most away; the new path's class and clearance are checked against all obstacles);
+   when nothing helps, the path with the best clearance is kept and its
    ``min_clearance`` shows the problem.
 
 Signature

@@ -43,6 +43,10 @@ MAX_RELEVANT = 6
 MAX_DETOUR = 3.0
 #: Margin factors tried when the smoothed curve of a path cuts into an obstacle.
 _RETRY_MARGIN_FACTORS = (2.0, 4.0)
+#: A class is re-planned with a larger margin among the obstacles whose inflated disc comes
+#: within this many times that margin of the class's path (a tangent graph of a few dozen discs
+#: instead of all of them); its path is then checked against every obstacle.
+_RETRY_BAND = 5.0
 #: Times mid-leg points are inserted (at the same margin) before the margin is increased.
 _MIDPOINT_ROUNDS = 2
 #: Margins tried, as fractions of the requested one, until some path exists; then margin 0.
@@ -263,7 +267,7 @@ def initial_paths(
         )
     cands = cands[: int(k)]
 
-    retry: dict[float, list[_Candidate] | None] = {}
+    retry: dict[tuple[int, float], np.ndarray | None] = {}
     classes = []
     for cand in cands:
         variants = [
@@ -311,16 +315,32 @@ def _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes) -> InitialPa
     path = _smooth_best(cand.polyline, S, G, obs, tol, cand.signature, modes)
     if path.min_clearance < 0.0 and used > 0.0:
         for f in _RETRY_MARGIN_FACTORS:
-            if f not in retry:
-                retry[f] = _plan(S, G, obs, used * f, k, tol)
-            same = [c for c in retry[f] or () if c.signature == cand.signature]
-            if same:
-                other = _smooth_best(same[0].polyline, S, G, obs, tol, cand.signature, modes)
+            if (cand.order, f) not in retry:
+                retry[cand.order, f] = _replan_class(cand, S, G, obs, used * f, k, tol)
+            poly = retry[cand.order, f]
+            if poly is not None:
+                other = _smooth_best(poly, S, G, obs, tol, cand.signature, modes)
                 if other.min_clearance > path.min_clearance:
                     path = other
                 if path.min_clearance >= 0.0:
                     break
     return path
+
+
+def _replan_class(cand, S, G, obs, margin, k, tol) -> np.ndarray | None:
+    """The shortest polyline of ``cand``'s class round the obstacles inflated by ``margin``
+    (planned among those near the class's path, :data:`_RETRY_BAND`), or None when the
+    class is not found at that margin."""
+    poly = cand.polyline
+    gap = _segment_distance(poly[:-1], poly[1:], obs[:, :2]).min(axis=0) - obs[:, 2]
+    near = np.flatnonzero(gap < _RETRY_BAND * margin)
+    want = tuple(np.asarray(cand.signature)[near].tolist())
+    same = [c for c in _plan(S, G, obs[near], margin, k, tol) or () if c.signature == want]
+    if not same:
+        return None
+    nodes = same[0].nodes
+    full = same[0].graph.signatures(nodes[None, :], np.array([nodes.size]), obs)[0]
+    return same[0].polyline if tuple(full.tolist()) == cand.signature else None
 
 
 def _relabel(path: InitialPath, label: str) -> InitialPath:
