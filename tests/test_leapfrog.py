@@ -689,3 +689,37 @@ def test_a_sweep_that_moved_no_junction_ends_its_level():
     assert next_level(stuck, 100.0, spent, s)[0] is Level.HALVE
     # one failure short of idle, and settled: the level sweeps once more, as before
     assert next_level(_rec(100.0, failures=6), 100.0, LevelState(), s)[0] is Level.STAY
+
+
+class _Forgetful(set):
+    """A set that never holds what is asked for, and counts the questions it was asked again."""
+
+    repeats = 0
+
+    def __contains__(self, key):
+        _Forgetful.repeats += set.__contains__(self, key)
+        return False
+
+
+def test_a_local_problem_that_failed_is_not_solved_again_with_the_same_data(monkeypatch):
+    """Random scenario 13 of seed 1: stuck junctions pose the same failing local problems sweep
+    after sweep. Skipping those (every strategy is deterministic) changes nothing but the work."""
+    from leapfrog_planner.planning.leapfrog import local
+
+    sc = generate_one(GeneratorSpec(n=500, seed=1), 13)
+    remembering = plan(sc, threads=1)
+    init = local.LocalSolver.__init__
+
+    def forgetful(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        self._failed = _Forgetful()
+
+    monkeypatch.setattr(local.LocalSolver, "__init__", forgetful)
+    _Forgetful.repeats = 0
+    trying = plan(sc, threads=1)
+    assert _Forgetful.repeats >= 10  # the same failing problem, posed again
+    assert trying.status == remembering.status and trying.cost == remembering.cost
+    assert [h.cost for h in trying.history] == [h.cost for h in remembering.history]
+    pairs = zip(trying.history, remembering.history, strict=True)
+    assert all(np.array_equal(a.X, b.X) for a, b in pairs)
+    assert trying.f_evals > remembering.f_evals

@@ -99,6 +99,7 @@ class LocalSolver:
         self.strategies = Strategies()
         self._shooters: dict[tuple, LocalShooter] = {}
         self._weighted: dict[float, tuple[OptimalControlProblem, Flow]] = {}
+        self._failed: set[bytes] = set()  # the sweeps' local problems that failed
 
     # ------------------------------------------------------------------ one solve
 
@@ -185,7 +186,15 @@ class LocalSolver:
         """In a sweep, the local problem of junction ``i`` of ``level``: the direct attempts,
         then continuation in the obstacle weight, then in the end state (once per junction
         and level: where it fails once it fails again, and each try costs up to
-        ``continuation_steps`` solves)."""
+        ``continuation_steps`` solves).
+
+        A problem that failed before in this run with the very same data (ends, guess, middle
+        junction) fails at once: every strategy is deterministic, so it would fail again. Where
+        a stretch of junctions is stuck, the next sweep poses the same problems (1,000
+        obstacles: 3 to 14 repeats a plan, each a failed continuation of 10 to 80 ms)."""
+        key = np.concatenate([(ta, tb, mid[0], warm_failed), xa, xb, guess, mid[1], mid[2]])
+        if (key := key.tobytes()) in self._failed:
+            return None
         r = self.direct(ta, xa, tb, xb, guess, mid=mid, warm_failed=warm_failed)
         if r is None and self.has_obstacles:
             r = self.weight_continuation(ta, xa, tb, xb, guess)
@@ -193,6 +202,8 @@ class LocalSolver:
             r = self.end_state_continuation(ta, xa, tb, xb, guess)
             if r is None:
                 level.hopeless.add(i)
+        if r is None:
+            self._failed.add(key)
         return r
 
     def segment_solve(self, ta, xa, tb, xb, warm) -> LocalSolution | None:
