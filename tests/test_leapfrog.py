@@ -351,7 +351,8 @@ def test_an_unsolvable_initial_segment_fails_cleanly():
     assert not run.success
     assert run.costate0 is None and run.final_solver is None
     assert run.history == () and run.initial_cost == math.inf
-    assert "initial segment" in run.message
+    i = run.failed_segment
+    assert 0 <= i < 8 and f"the two-point problem of initial segment {i} failed (" in run.message
 
 
 # --------------------------------------------------------------------------- refinement

@@ -481,6 +481,12 @@ def test_no_extremal_and_no_arcs_hands_back_the_initial_path():
     assert r.status is PlanStatus.FAILED and not r.optimal
     assert r.trajectory_source == "initial path, not optimal"
     assert "no initial path led to an extremal" in r.message and "initial segment" in r.message
+    # Every path failed alike: what was tried is said once, each path with its segment.
+    assert r.message.count("(warm start, path costate") == 1
+    assert (
+        "an initial segment failed" in r.message
+        and " on 7 paths [visibility #2 (segment 0);" in r.message
+    )
     np.testing.assert_allclose(r.trajectory.x[[0, -1]], [CASES[3].start, CASES[3].goal])
     assert r.min_clearance > 0.0 and np.isfinite(r.cost)
 

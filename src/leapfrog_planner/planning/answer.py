@@ -187,9 +187,28 @@ def plan_message(status, best: PathRun, answer: Answer, runs: list[PathRun], mar
         else:
             what = f"every extremal found {_too_close(worst, margin)} ({weights})"
     else:
-        what = "; ".join(f"path {r.path.label}: {r.run.message}" for r in runs if r.raises == 0)
-        what = f"no initial path led to an extremal ({what})"
+        what = f"no initial path led to an extremal ({_failures(runs)})"
     return f"{what}; returned: the {answer.source}"
+
+
+def _failures(runs: list[PathRun]) -> str:
+    """Why each path's run (at the scenario's weight) failed. Runs that failed alike at an
+    initial segment are named together, each with its segment, so that a plan whose every path
+    failed there says once what was tried."""
+    groups: dict[str, list[PathRun]] = {}
+    for r in runs:
+        if not r.raises:
+            i, msg = r.run.failed_segment, r.run.message
+            alike = msg if i is None else msg.replace(f"initial segment {i}", "an initial segment")
+            groups.setdefault(alike, []).append(r)
+    parts = []
+    for alike, same in groups.items():
+        if len(same) == 1 or same[0].run.failed_segment is None:
+            parts += [f"path {r.path.label}: {r.run.message}" for r in same]
+        else:
+            names = "; ".join(f"{r.path.label} (segment {r.run.failed_segment})" for r in same)
+            parts.append(f"{alike} on {len(same)} paths [{names}]")
+    return "; ".join(parts)
 
 
 def best_of(runs: list[PathRun]) -> PathRun:

@@ -21,7 +21,7 @@ from .final import FinalSolver
 from .levels import Level, LevelState, idle, next_level
 from .local import LocalSolver
 from .settings import LeapfrogSettings
-from .sweep import SweepRecord, fit_initial_path, sweep
+from .sweep import SegmentFailure, SweepRecord, fit_initial_path, sweep
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,8 @@ class LeapfrogSolution:
     # costate", "weight continuation", "end-state continuation", "affine guess"), "failed"
     # (every strategy failed) and "split" (segments split in two after failing).
     fit_strategies: dict[str, int] = field(default_factory=dict)
+    # The initial segment whose two-point problem failed every strategy (None otherwise).
+    failed_segment: int | None = None
 
 
 @dataclass
@@ -94,7 +96,7 @@ def leapfrog(
     local, final = _solvers(problem, t, X, guide, settings, flow)
     t_start = time.perf_counter()
     state = init(local, t, X)
-    if isinstance(state, str):
+    if isinstance(state, SegmentFailure):
         return _failed(state, local, time.perf_counter() - t_start)
     while not terminate(state, settings):
         step(state, local, settings, progress)
@@ -114,10 +116,10 @@ def _solvers(problem, t, X, guide, settings, flow) -> tuple[LocalSolver, FinalSo
     return local, FinalSolver(local, final_flow, start, goal, float(t[0]), float(t[-1]))
 
 
-def init(local: LocalSolver, t: np.ndarray, X: np.ndarray) -> State | str:
-    """The initial path's arcs as the first level; a message when a segment failed."""
+def init(local: LocalSolver, t: np.ndarray, X: np.ndarray) -> State | SegmentFailure:
+    """The initial path's arcs as the first level; the failure when a segment failed."""
     arcs = fit_initial_path(local, t, X)
-    if isinstance(arcs, str):
+    if isinstance(arcs, SegmentFailure):
         return arcs
     return State(arcs, arcs, LevelState(), float(arcs.cost.sum()))
 
@@ -217,11 +219,11 @@ def _message(extremal, solver, root, first_failure, more: int, q: int, state: St
     return msg
 
 
-def _failed(message: str, local: LocalSolver, sweep_time: float) -> LeapfrogSolution:
+def _failed(failure: SegmentFailure, local: LocalSolver, sweep_time: float) -> LeapfrogSolution:
     """A run whose initial path's segments could not all be solved."""
     return LeapfrogSolution(
         success=False,
-        message=message,
+        message=failure.message,
         costate0=None,
         extremal=None,
         final_solver=None,
@@ -235,4 +237,5 @@ def _failed(message: str, local: LocalSolver, sweep_time: float) -> LeapfrogSolu
         final_time_s=0.0,
         final_root=None,
         fit_strategies=dict(local.strategies.counts),
+        failed_segment=failure.segment,
     )

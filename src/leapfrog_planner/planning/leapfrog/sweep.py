@@ -38,9 +38,24 @@ class SweepRecord:
     X: np.ndarray  # junction states after the sweep
 
 
-def fit_initial_path(local: LocalSolver, t: np.ndarray, X: np.ndarray) -> Junctions | str:
+@dataclass(frozen=True)
+class SegmentFailure:
+    """An initial segment whose two-point problem failed every strategy in ``tried``."""
+
+    segment: int
+    tried: str
+
+    @property
+    def message(self) -> str:
+        return f"the two-point problem of initial segment {self.segment} failed ({self.tried})"
+
+
+def fit_initial_path(
+    local: LocalSolver, t: np.ndarray, X: np.ndarray
+) -> Junctions | SegmentFailure:
     """The arcs through the initial path's junctions ``(t, X)``, each segment a local extremal
-    (split where it fails); or, when a segment fails every strategy, the message saying so."""
+    (split where it fails); or, when a segment fails every strategy, which one and what was
+    tried."""
     pieces = []
     for i in range(t.size - 1):
         warm = pieces[-1].lam1 if pieces else None
@@ -49,7 +64,7 @@ def fit_initial_path(local: LocalSolver, t: np.ndarray, X: np.ndarray) -> Juncti
             tried = "warm start, path costate, weight and end-state continuation, affine guess"
             if local.guide is not None and local.settings.max_split_depth:
                 tried += f", split {local.settings.max_split_depth} times"
-            return f"the two-point problem of initial segment {i} failed ({tried})"
+            return SegmentFailure(i, tried)
         pieces += seg
     return Junctions.from_pieces(
         [(p.t0, p.x0, p.lam0, p.lam1, p.cost) for p in pieces], float(t[-1]), X[-1].copy()
