@@ -246,7 +246,9 @@ class _TangentGraph:
         """The edges in CSR order (by source node), and the nodes' positions and circles."""
         src, dst, wgt, geo = (np.concatenate(x) for x in (src, dst, wgt, geo))
         is_arc = np.arange(src.size) >= self.n_seg
-        order = np.lexsort((dst, src))
+        self.n = 2 + 2 * (self.xy.shape[0] - 2)
+        # By source, then destination, ties in list order: np.lexsort((dst, src)), twice as fast.
+        order = np.argsort(src * self.n + dst, kind="stable")
         self.src, self.dst, self.geo, self.is_arc = (
             src[order],
             dst[order],
@@ -254,7 +256,6 @@ class _TangentGraph:
             is_arc[order],
         )
         self.wgt = np.maximum(wgt[order], 1e-6 * self.tol)  # no zero-length edges
-        self.n = 2 + 2 * (self.xy.shape[0] - 2)
         self.indptr = np.zeros(self.n + 1, np.int64)
         np.cumsum(np.bincount(self.src, minlength=self.n), out=self.indptr[1:])
         nodes = np.arange(self.n)
