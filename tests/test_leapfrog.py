@@ -692,13 +692,13 @@ def test_a_sweep_that_moved_no_junction_ends_its_level():
     assert next_level(_rec(100.0, failures=6), 100.0, LevelState(), s)[0] is Level.STAY
 
 
-class _Forgetful(set):
-    """A set that never holds what is asked for, and counts the questions it was asked again."""
+class _Forgetful(dict):
+    """A memory that never holds what is asked for, and counts the questions it was asked again."""
 
     repeats = 0
 
     def __contains__(self, key):
-        _Forgetful.repeats += set.__contains__(self, key)
+        _Forgetful.repeats += dict.__contains__(self, key)
         return False
 
 

@@ -99,7 +99,8 @@ class LocalSolver:
         self.strategies = Strategies()
         self._shooters: dict[tuple, LocalShooter] = {}
         self._weighted: dict[float, tuple[OptimalControlProblem, Flow]] = {}
-        self._failed: set[bytes] = set()  # the sweeps' local problems that failed
+        # The sweeps' local problems that failed: whether the end-state continuation was tried.
+        self._failed: dict[bytes, bool] = {}
 
     # ------------------------------------------------------------------ one solve
 
@@ -189,21 +190,24 @@ class LocalSolver:
         ``continuation_steps`` solves).
 
         A problem that failed before in this run with the very same data (ends, guess, middle
-        junction) fails at once: every strategy is deterministic, so it would fail again. Where
-        a stretch of junctions is stuck, the next sweep poses the same problems (1,000
-        obstacles: 3 to 14 repeats a plan, each a failed continuation of 10 to 80 ms)."""
+        junction) and the same strategies or more fails at once: every strategy is
+        deterministic, so it would fail again. Where a stretch of junctions is stuck, the next
+        sweep poses the same problems (1,000 obstacles: 3 to 14 repeats a plan, each a failed
+        continuation of 10 to 80 ms)."""
         key = np.concatenate([(ta, tb, mid[0], warm_failed), xa, xb, guess, mid[1], mid[2]])
-        if (key := key.tobytes()) in self._failed:
+        key = key.tobytes()
+        end_state = i not in level.hopeless
+        if key in self._failed and (self._failed[key] or not end_state):
             return None
         r = self.direct(ta, xa, tb, xb, guess, mid=mid, warm_failed=warm_failed)
         if r is None and self.has_obstacles:
             r = self.weight_continuation(ta, xa, tb, xb, guess)
-        if r is None and i not in level.hopeless:
+        if r is None and end_state:
             r = self.end_state_continuation(ta, xa, tb, xb, guess)
             if r is None:
                 level.hopeless.add(i)
         if r is None:
-            self._failed.add(key)
+            self._failed[key] = end_state or self._failed.get(key, False)
         return r
 
     def segment_solve(self, ta, xa, tb, xb, warm) -> LocalSolution | None:
