@@ -269,7 +269,8 @@ def good_runs(tmp_path_factory) -> dict[str, Run]:
     jobs["solve-verbose"] = (["solve", "paper-case-1"], root / "solve-verbose")
     # A fast deterministic failure (~1 s of solving): q = 2 from the start, so no sweep, and the
     # simple shooting from the first arc's costate does not converge on case 4 (max-iterations)
-    # and is not rescued by multiple shooting (--final shooting).
+    # and is not rescued by multiple shooting (--final shooting), nor by the stages again with
+    # q = 4 (--option finer_doublings=0).
     jobs["fail"] = (
         [
             "solve",
@@ -280,6 +281,8 @@ def good_runs(tmp_path_factory) -> dict[str, Run]:
             "shooting",
             "--initial-paths",
             "1",
+            "--option",
+            "finer_doublings=0",  # (q = 4 would converge)
             "--json",
             "f.json",
             "--plot",

@@ -449,8 +449,9 @@ def test_saved_files_get_the_usual_permissions(planned, tmp_path):
 
 @pytest.fixture(scope="module")
 def failed():
-    """A fast deterministic failure: q = 2 from the start and no multiple-shooting fallback."""
-    r = plan(CASES[4].name, partitions=2, final="shooting", initial_paths=1)
+    """A fast deterministic failure: q = 2 from the start, no multiple-shooting fallback, and
+    no second try with more partitions."""
+    r = plan(CASES[4].name, partitions=2, final="shooting", initial_paths=1, finer_doublings=0)
     assert r.status is PlanStatus.FAILED
     return r
 
@@ -481,12 +482,12 @@ def test_no_extremal_and_no_arcs_hands_back_the_initial_path():
     assert r.status is PlanStatus.FAILED and not r.optimal
     assert r.trajectory_source == "initial path, not optimal"
     assert "no initial path led to an extremal" in r.message and "initial segment" in r.message
-    # Every path failed alike: what was tried is said once, each path with its segment.
+    # Every path failed alike, also with twice the partitions: what was tried is said once,
+    # each path with its segment.
     assert r.message.count("(warm start, path costate") == 1
-    assert (
-        "an initial segment failed" in r.message
-        and " on 7 paths [visibility #2 (segment 0);" in r.message
-    )
+    assert "an initial segment failed" in r.message
+    assert " on 14 paths [visibility #2 (segment 0);" in r.message
+    assert "visibility #2, q = 16 (segment 0)" in r.message
     np.testing.assert_allclose(r.trajectory.x[[0, -1]], [CASES[3].start, CASES[3].goal])
     assert r.min_clearance > 0.0 and np.isfinite(r.cost)
 

@@ -123,7 +123,7 @@ def test_a_cheaper_collision_free_iterate_is_reported_with_a_converged_extremal(
     from leapfrog_planner.experiments.direct import solve_direct
 
     sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=100.0), 15)
-    r = plan(sc, final_refinements=1)
+    r = plan(sc, final_refinements=1, finer_doublings=0)  # (q = 16 would find the optimum)
     assert r.success and r.optimal
     match = re.search(
         r"a collision-free motion that is not an extremal .* costing (\S+), less", r.message
@@ -168,6 +168,20 @@ def test_paths_at_the_penalty_margin_run_too_where_the_penalty_dominates(monkeyp
     alone = plan(sc)
     assert alone.success and alone.cost > 1.5 * r.cost
     assert "margin" not in alone.initial_path
+
+
+def test_an_answer_that_falls_short_is_sought_again_with_twice_the_partitions():
+    """Default layout 10 of seed 1 at T = 100: with q = 8 no initial path leads to an extremal
+    (every run fails at an initial segment: an end in the penalty's grip). The stages again with
+    q = 16, shorter arcs in the stiff penalty, converge."""
+    sc = _layout("random-s1-00010", 100.0)
+    alone = plan(sc, finer_doublings=0)
+    assert not alone.success and "no initial path led to an extremal" in alone.message
+    r = plan(sc)
+    assert r.success and r.optimal, r.message
+    assert r.initial_path.endswith(", q = 16") and r.min_clearance >= 0.0
+    assert any(a.label.endswith(", q = 16") for a in r.alternatives)
+    assert any(not a.label.endswith(", q = 16") for a in r.alternatives)  # the runs of q = 8
 
 
 def test_no_cheaper_iterate_is_claimed_where_the_extremal_is_the_optimum():

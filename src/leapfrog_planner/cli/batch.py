@@ -5,7 +5,6 @@ Bad input fails before any work with one line on stderr and exit 2 (see :func:`.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
@@ -15,8 +14,10 @@ from .common import (
     EXIT_OK,
     console,
     err,
+    option_items,
     output_folder,
     output_path,
+    planner_options,
     refuse_inputs_in,
     write_output,
 )
@@ -160,19 +161,6 @@ def _load_sources(sources) -> list:
     return out
 
 
-def _planner_options(items) -> dict:
-    opts = {}
-    for item in items:
-        if "=" not in item:
-            raise click.BadParameter(f"expected KEY=VALUE, got {item!r}", param_hint="--option")
-        k, v = item.split("=", 1)
-        try:
-            opts[k.strip().replace("-", "_")] = json.loads(v)
-        except json.JSONDecodeError:
-            opts[k.strip().replace("-", "_")] = v  # a bare string, e.g. final=auto
-    return opts
-
-
 @click.command()
 @click.argument("sources", nargs=-1)
 @_generator_options
@@ -215,13 +203,7 @@ def _planner_options(items) -> dict:
     default=None,
     help="planner initial paths  [sweep default: 1]",
 )
-@click.option(
-    "--option",
-    "options",
-    multiple=True,
-    metavar="KEY=VALUE",
-    help="another planner option, e.g. partitions=16 (repeatable)",
-)
+@option_items
 @click.option("--no-sort", is_flag=True, help="leave the file in completion order at the end")
 @click.option("--quiet", is_flag=True, help="no progress bar and no summary")
 def sweep(
@@ -245,7 +227,7 @@ def sweep(
     """
     from ..batch.sweep import SweepSettings, run_sweep
 
-    planner = _planner_options(options)
+    planner = planner_options(options)
     if initial_paths is not None:
         planner["initial_paths"] = initial_paths
     settings = SweepSettings(

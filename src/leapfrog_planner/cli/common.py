@@ -8,6 +8,7 @@ what gets replaced.
 
 from __future__ import annotations
 
+import json
 import os
 import stat
 import tempfile
@@ -143,3 +144,29 @@ def write_output(write, path: Path, option: str) -> None:
         write(path)
     except OSError as exc:
         _fail(option, f"cannot write {str(path)!r} ({exc.strerror or exc})")
+
+
+#: ``--option KEY=VALUE``: any planner or Leapfrog setting, repeatable (sweep and solve).
+option_items = click.option(
+    "--option",
+    "options",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="another planner option, e.g. partitions=16 (repeatable)",
+)
+
+
+def planner_options(items) -> dict:
+    """``--option`` items as settings: values read as JSON where they parse, else as text
+    (``final=auto``); dashes in keys become underscores. Unknown keys are the planner's to
+    refuse."""
+    opts = {}
+    for item in items:
+        if "=" not in item:
+            raise click.BadParameter(f"expected KEY=VALUE, got {item!r}", param_hint="--option")
+        k, v = item.split("=", 1)
+        try:
+            opts[k.strip().replace("-", "_")] = json.loads(v)
+        except json.JSONDecodeError:
+            opts[k.strip().replace("-", "_")] = v  # a bare string, e.g. final=auto
+    return opts

@@ -18,7 +18,9 @@ from .common import (
     console,
     distinct_outputs,
     err,
+    option_items,
     output_path,
+    planner_options,
     write_output,
 )
 from .warmup import ensure_compiled
@@ -188,9 +190,19 @@ def scenarios():
 @click.option("--json", "json_path", default=None, help="write the result as JSON")
 @click.option("--npz", "npz_path", default=None, help="write the trajectory arrays as NPZ")
 @click.option("--plot", "plot_path", default=None, help="write the path figure (PNG, PDF or SVG)")
+@option_items
 @click.option("--quiet", is_flag=True, help="no progress bar and no table")
 def solve(
-    scenario, method, partitions, initial_paths, final, json_path, npz_path, plot_path, quiet
+    scenario,
+    method,
+    partitions,
+    initial_paths,
+    final,
+    json_path,
+    npz_path,
+    plot_path,
+    options,
+    quiet,
 ):
     """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm."""
     from ..planning.planner import Planner
@@ -206,17 +218,14 @@ def solve(
     }
     distinct_outputs(outputs)
     sc = load_scenario(scenario)
-    options = {
-        k: v
-        for k, v in [
-            ("method", method),
-            ("partitions", partitions),
-            ("initial_paths", initial_paths),
-            ("final", final),
-        ]
-        if v is not None
-    }
-    planner = Planner(sc, **options)  # settings errors surface here, before any display
+    named = [
+        ("method", method),
+        ("partitions", partitions),
+        ("initial_paths", initial_paths),
+        ("final", final),
+    ]
+    settings = {**planner_options(options), **{k: v for k, v in named if v is not None}}
+    planner = Planner(sc, **settings)  # settings errors surface here, before any display
     # Loaded before planning, so that the time reported is the plan's own.
     ensure_compiled([sc.model], show=not quiet, methods=[planner.settings.leapfrog.method])
     result = planner.plan() if quiet else _plan_with_progress(planner)

@@ -21,6 +21,7 @@ from ..integrate.flow import Flow, IntegratorSettings
 from ..model.problem import OptimalControlProblem
 from .answer import (
     END_STATE_FACTOR,
+    Answer,
     Context,
     PathRun,
     best_of,
@@ -30,6 +31,7 @@ from .answer import (
 from .bounded import continue_to_bounds, exceeded, schedule
 from .initial_path import InitialPath, initial_paths
 from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
+from .leapfrog.settings import MAX_PARTITIONS
 from .path_ranking import (
     PathGuide,
     drivable,
@@ -42,6 +44,7 @@ from .path_ranking import (
 from .result_files import plain
 from .results import (
     PlanResult,
+    PlanStatus,
     penalty_integral,
     validate_arcs,
 )
@@ -72,12 +75,17 @@ class PlannerSettings:
     # Initial paths run in parallel threads (the compiled flow releases the GIL): 0 means one
     # per path, all at once; 1 runs them one after the other. Results do not depend on it.
     threads: int = 0
+    # A plan whose answer falls short (no extremal at all, or a collision-free Leapfrog iterate
+    # cheaper than the best extremal) runs its stages again with the partitions doubled, this
+    # many times at most: at long horizons the arcs of q = 8 are too long for a stiff penalty.
+    finer_doublings: int = 1
     leapfrog: LeapfrogSettings = LeapfrogSettings()
 
     def __post_init__(self):
         require_integer("initial_paths", self.initial_paths, 1, 32)
         require_integer("candidate_paths", self.candidate_paths, 1, 64)
         require_integer("threads", self.threads, 0, 256)
+        require_integer("finer_doublings", self.finer_doublings, 0, 7)
         if not 0 <= self.margin <= 1e6:
             raise SettingsError(f"margin must be between 0 and 1e6, got {self.margin!r}")
         require_integer("samples", self.samples, 2, 1_000_000)
@@ -174,6 +182,7 @@ class Planner:
         self._end_tolerance = END_STATE_FACTOR * final.root.tol
         self._weights_lock = threading.Lock()
         self._weighted = {float(self.scenario.weight): (self.problem, self.flow)}
+        self._suffix = ""  # appended to the labels of the paths run (see _finer)
 
     def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
         """The ``initial_paths`` candidates of least estimated cost, cheapest first, keeping
@@ -286,6 +295,8 @@ class Planner:
 
     def _run_paths(self, paths: list[InitialPath], raises: int) -> list[PathRun]:
         """:meth:`run_path` for each path, in parallel threads (see ``threads``)."""
+        if self._suffix and not raises:  # (the raised runs' paths carry it already)
+            paths = [replace(p, label=p.label + self._suffix) for p in paths]
         n = len(paths)
         workers = min(n, self.settings.threads or n)
         args = (paths, range(n), [n] * n, [raises] * n)
@@ -298,10 +309,30 @@ class Planner:
         t_begin = time.perf_counter()
         paths = self.initial_paths()
         t_paths = time.perf_counter() - t_begin
+        runs, t_wider = self._stages(paths)
+        t_paths += t_wider
+        chosen = choose_answer(runs, self._context())
+        q = self.settings.leapfrog.partitions
+        for k in range(1, self.settings.finer_doublings + 1):
+            if q << k > MAX_PARTITIONS or not _falls_short(*chosen):
+                break
+            log.info("the answer falls short: the stages again with q = %d", q << k)
+            more, t_wider = self._finer(q << k)._stages(paths)
+            runs, t_paths = runs + more, t_paths + t_wider
+            chosen = choose_answer(runs, self._context())
+        t_runs = time.perf_counter() - t_begin - t_paths
+        self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
+        return self._result(runs, chosen, t_paths, t_runs, time.perf_counter() - t_begin)
+
+    def _stages(self, paths: list[InitialPath]) -> tuple[list[PathRun], float]:
+        """The runs of the plan's stages from ``paths`` (and the time spent planning wider
+        paths): the paths; the paths at the penalty's margin (:meth:`_wider_stage`); when still
+        no extremal, the paths timed by the penalty; the weight raised where every extremal
+        passes through an obstacle."""
         runs = self._run_paths(paths, 0)
         t0 = time.perf_counter()
         wider = self._wider_stage(paths, runs)
-        t_paths += time.perf_counter() - t0
+        t_wider = time.perf_counter() - t0
         if wider is not None:
             if not any(r.extremal for r in runs):
                 paths = wider
@@ -328,9 +359,17 @@ class Planner:
                 break
             log.info("no extremal clears the obstacles: weight x %g", WEIGHT_FACTOR**raises)
             runs += self._run_paths(again, raises)
-        t_runs = time.perf_counter() - t_begin - t_paths
-        self._emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
-        return self._result(runs, t_paths, t_runs, time.perf_counter() - t_begin)
+        return runs, t_wider
+
+    def _finer(self, q: int) -> Planner:
+        """This planner with ``q`` partitions, labelling its paths with them."""
+        finer = Planner(self.scenario, self.settings, partitions=q)  # (over a file's value)
+        finer.progress, finer._progress_lock = self.progress, self._progress_lock
+        finer._suffix = f", q = {q}"
+        return finer
+
+    def _context(self) -> Context:
+        return Context(self.scenario, self.problem, self.settings.samples, self._flow_at)
 
     def _estimates(self, paths: list[InitialPath]) -> np.ndarray:
         s = self.scenario
@@ -370,9 +409,8 @@ class Planner:
             with self._progress_lock:  # paths run in threads: one event at a time
                 self.progress(event)
 
-    def _result(self, runs, t_paths, t_runs, wall) -> PlanResult:
-        ctx = Context(self.scenario, self.problem, self.settings.samples, self._flow_at)
-        status, best, answer = choose_answer(runs, ctx)
+    def _result(self, runs, chosen, t_paths, t_runs, wall) -> PlanResult:
+        status, best, answer = chosen
         s, info, run, v = self.scenario, self.problem.model, best.run, answer.validation
         tr = answer.trajectory
         problem = self._at_weight(best.weight)[0]
@@ -435,6 +473,12 @@ class Planner:
             settings=plain(self.settings),
             cheaper_motion=nan if answer.cheaper is None else answer.cheaper[1],
         )
+
+
+def _falls_short(status: PlanStatus, best: PathRun, answer: Answer) -> bool:
+    """No extremal at all, or a collision-free iterate cheaper than the best extremal.
+    (Extremals that only pass through obstacles are the weight raises' to mend.)"""
+    return status is PlanStatus.FAILED or answer.cheaper is not None
 
 
 def plan(scenario: Scenario | str, *, progress=None, **options) -> PlanResult:
