@@ -183,6 +183,9 @@ class Planner:
         self._weights_lock = threading.Lock()
         self._weighted = {float(self.scenario.weight): (self.problem, self.flow)}
         self._suffix = ""  # appended to the labels of the paths run (see _finer)
+        # Initial paths at the penalty's margin, by margin: planned once, also for _finer's runs
+        # (they do not depend on the partitions).
+        self._wide_paths: dict[float, list[InitialPath]] = {}
 
     def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
         """The ``initial_paths`` candidates of least estimated cost, cheapest first, keeping
@@ -365,7 +368,7 @@ class Planner:
         """This planner with ``q`` partitions, labelling its paths with them."""
         finer = Planner(self.scenario, self.settings, partitions=q)  # (over a file's value)
         finer.progress, finer._progress_lock = self.progress, self._progress_lock
-        finer._suffix = f", q = {q}"
+        finer._suffix, finer._wide_paths = f", q = {q}", self._wide_paths
         return finer
 
     def _context(self) -> Context:
@@ -398,11 +401,14 @@ class Planner:
 
     def _wider_paths(self, margin: float) -> list[InitialPath]:
         """Initial paths at ``margin``, labelled with it; none when every gap closes at it."""
-        try:
-            wide = self.initial_paths(margin)
-        except ScenarioError:
-            return []
-        return [replace(p, label=f"{p.label}, margin {margin:.3g}") for p in wide]
+        if margin not in self._wide_paths:
+            try:
+                wide = self.initial_paths(margin)
+            except ScenarioError:
+                wide = []
+            label = f", margin {margin:.3g}"
+            self._wide_paths[margin] = [replace(p, label=p.label + label) for p in wide]
+        return self._wide_paths[margin]
 
     def _emit(self, event: PlanEvent):
         if self.progress is not None:
