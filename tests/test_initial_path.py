@@ -495,6 +495,79 @@ def test_a_class_replanned_among_nearby_obstacles_is_the_class_planned_among_all
     assert found >= 8  # (at 1,000 obstacles the class is lost at the larger margins)
 
 
+def _same_route(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two polylines trace the same route: each vertex of one lies within 1e-4 of the
+    other (the whole graph may hold a tangent point more at the end of a tiny arc)."""
+
+    def on(points, poly):
+        d = search._segment_distance(poly[:-1], poly[1:], points).min(axis=0)
+        return bool(np.all(d < 1e-4))
+
+    return on(a, b) and on(b, a)
+
+
+def test_a_leg_planned_among_the_obstacles_its_ellipse_holds_is_the_shortest_among_all(
+    monkeypatch,
+):
+    # Three-point turns and waypoints route their legs one by one; each leg's tangent graph
+    # holds only the obstacles that a path of its length could touch (an ellipse round its
+    # ends, grown until it holds the path). The same route as the graph of every obstacle.
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+
+    side = 4.0 * math.sqrt(3.0)
+    (sc,) = generate(
+        GeneratorSpec(
+            n=1, seed=2, obstacles=(300, 300), workspace=(0.0, 0.0, side, side),
+            radius=(0.03, 0.08), obstacle_gap=0.03, min_distance=0.7 * side, clearance=0.1,
+        )
+    )  # fmt: skip
+    rng = np.random.default_rng(7)
+    ends = [rng.uniform(0.0, side, (2, 2)) for _ in range(30)]
+    # Legs across a wide disc, whose detour is longer than the first ellipse's string.
+    ring = np.array([[5.0, 5.0, 0.6]])
+    ends += [
+        np.array(e)
+        for e in ([[4, 5.2], [6, 5.1]], [[4.1, 4.8], [5.9, 5.05]], [[3.9, 5.3], [6.1, 5.25]])
+    ]
+    obs = sc.footprint_obstacles
+    obs = np.vstack([ring, obs[np.hypot(*(obs[:, :2] - 5.0).T) > 0.8]])
+    tol = search._tolerance(sc.start, sc.goal, obs)
+    plans = []
+    plan = search._plan
+    monkeypatch.setattr(search, "_plan", lambda *a: plans.append(a[2].shape[0]) or plan(*a))
+    legs = grown = 0
+    for a, b in ends:
+        if np.any(np.hypot(*(np.vstack([a, b])[:, None] - obs[:, :2]).T) <= obs[:, 2, None]):
+            continue
+        whole = plan(np.append(a, 0), np.append(b, 0), obs, 0.02, 1, tol)
+        plans.clear()
+        leg = search._shortest_leg(a, b, obs, 0.02, tol)
+        assert (whole is None) == (leg is None)
+        if whole is None:
+            continue
+        legs += 1
+        grown += len(plans) > 1
+        assert max(plans, default=0) < obs.shape[0]  # never the whole graph here
+        length = np.hypot(*np.diff(leg, axis=0).T).sum()
+        assert length == pytest.approx(np.hypot(*np.diff(whole[0].polyline, axis=0).T).sum())
+        assert _same_route(leg, whole[0].polyline)
+    assert legs >= 25 and grown >= 3  # (the ellipse had to grow on the legs across the disc)
+
+
+def test_three_point_turns_are_offered_whatever_the_headings():
+    # Both headings along the chord, nothing points away: the turns are still among the paths
+    # (backing off first can be cheaper next to an obstacle or over a long horizon).
+    start, goal, obstacles = PAPER_CASES["paper-case-2"]
+    paths = initial_paths(start, goal, obstacles, k=3, turns=True)
+    assert end_modes(np.array([start[:2], goal[:2]]), start, goal) == [FORWARD]
+    assert not any(p.modes.cusp for p in initial_paths(start, goal, obstacles, k=3))
+    turns = [p for p in paths if p.modes.cusp]
+    assert turns and all(p.label.startswith("three-point turn at (") for p in turns)
+    assert paths.index(turns[0]) > max(i for i, p in enumerate(paths) if not p.modes.cusp)
+    for p in turns:
+        assert p.min_clearance >= 0.0
+
+
 def test_junction_errors():
     p = initial_paths([0, 0, 0], [1, 0, 0], [])[0]
     for q in (0, 1.5, True):

@@ -664,8 +664,9 @@ def test_run_path_is_the_plans_run_of_that_path(planned):
 
 
 def test_a_single_candidate_path_is_not_ranked(monkeypatch):
-    """Ranking estimates each candidate's cost (0.6 ms on paper case 1); with one candidate there
-    is nothing to rank. With several, the ranking still orders them."""
+    """Ranking estimates each candidate's cost (0.6 ms on paper case 1); with one candidate (a
+    path through waypoints, headings along it) there is nothing to rank. With several, the
+    ranking still orders them."""
     import leapfrog_planner.planning.planner as planner_module
 
     calls = []
@@ -673,8 +674,12 @@ def test_a_single_candidate_path_is_not_ranked(monkeypatch):
     monkeypatch.setattr(
         planner_module, "rank_paths", lambda *a: calls.append(len(a[1])) or rank(*a)
     )
-    (path,) = Planner("paper-case-1").initial_paths()
-    assert path.label == "straight" and calls == []
+    sc = Scenario(
+        name="wp", horizon=1.0, start=[0, 0, 0], goal=[2, 0, 0], obstacles=[[1.0, 0.5, 0.2]],
+        waypoints=[[1.0, 0.0]],
+    )  # fmt: skip
+    (path,) = Planner(sc).initial_paths()
+    assert path.label == "waypoints" and calls == []
     paths = Planner("paper-case-3").initial_paths()
     assert len(paths) == 3 and len(calls) == 1 and calls[0] >= 3
 

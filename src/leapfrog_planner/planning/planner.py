@@ -29,7 +29,7 @@ from .answer import (
     plan_message,
 )
 from .bounded import continue_to_bounds, exceeded, schedule
-from .initial_path import InitialPath, initial_paths
+from .initial_path import InitialPath, initial_paths, points_away
 from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
 from .leapfrog.settings import MAX_PARTITIONS
 from .path_ranking import (
@@ -68,7 +68,7 @@ class PlanEvent:
 class PlannerSettings:
     """The planner's settings (the measurements behind the defaults: ``docs/tuning.md``)."""
 
-    initial_paths: int = 3  # initial paths tried, of least estimated cost
+    initial_paths: int = 3  # initial paths tried, of least estimated cost (+ a turn)
     candidate_paths: int = 8  # homotopy classes planned, from which those are picked
     margin: float = 0.02  # obstacle inflation of the initial paths
     samples: int = 1001  # points of the returned dense trajectory
@@ -189,7 +189,13 @@ class Planner:
 
     def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
         """The ``initial_paths`` candidates of least estimated cost, cheapest first, keeping
-        ``margin`` (default: the settings') from the obstacles."""
+        ``margin`` (default: the settings') from the obstacles.
+
+        Where an end heading points away from the chord, three-point turns are ranked with the
+        paths of the homotopy classes. Elsewhere they are planned too, but the best one runs
+        besides the class paths, and only when it is estimated cheapest of all: backing away
+        from an obstacle next to an end looks cheap, and ranked with the others it took the
+        place of paths that led to the optimum (docs/tuning.md)."""
         s, st = self.scenario, self.settings
         candidates = initial_paths(
             s.start[:3],  # poses: a model's further states are filled along the paths
@@ -198,6 +204,7 @@ class Planner:
             k=max(st.initial_paths, st.candidate_paths),
             margin=max(st.margin, s.margin) if margin is None else margin,
             waypoints=s.waypoints,
+            turns=True,
         )
         ends = (s.start, s.goal)
         keep = [True] * len(candidates)
@@ -211,8 +218,11 @@ class Planner:
         candidates = [p for p, ok in zip(candidates, keep, strict=True) if ok] or candidates
         if len(candidates) < 2:  # nothing to rank: the estimate took 0.6 ms of paper case 1's 9
             return candidates
-        ranked = rank_paths(self.problem, candidates, s.horizon, ends)
-        return [path for _, path in ranked[: st.initial_paths]]
+        ranked = [path for _, path in rank_paths(self.problem, candidates, s.horizon, ends)]
+        if points_away(s.start, s.goal):  # the turns are among the natural ways there
+            return ranked[: st.initial_paths]
+        plain = [p for p in ranked if not p.modes.cusp][: st.initial_paths]
+        return plain + ranked[:1] if ranked[0].modes.cusp else plain
 
     def plan(self) -> PlanResult:
         with single_threaded_blas():
@@ -317,7 +327,7 @@ class Planner:
         chosen = choose_answer(runs, self._context())
         q = self.settings.leapfrog.partitions
         for k in range(1, self.settings.finer_doublings + 1):
-            if q << k > MAX_PARTITIONS or not _falls_short(*chosen):
+            if q << k > MAX_PARTITIONS or not _falls_short(runs, *chosen):
                 break
             log.info("the answer falls short: the stages again with q = %d", q << k)
             more, t_wider = self._finer(q << k)._stages(paths)
@@ -384,7 +394,9 @@ class Planner:
         a heavy weight), paths at the robot's margin are poor starts: when no run found an
         extremal, all of them are run; when every path run, followed at its own pace, is
         estimated at more than ``WIDER_WHEN`` times the cheapest collision-free extremal found,
-        those estimated cheaper than every path run."""
+        those estimated cheaper than every path run. (Every path of a homotopy class, that is:
+        the three-point turn, run besides them, backs away from the obstacles in its own way
+        and is no measure of how poor their margin is.)"""
         wide = penalty_margin(self.scenario)
         if not wide > self.settings.margin:
             return None
@@ -392,7 +404,7 @@ class Planner:
             log.info("no extremal: initial paths again with margin %.3g", wide)
             return self._wider_paths(wide)
         clear = [r.validation.cost for r in runs if r.clear]
-        top = float(self._estimates(paths).min())
+        top = float(self._estimates([p for p in paths if not p.modes.cusp] or paths).min())
         if not (clear and top > WIDER_WHEN * min(clear)):
             return None
         log.info("paths %.3g times the extremal's cost: margin %.3g too", top / min(clear), wide)
@@ -481,10 +493,16 @@ class Planner:
         )
 
 
-def _falls_short(status: PlanStatus, best: PathRun, answer: Answer) -> bool:
-    """No extremal at all, or a collision-free iterate cheaper than the best extremal.
-    (Extremals that only pass through obstacles are the weight raises' to mend.)"""
-    return status is PlanStatus.FAILED or answer.cheaper is not None
+def _falls_short(runs: list[PathRun], status: PlanStatus, best: PathRun, answer: Answer) -> bool:
+    """No extremal at all, a collision-free iterate cheaper than the best extremal, or no
+    extremal from a path of a homotopy class (a three-point turn's alone). (Extremals that only
+    pass through obstacles are the weight raises' to mend.)"""
+    classes = [r for r in runs if not r.path.modes.cusp]
+    return (
+        status is PlanStatus.FAILED
+        or answer.cheaper is not None
+        or not any(r.extremal for r in classes)
+    )
 
 
 def plan(scenario: Scenario | str, *, progress=None, **options) -> PlanResult:

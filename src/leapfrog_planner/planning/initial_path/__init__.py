@@ -58,8 +58,16 @@ give +1 and -1.
 
 from __future__ import annotations
 
-from .ends import FORWARD, EndModes, end_modes
+from .ends import FORWARD, EndModes, end_modes, points_away
 from .path import InitialPath
 from .search import initial_paths, plot_initial_paths
 
-__all__ = ["FORWARD", "EndModes", "InitialPath", "end_modes", "initial_paths", "plot_initial_paths"]
+__all__ = [
+    "FORWARD",
+    "EndModes",
+    "InitialPath",
+    "end_modes",
+    "initial_paths",
+    "plot_initial_paths",
+    "points_away",
+]

@@ -214,5 +214,12 @@ def end_modes(poly: np.ndarray, start, goal) -> list[EndModes]:
     return out
 
 
+def points_away(start, goal) -> bool:
+    """Whether an end heading points away from the chord from ``start`` to ``goal`` (more than
+    90 degrees off): reverse legs, turns in place and three-point turns are natural there."""
+    chord = np.vstack([np.asarray(start, float)[:2], np.asarray(goal, float)[:2]])
+    return len(end_modes(chord, start, goal)) > 1
+
+
 def _direction(v: np.ndarray) -> float:
     return math.atan2(v[1], v[0])

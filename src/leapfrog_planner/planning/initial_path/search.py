@@ -21,6 +21,7 @@ from .ends import (
     _Turn,
     _with_turns,
     end_modes,
+    points_away,
 )
 from .geometry import (
     _check_outside,
@@ -47,6 +48,10 @@ _RETRY_MARGIN_FACTORS = (2.0, 4.0)
 #: within this many times that margin of the class's path (a tangent graph of a few dozen discs
 #: instead of all of them); its path is then checked against every obstacle.
 _RETRY_BAND = 5.0
+#: A leg (:func:`_route`) is first planned among the obstacles that a path this many times
+#: the straight distance long could touch (an ellipse round its ends), the ellipse grown until
+#: it holds the shortest path found.
+_ROUTE_STRING = 1.05
 #: Times mid-leg points are inserted (at the same margin) before the margin is increased.
 _MIDPOINT_ROUNDS = 2
 #: Margins tried, as fractions of the requested one, until some path exists; then margin 0.
@@ -211,13 +216,17 @@ def _smooth_best(poly: np.ndarray, S, G, obs, tol, signature=None, modes=FORWARD
 
 
 def initial_paths(
-    start, goal, obstacles, *, k: int = 3, margin: float = 0.05, waypoints=None
+    start, goal, obstacles, *, k: int = 3, margin: float = 0.05, waypoints=None, turns=False
 ) -> list[InitialPath]:
     """Collision-free initial paths in up to ``k`` homotopy classes, shortest class first.
 
     Each class comes with its ways of meeting the end poses (:func:`end_modes`: forward first,
     then, where an end heading points away from the path, reverse and turns in place), all with
-    the class's label plus the modes' description.
+    the class's label plus the modes' description. Then the three-point turns
+    (:func:`_cusp_paths`, label ``"three-point turn at (x, y), ..."``) where an end heading
+    points away from the chord, or always with ``turns``: backing away first can pay elsewhere
+    too (a heading towards an obstacle next to the start, or a long horizon in the penalty's
+    grip).
 
     ``start`` and ``goal`` are states ``[x, y, heading]``, ``obstacles`` rows ``[cx, cy, r]``
     (or empty). Paths keep ``margin`` from every obstacle (less only where the start or goal is
@@ -285,10 +294,11 @@ def initial_paths(
         for path in variants:
             how = path.modes.describe()
             out.append(_relabel(path, f"{name}, {how}" if how else name))
-    if len(end_modes(np.vstack([S[:2], G[:2]]), S, G)) > 1:  # an end heading points away
-        for C, path in _cusp_paths(S, G, obs, used, tol):
-            label = f"three-point turn at ({C[0]:.3g}, {C[1]:.3g}), {path.modes.describe()}"
-            out.append(_relabel(path, label + note))
+    if not (turns or points_away(S, G)):
+        return out
+    for C, path in _cusp_paths(S, G, obs, used, tol):
+        label = f"three-point turn at ({C[0]:.3g}, {C[1]:.3g}), {path.modes.describe()}"
+        out.append(_relabel(path, label + note))
     return out
 
 
@@ -303,10 +313,40 @@ def _route(a: np.ndarray, b: np.ndarray, obs: np.ndarray, margin: float, tol: fl
     back as for a whole path; with no path at all, the straight segment, whose clearance shows
     it)."""
     for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
-        cands = _plan(np.append(a, 0.0), np.append(b, 0.0), obs, m, 1, tol)
-        if cands is not None:
-            return cands[0].polyline
+        poly = _shortest_leg(a, b, obs, m, tol)
+        if poly is not None:
+            return poly
     return np.vstack([a, b])
+
+
+def _shortest_leg(a, b, obs, margin: float, tol: float) -> np.ndarray | None:
+    """The shortest polyline from ``a`` to ``b`` round the obstacles inflated by ``margin``, or
+    None when there is none.
+
+    The straight segment when no inflated disc cuts it. Otherwise planned among the obstacles
+    that a path of length ``s`` could touch: those that meet the ellipse ``|p - a| + |p - b| <=
+    s`` (``s`` first :data:`_ROUTE_STRING` times ``|b - a|``). A path found no longer than ``s``
+    is the shortest among all obstacles: every point of it lies in the ellipse, so it clears the
+    others too, and more obstacles only make paths longer. Otherwise ``s`` grows to the length
+    found, and again. No path among these obstacles means none among all. A tangent graph of a
+    few dozen discs per leg instead of all of them."""
+    S, G = np.append(a, 0.0), np.append(b, 0.0)
+    C, r = obs[:, :2], obs[:, 2]
+    dS, dG = np.hypot(*(C - a).T), np.hypot(*(C - b).T)
+    R = r + np.clip(np.minimum(margin, np.minimum(dS - r, dG - r)), 0.0, None)  # as _plan's
+    if not np.any(_segment_distance(a[None, :], b[None, :], C)[0] < R - tol):
+        return np.vstack([a, b])  # (as the graph's direct edge is kept)
+    reach = dS + dG - 2.0 * R  # |p - a| + |p - b| >= reach on the inflated disc
+    s = _ROUTE_STRING * math.hypot(*(b - a)) + tol
+    while True:
+        near = reach <= s
+        cands = _plan(S, G, obs[near], margin, 1, tol)
+        if cands is None:
+            return None
+        length = cands[0].graph_length
+        if length <= s or near.all():
+            return cands[0].polyline
+        s = _ROUTE_STRING * length + tol
 
 
 def _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes) -> InitialPath:
