@@ -6,8 +6,11 @@ For each size and seed, a random scenario of the batch generator (radii 0.03 to 
 the square workspace grows with the count, 4 x 4 per 100 obstacles, so the density stays the
 same; start and goal at least 0.7 of its side apart) is planned by the default planner:
 
-- in a fresh subprocess, after a warm-up plan that loads the kernels: the plan time of the
-  scenario (in-process, warm kernels) and that process's peak RSS;
+- in a fresh subprocess, after a warm-up plan of another field (30 obstacles, another seed:
+  it loads the kernels and runs the code paths a field needs once, as a process planning many
+  scenarios has): the plan time of the scenario (in-process, warm) and that process's peak
+  RSS. (A warm-up on paper case 1, which has no obstacles in the way, left 20 to 40 ms of
+  first-use costs in the 100-obstacle figure.);
 - by ``leapfrog solve FILE --quiet`` in another fresh subprocess: the wall time of the whole
   command (start-up and kernel loading included) and its peak RSS.
 
@@ -40,7 +43,7 @@ _CHILD = """
 import json, resource, sys, time
 from leapfrog_planner.planning.planner import plan
 from leapfrog_planner.planning.scenario import load_scenario
-plan("paper-case-1")  # loads the kernels
+plan(load_scenario(sys.argv[2]))  # the warm-up field
 scenario = load_scenario(sys.argv[1])
 t = time.perf_counter()
 result = plan(scenario)
@@ -80,7 +83,9 @@ def run(cmd: list[str]) -> tuple[float, float, str]:
 
 def measure(n: int, seed: int, folder: Path) -> dict:
     path = scenario_file(n, seed, folder)
-    _, child_mb, out = run([sys.executable, "-c", _CHILD, str(path)])
+    (folder / "warm-up").mkdir(exist_ok=True)
+    warm = scenario_file(30, 1000 + seed, folder / "warm-up")
+    _, child_mb, out = run([sys.executable, "-c", _CHILD, str(path), str(warm)])
     row = {"obstacles": n, "plan_s": math.nan, "status": "failed", "cost": math.nan}
     try:
         row.update(json.loads(out))
