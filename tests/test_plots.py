@@ -182,6 +182,23 @@ def test_plot_path_lists_alternatives_by_cost(planned):
     assert not any("23.215" in t.get_text() for t in ax3.figure.legends[0].get_texts())
 
 
+def test_many_failed_paths_share_one_legend_entry(planned):
+    # A long horizon can fail on 16 runs: one entry counts them, the converged one stays.
+    result, sc = planned["paper-case-2"]
+    ok = PathOutcome("visibility #2", PlanStatus.CONVERGED, 23.215020, 35.7, 14, "converged", 100.0)
+    failed = tuple(
+        PathOutcome(f"visibility #{k}", PlanStatus.FAILED, float("nan"), 40.1, 3, "diverged", 100.0)
+        for k in range(3, 8)
+    )
+    ax = plot_path(dataclasses.replace(result, alternatives=(ok, *failed)), sc)
+    texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]
+    assert "5 other paths failed" in texts and any("23.215" in t for t in texts)
+    assert not any("visibility #3" in t for t in texts)
+    ax = plot_path(dataclasses.replace(result, alternatives=(ok, *failed[:3])), sc)
+    texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]
+    assert sum("failed" in t for t in texts) == 3  # a few are each named
+
+
 # --------------------------------------------------------------------------- plot_convergence
 
 

@@ -157,11 +157,22 @@ def plot_path(
     return ax
 
 
+#: More failed runs than this share one legend entry (a long horizon can fail 16).
+_FAILED_LISTED = 3
+
+
 def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
-    """The other initial paths' extremals, faint and dotted; legend entries for those without."""
+    """The other initial paths' extremals, faint and dotted; legend entries for those without
+    (the failed runs counted in one entry when there are more than :data:`_FAILED_LISTED`)."""
     extra = []
     drawn = 0
-    for alt in result.alternatives:
+    alts = result.alternatives
+    failed = [a for a in alts if a.trajectory is None and not np.isfinite(a.cost)]
+    if len(failed) > _FAILED_LISTED:
+        alts = [a for a in alts if not any(a is f for f in failed)]
+        text = f"{len(failed)} other paths failed"
+        extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
+    for alt in alts:
         if alt.trajectory is not None:
             what = "local optimum" if alt.status == "converged" else str(alt.status)
             ls = ALTERNATIVE_STYLES[drawn % len(ALTERNATIVE_STYLES)]
