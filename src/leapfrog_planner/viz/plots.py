@@ -159,6 +159,8 @@ def plot_path(
 
 #: More failed runs than this share one legend entry (a long horizon can fail 16).
 _FAILED_LISTED = 3
+#: Legend entries longer than this (characters, small font) would not fit a 6.4-inch figure.
+_LABEL_WIDTH = 80
 
 
 def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
@@ -177,9 +179,12 @@ def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
             what = "local optimum" if alt.status == "converged" else str(alt.status)
             ls = ALTERNATIVE_STYLES[drawn % len(ALTERNATIVE_STYLES)]
             drawn += 1
+            label = f"{what} J = {alt.cost:.6g} ({alt.label})"
+            if len(label) > _LABEL_WIDTH:  # wider than the figure: the label on a line of its own
+                label = f"{what} J = {alt.cost:.6g}\n  ({alt.label})"
             ax.plot(
                 alt.trajectory.x[:, 0], alt.trajectory.x[:, 1], color="0.4", lw=1.3, ls=ls,
-                zorder=2, label=f"{what} J = {alt.cost:.6g} ({alt.label})",
+                zorder=2, label=label,
             )  # fmt: skip
         else:  # its path was not kept (a result saved before paths were)
             text = f"{alt.label}: {status_text(alt)}"
