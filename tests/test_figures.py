@@ -78,6 +78,23 @@ def test_path_legend_is_below_the_axes_and_inside_the_figure(name, request):
     assert ax.get_legend() is None
 
 
+def test_a_long_alternative_label_keeps_the_legend_inside_the_figure(case2):
+    # Labels of a long horizon's runs run to 90 characters: the label goes to a second line.
+    import dataclasses
+
+    result, sc = case2
+    label = "three-point turn at (1.75, 1.52), reverse, then forward, margin 0.0841, q = 16"
+    alts = tuple(dataclasses.replace(a, label=label) for a in result.alternatives[:1])
+    assert alts and alts[0].trajectory is not None
+    ax = plot_path(dataclasses.replace(result, alternatives=alts), sc)
+    fig = ax.figure
+    fig.canvas.draw()
+    (legend,) = fig.legends
+    lb, fb = legend.get_window_extent(), fig.bbox
+    assert lb.x0 >= fb.x0 - 1 and lb.x1 <= fb.x1 + 1
+    assert any(t.get_text().endswith(f"\n  ({label})") for t in legend.get_texts())
+
+
 def test_path_legend_on_given_axes_is_inside_them(case2):
     result, sc = case2
     fig = Figure(figsize=(6, 6))
