@@ -68,7 +68,7 @@ class PlanEvent:
 class PlannerSettings:
     """The planner's settings (the measurements behind the defaults: ``docs/tuning.md``)."""
 
-    initial_paths: int = 3  # initial paths tried, of least estimated cost (+ a turn)
+    initial_paths: int = 3  # paths tried, of least estimated cost (see Planner.initial_paths)
     candidate_paths: int = 8  # homotopy classes planned, from which those are picked
     margin: float = 0.02  # obstacle inflation of the initial paths
     samples: int = 1001  # points of the returned dense trajectory
