@@ -374,7 +374,8 @@ def test_json_numbers_agree_with_the_trajectory(saved):
     np.testing.assert_allclose(tr["omega"], -l3, rtol=0, atol=1e-12)
     energy = simpson(0.5 * (tr["v"] ** 2 + tr["omega"] ** 2), x=t)
     assert rel(energy, d["energy"]) <= 1e-6
-    assert rel(simpson(penalty(c.obstacles, tr["x"], tr["y"]), x=t), d["penalty"]) <= 1e-9
+    # (the penalty is integrated over the integrator's rows too: within 1e-6 of Simpson's here)
+    assert rel(simpson(penalty(c.obstacles, tr["x"], tr["y"]), x=t), d["penalty"]) <= 1e-6
     per = clearance(c.obstacles, tr["x"], tr["y"])
     np.testing.assert_allclose(d["clearance"], per, rtol=0, atol=1e-12)
     assert d["min_clearance"] == pytest.approx(per.min(), abs=1e-12)

@@ -188,6 +188,22 @@ def test_a_three_point_turn_backs_away_from_the_obstacle_next_to_the_start():
     assert r.cost < 0.6 * 0.6285
 
 
+def test_the_penalty_of_a_quick_dash_is_integrated_over_the_integrators_steps():
+    """Default layout 4 of seed 2 at T = 100 ends its motion with a dash of about 0.1 s near an
+    obstacle. Simpson's rule on the 1,001 uniform samples (0.1 s apart) put the penalty at 0.1765,
+    more than the whole cost (0.1628), and the energy below zero; the integrator's own steps
+    resolve the dash."""
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+
+    sc = generate_one(GeneratorSpec(n=40, seed=2, horizon=100.0), 4)
+    r = plan(sc)
+    assert r.success and r.energy > 0.0 and r.penalty > 0.0
+    assert r.energy + r.penalty == pytest.approx(r.cost, rel=1e-12)
+    fine = plan(sc, samples=20001)
+    assert fine.cost == pytest.approx(r.cost, rel=1e-9)
+    assert r.penalty == pytest.approx(fine.penalty, rel=1e-2)
+
+
 def test_an_answer_that_falls_short_is_sought_again_with_twice_the_partitions():
     """Default layout 10 of seed 1 at T = 100: with q = 8 no path of a homotopy class leads to
     an extremal (every run fails at an initial segment: an end in the penalty's grip); only

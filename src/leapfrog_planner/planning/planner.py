@@ -448,7 +448,7 @@ class Planner:
             cost, energy, penalty = v.cost, v.energy, v.penalty
             end_error, clearance = v.end_state_error, v.clearance
         else:
-            penalty = penalty_integral(problem, tr, tr.t.size)
+            penalty = penalty_integral(problem, tr)
             cost = float(tr.cost[-1])
             energy, end_error = cost - penalty, float(np.linalg.norm(tr.x[-1] - s.goal))
             clearance = problem.penalty.clearance(tr.x[:, :2])

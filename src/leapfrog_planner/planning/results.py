@@ -118,7 +118,7 @@ def validate_arcs(
         error = max(error, float(np.linalg.norm(end - target)))
         tr = r.trajectory
         if problem.obstacles.shape[0]:
-            penalty += penalty_integral(problem, tr, n)
+            penalty += penalty_integral(problem, tr)
         parts.append(replace(tr, cost=tr.cost + cost))
         cost += r.cost
     tr = _joined(parts)
@@ -163,20 +163,17 @@ def piecewise_trajectory(flow: Flow, arcs: Arcs, samples: int = 1001) -> Traject
     return _joined(parts)
 
 
-def penalty_integral(problem: OptimalControlProblem, tr: Trajectory, samples: int) -> float:
-    """Simpson's rule on the uniform rows of the trajectory (the others are integrator steps).
+def penalty_integral(problem: OptimalControlProblem, tr: Trajectory) -> float:
+    """The trapezoidal rule over every row of the trajectory: the uniform samples and the
+    integrator's own steps, which crowd where the motion changes fast.
 
-    Written out rather than imported: ``scipy.integrate`` takes longer to import (0.3 s) than the
-    rest of a warm start's solve.
+    Simpson's rule on the uniform samples alone missed a quick dash at a long horizon: at
+    T = 100 (seed 2, layout 4: a 0.1 s dash away from an obstacle) it gave a penalty of 0.1765
+    where 200,001 samples give 0.0562, and a negative energy; over every row, 0.0565. On paper
+    case 2 the two rules agree to 2e-7.
     """
-    t = tr.t
-    uniform = np.isin(t, np.linspace(t[0], t[-1], samples))
-    if uniform.sum() != samples or samples % 2 == 0:  # not the expected grid: trapezoid
-        P = problem.penalty(tr.x[:, :2])
-        return float(np.sum(0.5 * (P[1:] + P[:-1]) * np.diff(t)))
-    tu, P = t[uniform], problem.penalty(tr.x[uniform, :2])
-    h = (tu[-1] - tu[0]) / (samples - 1)
-    return float(h / 3.0 * (P[0] + P[-1] + 4.0 * P[1:-1:2].sum() + 2.0 * P[2:-1:2].sum()))
+    P = problem.penalty(tr.x[:, :2])
+    return float(np.sum(0.5 * (P[1:] + P[:-1]) * np.diff(tr.t)))
 
 
 @dataclass(frozen=True)
