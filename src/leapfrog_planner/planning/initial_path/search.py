@@ -138,10 +138,8 @@ def _plan(
 ) -> list[_Candidate] | None:
     """Shortest paths round the inflated obstacles, one per homotopy class, shortest first."""
     S2, G2 = S[:2], G[:2]
-    C, r = obs[:, :2], obs[:, 2]
-    dS = np.hypot(*(S2[None, :] - C).T)
-    dG = np.hypot(*(G2[None, :] - C).T)
-    R = r + np.clip(np.minimum(margin, np.minimum(dS - r, dG - r)), 0.0, None)
+    C = obs[:, :2]
+    R = _inflated(obs, S2, G2, margin)[0]
     graph = _TangentGraph(S2, G2, C, R, tol)
     lengths, paths, plen = graph.search(np.zeros(graph.src.size, np.int64), np.zeros(1, np.int64))
     if not np.isfinite(lengths[0]):
@@ -193,6 +191,14 @@ def _plan(
         for sig, j in first.items()
     ]
     return sorted(out, key=lambda c: (c.graph_length, c.order))
+
+
+def _inflated(obs: np.ndarray, a: np.ndarray, b: np.ndarray, margin: float):
+    """The discs' radii grown by ``margin``, by less where the end ``a`` or ``b`` is closer than
+    that to a disc's edge; and the ends' distances to the centres, ``(R, d_a, d_b)``."""
+    C, r = obs[:, :2], obs[:, 2]
+    da, db = np.hypot(*(C - a).T), np.hypot(*(C - b).T)
+    return r + np.clip(np.minimum(margin, np.minimum(da - r, db - r)), 0.0, None), da, db
 
 
 def _widen(paths: np.ndarray, width: int) -> np.ndarray:
@@ -331,9 +337,8 @@ def _shortest_leg(a, b, obs, margin: float, tol: float) -> np.ndarray | None:
     found, and again. No path among these obstacles means none among all. A tangent graph of a
     few dozen discs per leg instead of all of them."""
     S, G = np.append(a, 0.0), np.append(b, 0.0)
-    C, r = obs[:, :2], obs[:, 2]
-    dS, dG = np.hypot(*(C - a).T), np.hypot(*(C - b).T)
-    R = r + np.clip(np.minimum(margin, np.minimum(dS - r, dG - r)), 0.0, None)  # as _plan's
+    C = obs[:, :2]
+    R, dS, dG = _inflated(obs, a, b, margin)  # as _plan inflates them
     if not np.any(_segment_distance(a[None, :], b[None, :], C)[0] < R - tol):
         return np.vstack([a, b])  # (as the graph's direct edge is kept)
     reach = dS + dG - 2.0 * R  # |p - a| + |p - b| >= reach on the inflated disc
