@@ -169,10 +169,10 @@ def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
     extra = []
     drawn = 0
     alts = result.alternatives
-    failed = [a for a in alts if a.trajectory is None and not np.isfinite(a.cost)]
-    if len(failed) > _FAILED_LISTED:
-        alts = [a for a in alts if not any(a is f for f in failed)]
-        text = f"{len(failed)} other paths failed"
+    failed = [a.trajectory is None and not np.isfinite(a.cost) for a in alts]
+    if sum(failed) > _FAILED_LISTED:
+        alts = [a for a, f in zip(alts, failed, strict=True) if not f]
+        text = f"{sum(failed)} other paths failed"
         extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
     for alt in alts:
         if alt.trajectory is not None:
