@@ -6,6 +6,7 @@ settings for reuse across scenarios with the same model (obstacles are data: not
 
 from __future__ import annotations
 
+import copy
 import logging
 import threading
 import time
@@ -375,10 +376,11 @@ class Planner:
         return runs, t_wider
 
     def _finer(self, q: int) -> Planner:
-        """This planner with ``q`` partitions, labelling its paths with them."""
-        finer = Planner(self.scenario, self.settings, partitions=q)  # (over a file's value)
-        finer.progress, finer._progress_lock = self.progress, self._progress_lock
-        finer._suffix, finer._wide_paths = f", q = {q}", self._wide_paths
+        """This planner with ``q`` partitions, labelling its paths with them. A shallow copy:
+        it shares the flows, the progress callback and the paths at the penalty's margin."""
+        finer = copy.copy(self)
+        finer.settings = PlannerSettings.from_options(self.settings, partitions=q)
+        finer._suffix = f", q = {q}"
         return finer
 
     def _context(self) -> Context:
