@@ -483,7 +483,7 @@ def test_a_class_replanned_among_nearby_obstacles_is_the_class_planned_among_all
     found = 0
     for S, G, obs, cand, tol in retries:
         for f in search._RETRY_MARGIN_FACTORS:
-            whole = search._plan(S, G, obs, 0.02 * f, 8, tol) or []
+            whole = search._plan_among(S, G, obs, 0.02 * f, 8, tol) or []
             same = [c.polyline for c in whole if c.signature == cand.signature]
             near = search._replan_class(cand, S, G, obs, 0.02 * f, 8, tol)
             if not same:
@@ -533,8 +533,8 @@ def test_a_leg_planned_among_the_obstacles_its_ellipse_holds_is_the_shortest_amo
     obs = np.vstack([ring, obs[np.hypot(*(obs[:, :2] - 5.0).T) > 0.8]])
     tol = search._tolerance(sc.start, sc.goal, obs)
     plans = []
-    plan = search._plan
-    monkeypatch.setattr(search, "_plan", lambda *a: plans.append(a[2].shape[0]) or plan(*a))
+    plan = search._plan_among
+    monkeypatch.setattr(search, "_plan_among", lambda *a: plans.append(a[2].shape[0]) or plan(*a))
     legs = grown = 0
     for a, b in ends:
         if np.any(np.hypot(*(np.vstack([a, b])[:, None] - obs[:, :2]).T) <= obs[:, 2, None]):
@@ -552,6 +552,56 @@ def test_a_leg_planned_among_the_obstacles_its_ellipse_holds_is_the_shortest_amo
         assert length == pytest.approx(np.hypot(*np.diff(whole[0].polyline, axis=0).T).sum())
         assert _same_route(leg, whole[0].polyline)
     assert legs >= 25 and grown >= 3  # (the ellipse had to grow on the legs across the disc)
+
+
+def test_class_paths_planned_among_the_obstacles_their_ellipse_holds_are_those_of_all(
+    monkeypatch,
+):
+    # The classes' shortest paths are planned among the obstacles that the k-th of them could
+    # touch (an ellipse round the ends, grown until it holds them and every barrier obstacle):
+    # the same first k classes, lengths and routes as the tangent graph of every obstacle.
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+    from leapfrog_planner.planning.scenario import Scenario
+
+    fields = []
+    for n, seed in ((300, 1), (300, 2), (1000, 1)):
+        side = 4.0 * math.sqrt(n / 100.0)
+        fields += generate(
+            GeneratorSpec(
+                n=1, seed=seed, obstacles=(n, n), workspace=(0.0, 0.0, side, side),
+                radius=(0.03, 0.08), obstacle_gap=0.03, min_distance=0.7 * side, clearance=0.1,
+            )
+        )  # fmt: skip
+    fields += generate(GeneratorSpec(n=12, seed=1))
+    # Layouts where an obstacle outside the ellipse that holds the first 8 classes is among
+    # the barriers of the whole graph: the ellipse grows to hold it.
+    fields += [s for s in generate(GeneratorSpec(n=50, seed=3)) if s.name[-2:] in ("01", "45")]
+    # Two classes round a disc on the chord, a third below a disc far outside the first
+    # ellipse: fewer classes than asked for, so the ellipse grows to the longest detour kept.
+    far = np.array([[2.0, 0.0, 0.5], [2.0, -2.2, 0.3]])
+    fields.append(Scenario("far", 1.0, np.zeros(3), np.array([4.0, 0.0, 0.0]), far))
+    plans = []
+    plan = search._plan_among
+    monkeypatch.setattr(search, "_plan_among", lambda *a: plans.append(a[2]) or plan(*a))
+    smaller = 0
+    for sc in fields:
+        S, G, obs = sc.start, sc.goal, sc.footprint_obstacles
+        tol = search._tolerance(S, G, obs)
+        whole = plan(S, G, obs, 0.02, 8, tol)[:8]
+        plans.clear()
+        cands = search._plan(S, G, obs, 0.02, 8, tol)
+        smaller += plans[-1].shape[0] < obs.shape[0]
+        assert [c.signature for c in cands] == [c.signature for c in whole]
+        for c, w in zip(cands, whole, strict=True):
+            assert c.graph_length == pytest.approx(w.graph_length, rel=1e-9)
+            assert _same_route(c.polyline, w.polyline)
+        act, R = whole[0].graph.active, search._inflated(obs, S[:2], G[:2], 0.02)[0]
+        barriers = search._barriers(
+            S[:2], G[:2], obs[act, :2], R[act], whole[0].polyline, whole[0].graph_length, act, tol
+        )
+        held = {tuple(row) for row in plans[-1].tolist()}
+        assert all(tuple(row) in held for row in obs[barriers].tolist())
+    assert smaller >= 3  # (the fields)
 
 
 def test_three_point_turns_are_offered_whatever_the_headings():

@@ -48,9 +48,9 @@ _RETRY_MARGIN_FACTORS = (2.0, 4.0)
 #: within this many times that margin of the class's path (a tangent graph of a few dozen discs
 #: instead of all of them); its path is then checked against every obstacle.
 _RETRY_BAND = 5.0
-#: A leg (:func:`_route`) is first planned among the obstacles that a path this many times
-#: the straight distance long could touch (an ellipse round its ends), the ellipse grown until
-#: it holds the shortest path found.
+#: Paths are first planned among the obstacles that a path this many times the straight
+#: distance long could touch (an ellipse round the ends), the ellipse grown until it holds the
+#: paths found (:func:`_plan`).
 _ROUTE_STRING = 1.05
 #: Times mid-leg points are inserted (at the same margin) before the margin is increased.
 _MIDPOINT_ROUNDS = 2
@@ -136,7 +136,80 @@ class _Candidate:
 def _plan(
     S: np.ndarray, G: np.ndarray, obs: np.ndarray, margin: float, k: int, tol: float
 ) -> list[_Candidate] | None:
-    """Shortest paths round the inflated obstacles, one per homotopy class, shortest first."""
+    """The first ``k`` of :func:`_plan_among` every obstacle (None when there is no path),
+    planned among the obstacles that a path of length ``s`` could touch: those that meet the
+    ellipse ``|p - S| + |p - G| <= s`` (``s`` first :data:`_ROUTE_STRING` times the chord).
+
+    Paths no longer than ``s`` lie in the ellipse: they clear the obstacles outside it, wind
+    round none of them, and more obstacles only make paths longer. So when the ``k``-th path
+    found is no longer than ``s``, and the obstacles outside would not be among the barriers
+    (:func:`_barriers`), the first ``k`` are those of every obstacle. Otherwise ``s`` grows to
+    what they need, and again. No path among these obstacles means none among all. At 1,000
+    obstacles a tangent graph of a few hundred discs instead of all of them."""
+    S2, G2 = S[:2], G[:2]
+    R, dS, dG = _inflated(obs, S2, G2, margin)
+    reach = dS + dG - 2.0 * R  # |p - S| + |p - G| >= reach on the inflated disc
+    s = _ROUTE_STRING * math.hypot(*(G2 - S2)) + tol
+    while True:
+        near = np.flatnonzero(reach <= s)
+        if near.size == obs.shape[0]:
+            cands = _plan_among(S, G, obs, margin, k, tol)
+            return None if cands is None else cands[:k]
+        cands = _plan_among(S, G, obs[near], margin, k, tol)
+        if cands is None:
+            return None
+        need = _string_needed(cands, S2, G2, obs, R, near, reach, k, tol)
+        if need <= s:
+            m = obs.shape[0]
+            return [replace(c, signature=_widened(c.signature, near, m)) for c in cands[:k]]
+        s = _ROUTE_STRING * need + tol
+
+
+def _string_needed(cands, S2, G2, obs, R, near, reach, k, tol) -> float:
+    """The ellipse's string that the first ``k`` of ``cands`` (planned among the obstacles
+    ``near``) need to be those of every obstacle: the ``k``-th path's length (or the longest
+    detour kept, with fewer), and the reach of any obstacle outside that would be a barrier."""
+    shortest = cands[0].graph_length
+    need = cands[k - 1].graph_length if len(cands) >= k else MAX_DETOUR * shortest + tol
+    graph = cands[0].graph
+    if k > 1 and math.hypot(*(G2 - S2)) > tol:
+        candidates = np.ones(obs.shape[0], bool)  # those outside may be active: assume so
+        candidates[near] = False
+        candidates[near[graph.active]] = True
+        idx = np.flatnonzero(candidates)
+        top = _barriers(S2, G2, obs[idx, :2], R[idx], cands[0].polyline, shortest, idx, tol)
+        need = max(need, float(np.max(reach[top], initial=0.0)))
+    return need
+
+
+def _barriers(S2, G2, C, R, shortest_path, shortest, index, tol) -> np.ndarray:
+    """The obstacles (of ``index``) whose barrier rays split the paths into classes: of those
+    whose centre projects inside the chord and whose inflated disc comes closer than the
+    shortest path's length to the chord or to that path, the :data:`MAX_RELEVANT` closest."""
+    chord = G2 - S2
+    e = chord / math.hypot(*chord)
+    proj = (C - S2) @ e
+    to_chord = _segment_distance(S2[None, :], G2[None, :], C)[0]
+    to_path = _segment_distance(shortest_path[:-1], shortest_path[1:], C).min(axis=0)
+    relevance = np.minimum(to_chord, to_path) - R
+    L = math.hypot(*chord)
+    pick = np.flatnonzero((proj > tol) & (proj < L - tol) & (relevance < shortest))
+    return index[pick[np.lexsort((index[pick], relevance[pick]))][:MAX_RELEVANT]]
+
+
+def _widened(signature: tuple[int, ...], near: np.ndarray, m: int) -> tuple[int, ...]:
+    """A signature over the obstacles ``near`` as one over all ``m`` (0 round the others)."""
+    out = np.zeros(m, np.int64)
+    out[near] = signature
+    return tuple(out.tolist())
+
+
+def _plan_among(
+    S: np.ndarray, G: np.ndarray, obs: np.ndarray, margin: float, k: int, tol: float
+) -> list[_Candidate] | None:
+    """Shortest paths round the inflated obstacles, one per homotopy class, shortest first: the
+    shortest path, and the shortest paths that pass each barrier obstacle (:func:`_barriers`)
+    on a given side, for every choice of sides."""
     S2, G2 = S[:2], G[:2]
     C = obs[:, :2]
     R = _inflated(obs, S2, G2, margin)[0]
@@ -152,13 +225,8 @@ def _plan(
         e = chord / L
         nrm = np.array([-e[1], e[0]])
         act = graph.active
-        proj = (C[act] - S2) @ e
         poly0 = graph.polyline(paths[0, : plen[0]])
-        to_chord = _segment_distance(S2[None, :], G2[None, :], C[act])[0]
-        to_path = _segment_distance(poly0[:-1], poly0[1:], C[act]).min(axis=0)
-        relevance = np.minimum(to_chord, to_path) - R[act]
-        pick = np.flatnonzero((proj > tol) & (proj < L - tol) & (relevance < shortest))
-        rel = act[pick[np.lexsort((act[pick], relevance[pick]))][:MAX_RELEVANT]]
+        rel = _barriers(S2, G2, C[act], R[act], poly0, shortest, act, tol)
         if rel.size:
             origins = np.repeat(C[rel], 2, axis=0)
             dirs = np.tile(np.stack([nrm, -nrm]), (rel.size, 1))
@@ -327,31 +395,13 @@ def _route(a: np.ndarray, b: np.ndarray, obs: np.ndarray, margin: float, tol: fl
 
 def _shortest_leg(a, b, obs, margin: float, tol: float) -> np.ndarray | None:
     """The shortest polyline from ``a`` to ``b`` round the obstacles inflated by ``margin``, or
-    None when there is none.
-
-    The straight segment when no inflated disc cuts it. Otherwise planned among the obstacles
-    that a path of length ``s`` could touch: those that meet the ellipse ``|p - a| + |p - b| <=
-    s`` (``s`` first :data:`_ROUTE_STRING` times ``|b - a|``). A path found no longer than ``s``
-    is the shortest among all obstacles: every point of it lies in the ellipse, so it clears the
-    others too, and more obstacles only make paths longer. Otherwise ``s`` grows to the length
-    found, and again. No path among these obstacles means none among all. A tangent graph of a
-    few dozen discs per leg instead of all of them."""
-    S, G = np.append(a, 0.0), np.append(b, 0.0)
-    C = obs[:, :2]
-    R, dS, dG = _inflated(obs, a, b, margin)  # as _plan inflates them
-    if not np.any(_segment_distance(a[None, :], b[None, :], C)[0] < R - tol):
+    None when there is none: the straight segment when no inflated disc cuts it, else
+    :func:`_plan`'s shortest path."""
+    R = _inflated(obs, a, b, margin)[0]  # as _plan inflates them
+    if not np.any(_segment_distance(a[None, :], b[None, :], obs[:, :2])[0] < R - tol):
         return np.vstack([a, b])  # (as the graph's direct edge is kept)
-    reach = dS + dG - 2.0 * R  # |p - a| + |p - b| >= reach on the inflated disc
-    s = _ROUTE_STRING * math.hypot(*(b - a)) + tol
-    while True:
-        near = reach <= s
-        cands = _plan(S, G, obs[near], margin, 1, tol)
-        if cands is None:
-            return None
-        length = cands[0].graph_length
-        if length <= s or near.all():
-            return cands[0].polyline
-        s = _ROUTE_STRING * length + tol
+    cands = _plan(np.append(a, 0.0), np.append(b, 0.0), obs, margin, 1, tol)
+    return None if cands is None else cands[0].polyline
 
 
 def _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes) -> InitialPath:
@@ -380,7 +430,7 @@ def _replan_class(cand, S, G, obs, margin, k, tol) -> np.ndarray | None:
     gap = _segment_distance(poly[:-1], poly[1:], obs[:, :2]).min(axis=0) - obs[:, 2]
     near = np.flatnonzero(gap < _RETRY_BAND * margin)
     want = tuple(np.asarray(cand.signature)[near].tolist())
-    same = [c for c in _plan(S, G, obs[near], margin, k, tol) or () if c.signature == want]
+    same = [c for c in _plan_among(S, G, obs[near], margin, k, tol) or () if c.signature == want]
     if not same:
         return None
     nodes = same[0].nodes
