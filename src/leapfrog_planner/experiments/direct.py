@@ -109,7 +109,7 @@ def _guess(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
 
 def _model(value: Any) -> str:
     if value not in _MODELS:
-        raise ModelError(f"unknown model {value!r}; expected one of {', '.join(_MODELS)}")
+        raise ModelError(f"the direct method has no model {value!r} (it has {', '.join(_MODELS)})")
     return value
 
 
@@ -526,12 +526,12 @@ def solve_direct(
     :class:`DirectTranscription`, built once per mesh and process (:func:`cached_transcription`)
     and reused for all guesses.
     """
+    _model(model)  # first: another model's states may hold more than three numbers
     start = _state(start, "start")
     goal = _state(goal, "goal")
     horizon = _horizon(horizon)
     obstacles = _obstacles(obstacles)
     n = _count(intervals, "intervals", 1)
-    _model(model)
     if coarse_intervals is not None:
         coarse_intervals = _count(coarse_intervals, "coarse_intervals", 1)
     user = [] if guesses is None else list(guesses)
