@@ -289,6 +289,8 @@ def _plan_with_progress(planner):
 
 
 def _summary(r) -> Table:
+    from ..planning.status import listed_alternatives
+
     table = Table(title=f"{r.scenario}: Leapfrog ({r.method})", show_header=False)
     clearance = "n/a (no obstacles)" if r.min_clearance is None else f"{r.min_clearance:.4g}"
     if r.task is not None and r.task.robot_radius and r.min_clearance is not None:
@@ -323,11 +325,14 @@ def _summary(r) -> Table:
             f"{r.time_validation_s * 1e3:.0f})",
         ),
     ]
-    for a in r.alternatives:
+    listed, failed = listed_alternatives(r.alternatives)
+    for a in listed:
         what = f"{a.status}, cost {a.cost:.8g}" if math.isfinite(a.cost) else f"{a.status}"
         if a.weight != r.weight:
             what += f" (obstacle weight {a.weight:g})"
         rows.append((f"other path {a.label}", what))
+    if failed:
+        rows.append((f"{failed} other paths", "failed (the JSON result has each one's message)"))
     for k, v in rows:
         table.add_row(k, v)
     return table

@@ -192,23 +192,42 @@ def plan_message(status, best: PathRun, answer: Answer, runs: list[PathRun], mar
 
 
 def _failures(runs: list[PathRun]) -> str:
-    """Why each path's run (at the scenario's weight) failed. Runs that failed alike at an
-    initial segment are named together, each with its segment, so that a plan whose every path
-    failed there says once what was tried."""
+    """Why the paths' runs (at the scenario's weight) failed: the runs that failed the same way
+    together, how many, and the first of them. (Each run's message in full made a car's plan
+    of 18 failed paths say 3,000 characters.)"""
+    tried = [r for r in runs if not r.raises]
+    if len(tried) == 1:
+        return f"path {tried[0].path.label}: {tried[0].run.message}"
     groups: dict[str, list[PathRun]] = {}
-    for r in runs:
-        if not r.raises:
-            i, msg = r.run.failed_segment, r.run.message
-            alike = msg if i is None else msg.replace(f"initial segment {i}", "an initial segment")
-            groups.setdefault(alike, []).append(r)
+    for r in tried:
+        groups.setdefault(_how_failed(r), []).append(r)
     parts = []
-    for alike, same in groups.items():
-        if len(same) == 1 or same[0].run.failed_segment is None:
-            parts += [f"path {r.path.label}: {r.run.message}" for r in same]
-        else:
-            names = "; ".join(f"{r.path.label} (segment {r.run.failed_segment})" for r in same)
-            parts.append(f"{alike} on {len(same)} paths [{names}]")
+    for how, same in groups.items():
+        count = f"all {len(same)}" if len(same) == len(tried) else f"{len(same)} of {len(tried)}"
+        parts.append(f"{how} on {count} paths (first: {same[0].path.label}{_detail(same[0].run)})")
     return "; ".join(parts)
+
+
+def _how_failed(r: PathRun) -> str:
+    """A failed run's reason, in the same words for runs that failed the same way."""
+    run = r.run
+    i = run.failed_segment
+    if i is not None:  # the same strategies failed, at whichever segment
+        return run.message.replace(f"initial segment {i}", "an initial segment")
+    if run.final_root is not None and not run.final_root.success:
+        return "the final solve failed"
+    if run.success:  # an extremal that its re-integration did not confirm
+        return "the re-integrated extremal missed the goal"
+    return run.message.rsplit("; ", 1)[-1]  # Leapfrog converged; what came after did not
+
+
+def _detail(run: LeapfrogSolution) -> str:
+    """What :func:`_how_failed` leaves out of the first such run: its segment, or how its final
+    solve failed."""
+    if run.failed_segment is not None:
+        return f", segment {run.failed_segment}"
+    root = run.final_root
+    return f": {root.status}: {root.message}" if root is not None and not root.success else ""
 
 
 def best_of(runs: list[PathRun]) -> PathRun:

@@ -150,7 +150,7 @@ def continue_to_bounds(
         note = f"; continued to the problem itself ({_what(current)})"
     else:
         done = np.floor(1000.0 * s) / 10.0  # never rounded up to a 100% that was not reached
-        note = f"; the continuation to the problem itself stopped at {done:g}%"
+        note = f"; the continuation to the problem itself stopped at {done:g}% ({_what(current)})"
     one = arcs is not None and arcs.t.size == 2
     run = replace(
         run,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -26,3 +27,19 @@ class PathOutcome:
     message: str
     weight: float  # the obstacle weight of its last run
     trajectory: Trajectory | None = None  # its extremal, when it found one
+
+
+#: More runs without an extremal than this are counted, not listed, among a plan's other paths
+#: (in the command line's table and the figure's legend): a car's plan can try 18 paths.
+FAILED_LISTED = 3
+
+
+def listed_alternatives(
+    alternatives: tuple[PathOutcome, ...],
+) -> tuple[list[PathOutcome], int]:
+    """The other paths to list one by one, and how many runs without an extremal are only
+    counted (all of them, when there are more than :data:`FAILED_LISTED`; else none)."""
+    failed = [a for a in alternatives if not math.isfinite(a.cost)]
+    if len(failed) <= FAILED_LISTED:
+        return list(alternatives), 0
+    return [a for a in alternatives if math.isfinite(a.cost)], len(failed)

@@ -27,6 +27,7 @@ from matplotlib.lines import Line2D
 from .._atomic import write_atomic as _write_atomic
 from ..planning.results import PlanResult
 from ..planning.scenario import Scenario
+from ..planning.status import listed_alternatives
 from .animation import animate_sweeps
 from .style import (
     ALTERNATIVE_STYLES,
@@ -157,22 +158,18 @@ def plot_path(
     return ax
 
 
-#: More failed runs than this share one legend entry (a long horizon can fail 16).
-_FAILED_LISTED = 3
 #: Legend entries longer than this (characters, small font) would not fit a 6.4-inch figure.
 _LABEL_WIDTH = 80
 
 
 def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
     """The other initial paths' extremals, faint and dotted; legend entries for those without
-    (the failed runs counted in one entry when there are more than :data:`_FAILED_LISTED`)."""
+    (the failed runs counted in one entry when there are many: :func:`listed_alternatives`)."""
     extra = []
     drawn = 0
-    alts = result.alternatives
-    failed = [a.trajectory is None and not np.isfinite(a.cost) for a in alts]
-    if sum(failed) > _FAILED_LISTED:
-        alts = [a for a, f in zip(alts, failed, strict=True) if not f]
-        text = f"{sum(failed)} other paths failed"
+    alts, failed = listed_alternatives(result.alternatives)
+    if failed:
+        text = f"{failed} other paths failed"
         extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
     for alt in alts:
         if alt.trajectory is not None:
