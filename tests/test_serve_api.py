@@ -83,6 +83,7 @@ def test_plan_gives_what_the_page_draws(client):
     assert len(path["t"]) == len(path["x"]) == len(path["v"]) == len(path["reverse"]) == 401
     assert path["x"][0] == 0.0 and path["x"][-1] == pytest.approx(2.0, abs=1e-6)
     assert sorted(a["cost"] for a in v["alternatives"]) == pytest.approx([5.663874, 5.784293])
+    assert v["failed_alternatives"] == 0  # (more than 3 failed runs are counted, not listed)
     frames = v["frames"]
     assert frames[0]["sweep"] == 0 and len(frames) == v["sweeps"] + 1
     assert frames[-1]["cost"] == pytest.approx(v["cost"], rel=1e-3)

@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 
+from ..planning.status import listed_alternatives
+
 #: Rows of the drawn path and of the control plots (the result keeps about 1,000 and more).
 PATH_ROWS = 401
 #: Rows of an alternative's path (drawn faded).
@@ -72,6 +74,7 @@ def _sweeps(result) -> list[dict]:
 def result_view(result) -> dict:
     """The page's view of a :class:`~leapfrog_planner.planning.results.PlanResult`."""
     names = (result.state_names, result.control_names)
+    listed, failed = listed_alternatives(result.alternatives)
     alternatives = [
         {
             "label": a.label,
@@ -79,7 +82,7 @@ def result_view(result) -> dict:
             "cost": _num(a.cost),
             "path": path_view(a.trajectory, *names, rows=ALTERNATIVE_ROWS),
         }
-        for a in result.alternatives
+        for a in listed
     ]
     return {
         "status": str(result.status),
@@ -105,5 +108,6 @@ def result_view(result) -> dict:
         "newton_iterations": result.newton_iterations,
         "path": path_view(result.trajectory, *names),
         "alternatives": alternatives,
+        "failed_alternatives": failed,  # counted, not listed (when there are many)
         "frames": _sweeps(result),
     }

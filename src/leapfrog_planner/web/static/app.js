@@ -329,6 +329,7 @@ function showResult() {
   setText("time", `${(r.wall_time_s * 1e3).toFixed(0)} ms`);
   setText("sweeps", `${r.sweeps} (${r.newton_iterations} Newton iterations)`);
   const alts = r.alternatives.map((a) => `${a.label}: ${a.status}${a.cost === null ? "" : ", " + fmt(a.cost)}`);
+  if (r.failed_alternatives) alts.push(`${r.failed_alternatives} others failed`);
   $("alternatives").textContent = alts.length ? `other initial paths — ${alts.join("; ")}` : "";
 }
 
