@@ -159,6 +159,53 @@ def test_a_car_that_finds_no_extremal_says_why_in_a_few_lines(tmp_path):
     assert d["status"] == "failed" and len(d["message"]) < 600
     assert "stopped at 4.2% (turn assist 0.957" in d["message"]
     assert " on 15 of 18 paths (first: straight)" in d["message"]
+    # The motion handed back turns with the assist: it says so.
+    assert d["message"].endswith(
+        "returned: the Leapfrog iterate (q = 4) with turn_assist 1 (the robot's 0): not a"
+        " motion the robot can make"
+    )
     assert len(d["alternatives"]) == 17 and all(a["message"] for a in d["alternatives"])
     text = " ".join(run.stdout.split())
     assert "17 other paths │ failed" in text and "other path straight" not in text
+
+
+def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
+    # Leapfrog runs the car with its turn assist (turning like a unicycle), then continues the
+    # assist to 0. Another path's last iterate, still assisted, turns where the car cannot and
+    # costs less than the car's extremal: it was reported as a cheaper motion on 29 of 32
+    # converged parking layouts (and sent those plans on to twice the partitions). Only
+    # motions the car can make count.
+    import dataclasses
+    import math
+
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+    from leapfrog_planner.planning.answer import (
+        CHEAPER_BY,
+        choose_answer,
+        clear_iterates,
+        unlike_robot,
+    )
+    from leapfrog_planner.planning.planner import Planner
+
+    spec = GeneratorSpec(n=2, seed=4, heading_spread=3.14159, min_distance=0.3)
+    unicycle = list(generate(spec))[1]
+    sc = dataclasses.replace(
+        unicycle,
+        model="car",
+        start=np.append(unicycle.start, 0.0),
+        goal=np.append(unicycle.goal, 0.0),
+    )
+    p = Planner(sc)
+    runs, _ = p._stages(p.initial_paths())
+    ctx = p._context()
+    status, best, answer = choose_answer(runs, ctx)
+    assert str(status) == "converged" and answer.cheaper is None
+    rivals = [r for r in runs if r is not best and r.weight == best.weight]
+    below = (1.0 - CHEAPER_BY) * best.validation.cost
+    cheaper = list(clear_iterates(rivals, ctx, below))
+    assert cheaper
+    assert all("turn_assist 1 (the robot's 0)" in unlike_robot(r.iterate_problem, tr, ctx)
+               for r, tr in cheaper)  # fmt: skip
+    r = plan(sc)
+    assert math.isnan(r.cheaper_motion) and "cheaper" not in r.message
+    assert r.cost == pytest.approx(3.3066764, rel=1e-6)

@@ -111,16 +111,21 @@ def test_speed_and_turn_rate_bounds_match_the_bounded_direct_method(case, w):
 def test_a_turn_rate_too_low_for_the_task_fails_honestly():
     """Paper case 1 with v in [0, 6] and |omega| <= 3 is barely feasible: the robot must turn in
     place at the bound, cross at top speed and turn again; IPOPT with the same box stops short
-    of its tolerance too (cost 10.526). The planner says it failed and hands back a path that
-    stays within the bounds."""
+    of its tolerance too (cost 10.526). The planner says it failed and hands back the motion it
+    computed from start to goal, which turns faster than the bounds allow, and says so. (It had
+    integrated that iterate, planned with the turn rate relaxed, under the bounds: a "motion"
+    within them that jumped by 0.45 between samples and ended 0.45 from the goal.)"""
     bounds = {"v": (0.0, 6.0), "omega": (-3.0, 3.0)}
     sc = dataclasses.replace(load_scenario("paper-case-1"), control_bounds=bounds)
     r = plan(sc, threads=1)
     assert not r.success and str(r.status) == "failed"
     assert "continuation to the problem itself stopped" in r.message
     assert not r.optimal
-    v, omega = r.trajectory.u[:, 0], r.trajectory.u[:, 1]
-    assert v.min() >= -1e-6 and v.max() <= 6.0 + 1e-6 and np.abs(omega).max() <= 3.0 + 1e-6
+    x, v, omega = r.trajectory.x, r.trajectory.u[:, 0], r.trajectory.u[:, 1]
+    assert np.linalg.norm(x[-1] - sc.goal) < 1e-5 and np.abs(np.diff(x, axis=0)).max() < 0.05
+    assert v.min() >= -1e-6 and v.max() <= 6.0 + 1e-6 and 3.0 < np.abs(omega).max() < 5.0
+    assert "omega from -4.8 to 4.82 (the robot's -3 to 3)" in r.trajectory_source
+    assert r.trajectory_source.endswith("not a motion the robot can make")
 
 
 def test_only_the_bounds_the_initial_path_leaves_are_relaxed():
@@ -147,6 +152,26 @@ def test_bounds_far_outside_the_optimum_change_nothing():
     wide = dataclasses.replace(load_scenario("paper-case-4"), control_bounds={"v": (-50, 50)})
     r = plan(wide, threads=1)
     assert r.success and abs(r.cost - free.cost) <= 1e-8 * free.cost
+
+
+def test_a_failed_plan_hands_back_a_motion_to_the_goal_and_says_what_it_breaks():
+    """A forward-only robot (v in [0, 6]) with its goal close behind (headings in every
+    direction, seed 4, layout 34): no extremal. Runs whose initial segments failed ran again
+    with v's bounds relaxed, and such a run's iterate (reversing at up to 2.7) was integrated
+    with the flow of the robot's own bounds: the motion handed back jumped by up to 0.57
+    between samples and ended 0.62 from the goal. Each iterate is now integrated with its own
+    problem; none is a motion the robot can make, nor is the cheapest initial path followed as
+    timed (it drives at up to 7.6), so the iterate is handed back, and its source says why."""
+    spec = GeneratorSpec(n=35, seed=4, heading_spread=3.14159, min_distance=0.3)
+    (base,) = [s for s in generate(spec) if s.name.endswith("00034")]
+    sc = dataclasses.replace(base, control_bounds={"v": (0.0, 6.0)})
+    r = plan(sc)
+    assert str(r.status) == "failed" and not r.optimal
+    x = r.trajectory.x
+    assert np.linalg.norm(x[-1] - sc.goal) < 1e-5 and np.abs(np.diff(x, axis=0)).max() < 0.05
+    assert r.trajectory_source.endswith("not a motion the robot can make")
+    assert "v from -2.71 to -0.668 (the robot's 0 to 6)" in r.trajectory_source
+    assert r.message.endswith(f"returned: the {r.trajectory_source}")
 
 
 def test_a_speed_too_low_for_every_path_fails_honestly():

@@ -138,7 +138,7 @@ def test_a_cheaper_collision_free_iterate_is_reported_with_a_converged_extremal(
     assert r.cheaper_motion == pytest.approx(iterate, rel=1e-5)  # the same figure, a number
     console = Console(width=200, record=True)
     console.print(_summary(r))  # what `leapfrog solve` shows: a warning row
-    text = console.export_text()
+    text = " ".join(console.export_text().replace("│", " ").split())  # (rows wrap)
     assert "warning" in text and "a cheaper optimum exists" in text
 
     best = plan(sc)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..integrate.flow import Flow, Trajectory
+from ..model.bounds import SMOOTHING
 from ..model.problem import OptimalControlProblem
 from ..roots import RootSettings
 from .initial_path import InitialPath
@@ -49,6 +50,9 @@ class PathRun:
     weight: float
     raises: int  # how often the weight was raised from the scenario's for this run
     validation_time_s: float
+    # The problem whose piecewise extremal the run's Leapfrog iterate (``run.arcs``) is: the
+    # car with its turn assist, or the bounds relaxed, where Leapfrog ran on those.
+    iterate_problem: OptimalControlProblem
     end_tolerance: float = END_STATE_TOLERANCE
     margin: float = 0.0  # the clearance a clear run keeps (the scenario's robot margin)
 
@@ -102,56 +106,104 @@ class Context:
     scenario: Scenario
     problem: OptimalControlProblem
     samples: int
-    flow_at: Callable[[float], Flow]
+    flow_of: Callable[[OptimalControlProblem], Flow]
+    robot: OptimalControlProblem  # the scenario's own problem (no turn assist, its bounds)
 
 
 def choose_answer(runs: list[PathRun], ctx: Context) -> tuple[PlanStatus, PathRun, Answer]:
     """The status, the run it rests on, and the trajectory returned.
 
     Converged: the collision-free extremal at the lowest obstacle weight (the scenario's own
-    when any path clears there), the cheapest of those. Otherwise the cheapest piecewise
-    extremal of the sweeps (at the lowest weight) that is collision-free, else the cheapest
-    initial path followed as timed: a feasible motion, marked as not optimal."""
+    when any path clears there), the cheapest of those, checked against the other runs'
+    collision-free iterates that the robot can make (an iterate of the car with its turn
+    assist is cheaper by turning where the car cannot). Otherwise a motion the robot can make
+    first: the cheapest collision-free piecewise extremal of the sweeps (at the lowest weight),
+    else the cheapest initial path followed as timed; only then one it cannot (a forward-only
+    robot's iterate with its bounds relaxed), which the source says. Marked as not optimal."""
     clear = [r for r in runs if r.clear]
     if clear:
         best = min(clear, key=lambda r: (r.weight, r.validation.cost))
         v = best.validation
         rivals = [r for r in runs if r.weight == best.weight and r is not best]
-        found = clear_iterate(rivals, ctx, below=(1.0 - CHEAPER_BY) * v.cost)
+        below = (1.0 - CHEAPER_BY) * v.cost
+        found = next(_robot_motions(clear_iterates(rivals, ctx, below), ctx), None)
         cheaper = None if found is None else (found[0], float(found[0].run.arcs.cost.sum()))
         return PlanStatus.CONVERGED, best, Answer(v.trajectory, v, "extremal", cheaper)
     extremals = [r for r in runs if r.extremal]
     status = PlanStatus.COLLIDES if extremals else PlanStatus.FAILED
-    found = clear_iterate(runs, ctx)
-    if found is not None:
-        r, tr = found
-        q = r.run.arcs.t.size - 1
-        return status, r, Answer(tr, None, f"Leapfrog iterate (q = {q}), not optimal")
-    # The cheapest initial path followed as timed (a penalty-timed one may be far cheaper than
-    # the constant-speed paths: at T = 100, 0.86 against 34.8).
+    found = next(_robot_motions(clear_iterates(runs, ctx), ctx), None)
+    path_run, path_answer = _initial_path(runs, ctx)
+    if found is None and unlike_robot(path_run.guide.problem, path_answer.trajectory, ctx):
+        found = next(clear_iterates(runs, ctx), None)
+    if found is None:
+        return status, path_run, path_answer
+    r, tr = found
+    what = f"Leapfrog iterate (q = {r.run.arcs.t.size - 1})"
+    return status, r, Answer(tr, None, _not_optimal(what, r.iterate_problem, tr, ctx))
+
+
+def _initial_path(runs: list[PathRun], ctx: Context) -> tuple[PathRun, Answer]:
+    """The cheapest initial path followed as timed (a penalty-timed one may be far cheaper than
+    the constant-speed paths: at T = 100, 0.86 against 34.8), and a run from it."""
     paths = list(dict.fromkeys(r.path for r in runs))  # in order: the scenario's weight first
     s = ctx.scenario
     cost = estimated_costs(ctx.problem, paths, s.horizon, ends=(s.start, s.goal))
     cheapest = paths[int(np.argmin(cost))]
     run = next(r for r in runs if r.path is cheapest)
-    return status, run, Answer(run.guide.trajectory(ctx.samples), None, "initial path, not optimal")
+    tr = run.guide.trajectory(ctx.samples)
+    return run, Answer(tr, None, _not_optimal("initial path", run.guide.problem, tr, ctx))
 
 
-def clear_iterate(runs: list[PathRun], ctx: Context, below: float = np.inf):
-    """The cheapest last Leapfrog iterate (a piecewise extremal: a motion from start to goal)
-    of ``runs`` that clears the obstacles and costs less than ``below``, at the lowest obstacle
-    weight first: ``(run, its trajectory)``, or None."""
+#: Controls beyond a bound by more than this fraction of its range make a motion the robot
+#: cannot make (the smooth saturation of the bounded problems leaves a bound by at most
+#: ``eps^2 / (4 range)``, under 1% of the range at the widest ``eps``).
+BOUND_SLACK = 0.01
+
+
+def unlike_robot(problem: OptimalControlProblem, tr: Trajectory, ctx: Context) -> str:
+    """Why ``tr``, a motion of ``problem``, is not one the robot can make (empty when it is):
+    the parameters of ``problem`` that differ from the robot's (the car's turn assist, relaxed
+    bounds; the bounds' smoothing aside), and its controls beyond the robot's bounds (an
+    initial path followed as timed may drive faster than the robot can)."""
+    names = problem.model.parameters
+    why = [
+        f"{name} {mine:g} (the robot's {own:g})"
+        for name, mine, own in zip(names, problem.parameters, ctx.robot.parameters, strict=True)
+        if name != SMOOTHING and mine != own
+    ]
+    controls = problem.model.controls
+    for c, (lo, hi) in ctx.scenario.control_bounds.items():
+        u = tr.u[:, controls.index(c)]
+        if u.min() < lo - BOUND_SLACK * (hi - lo) or u.max() > hi + BOUND_SLACK * (hi - lo):
+            why.append(f"{c} from {u.min():.3g} to {u.max():.3g} (the robot's {lo:g} to {hi:g})")
+    return ", ".join(why)
+
+
+def _not_optimal(what: str, problem: OptimalControlProblem, tr: Trajectory, ctx: Context) -> str:
+    why = unlike_robot(problem, tr, ctx)
+    return f"{what} with {why}: not a motion the robot can make" if why else f"{what}, not optimal"
+
+
+def _robot_motions(found, ctx: Context):
+    """The ``(run, trajectory)`` pairs of ``found`` that are motions the robot can make."""
+    return ((r, tr) for r, tr in found if not unlike_robot(r.iterate_problem, tr, ctx))
+
+
+def clear_iterates(runs: list[PathRun], ctx: Context, below: float = np.inf):
+    """The last Leapfrog iterates (piecewise extremals: motions from start to goal) of ``runs``
+    that clear the obstacles and cost less than ``below``, at the lowest obstacle weight first,
+    cheapest first: ``(run, its trajectory)`` pairs, each integrated lazily with the flow of its
+    own problem (:attr:`PathRun.iterate_problem`)."""
     for r in sorted(
         (r for r in runs if r.run.arcs is not None and r.run.arcs.cost.sum() < below),
         key=lambda r: (r.weight, float(r.run.arcs.cost.sum())),
     ):
         try:
-            tr = piecewise_trajectory(ctx.flow_at(r.weight), r.run.arcs, ctx.samples)
+            tr = piecewise_trajectory(ctx.flow_of(r.iterate_problem), r.run.arcs, ctx.samples)
         except ValueError:
             continue
         if min_clearance(ctx.problem, tr) >= ctx.scenario.margin:
-            return r, tr
-    return None
+            yield r, tr
 
 
 def plan_message(status, best: PathRun, answer: Answer, runs: list[PathRun], margin: float):

@@ -164,6 +164,7 @@ class Planner:
                     raise ScenarioError(f"{source}: solver.{key}: {e}") from None
         self.settings = PlannerSettings.from_options(settings, **{**from_file, **options})
         self.problem = self.scenario.problem()
+        self._robot = self.problem  # the scenario's own problem, without the planning aids
         # The car plans first with the turn assist of a unicycle, then continues it to its own.
         names = self.problem.model.parameters
         self._assist = None
@@ -237,8 +238,11 @@ class Planner:
                 self._weighted[weight] = (problem, Flow(problem, self.flow.settings))
             return self._weighted[weight]
 
-    def _flow_at(self, weight: float) -> Flow:
-        return self._at_weight(weight)[1]
+    def _flow_of(self, problem: OptimalControlProblem) -> Flow:
+        """The final solves' flow of ``problem``: the plan's at its weight, or (a problem with
+        other parameters: the bounds relaxed, or the car's turn assist continued) a new one."""
+        own, flow = self._at_weight(problem.penalty.weight)
+        return flow if problem.parameters == own.parameters else Flow(problem, flow.settings)
 
     def run_path(self, path: InitialPath, k: int = 0, paths: int = 1, raises: int = 0) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) with the
@@ -264,8 +268,9 @@ class Planner:
             run = leapfrog(
                 problem, t, X, guide=guide, settings=st.leapfrog, flow=flow, progress=on_sweep
             )
+            iterate_problem = problem
             if s.control_bounds or self._assist is not None:  # on to the problem itself
-                run, problem = self._continued(run, problem, (t, X), guide, flow)
+                run, problem, iterate_problem = self._continued(run, problem, (t, X), guide, flow)
             log.info("path %s: %s", label, run.message)
             # Validated here, in the path's own thread: the re-integration overlaps the other
             # paths' sweeps.
@@ -275,13 +280,24 @@ class Planner:
                 v = validate_arcs(problem, run.extremal, st.samples, self._validation)
             t_val = time.perf_counter() - t0
         return PathRun(
-            path, guide, run, (t, X), v, weight, raises, t_val, self._end_tolerance, s.margin
+            path,
+            guide,
+            run,
+            (t, X),
+            v,
+            weight,
+            raises,
+            t_val,
+            iterate_problem,
+            self._end_tolerance,
+            s.margin,
         )
 
     def _continued(self, run, problem, junctions, guide, flow):
         """``run`` (Leapfrog with smoothly saturating controls, or the car with its turn assist)
         continued to the scenario's problem; where it failed with bounds, Leapfrog again with
-        the bounds relaxed, then continued (see :mod:`.bounded`)."""
+        the bounds relaxed, then continued (see :mod:`.bounded`). Returns the run, the problem
+        of its extremal, and the problem of its Leapfrog iterate."""
         s, st = self.scenario, self.settings
         relaxed = ()
         if not run.success and s.control_bounds:  # relax the bounds the initial path leaves
@@ -289,23 +305,22 @@ class Planner:
             relaxed = exceeded(s.control_bounds, problem.model.controls, u)
         assist = None if self._assist is None else (ASSIST, self._assist)
         at = schedule(problem, s.control_bounds, s.smoothing_widths, relaxed, assist)
+        iterate_problem = problem
         if relaxed:
             t, X = junctions
-            wide = at(0.0)
+            iterate_problem = wide = at(0.0)
             guide = PathGuide(wide, guide.path, s.horizon, guide.t0, guide.ends)
             run = leapfrog(
                 wide, t, X, guide=guide, settings=st.leapfrog, flow=Flow(wide, flow.settings)
             )
-            if not run.success:
-                return run, problem
         if not run.success:
-            return run, problem
+            return run, problem, iterate_problem
         steps = 8 if relaxed or assist else len(s.smoothing_widths) - 1
         ends = (s.start, s.goal)
         done = continue_to_bounds(
             at, run, (0.0, s.horizon), ends, steps, st.leapfrog.final_shooting
         )
-        return done.run, done.problem
+        return done.run, done.problem, iterate_problem
 
     def _run_paths(self, paths: list[InitialPath], raises: int) -> list[PathRun]:
         """:meth:`run_path` for each path, in parallel threads (see ``threads``)."""
@@ -384,7 +399,9 @@ class Planner:
         return finer
 
     def _context(self) -> Context:
-        return Context(self.scenario, self.problem, self.settings.samples, self._flow_at)
+        return Context(
+            self.scenario, self.problem, self.settings.samples, self._flow_of, self._robot
+        )
 
     def _estimates(self, paths: list[InitialPath]) -> np.ndarray:
         s = self.scenario
