@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..integrate.flow import Flow, Trajectory
-from ..model.bounds import SMOOTHING
+from ..model.bounds import SMOOTHING, bound_names
 from ..model.problem import OptimalControlProblem
 from ..roots import RootSettings
 from .initial_path import InitialPath
@@ -162,16 +162,18 @@ BOUND_SLACK = 0.01
 
 def unlike_robot(problem: OptimalControlProblem, tr: Trajectory, ctx: Context) -> str:
     """Why ``tr``, a motion of ``problem``, is not one the robot can make (empty when it is):
-    the parameters of ``problem`` that differ from the robot's (the car's turn assist, relaxed
-    bounds; the bounds' smoothing aside), and its controls beyond the robot's bounds (an
-    initial path followed as timed may drive faster than the robot can)."""
+    the parameters of its dynamics that differ from the robot's (the car's turn assist), and
+    its controls beyond the robot's bounds (planned with the bounds relaxed, or an initial path
+    followed as timed that drives faster than the robot can). The bounds and their smoothing
+    are judged by the controls alone: they do not change the dynamics."""
+    controls = problem.model.controls
+    bounds = {SMOOTHING, *(name for c in controls for name in bound_names(c))}
     names = problem.model.parameters
     why = [
         f"{name} {mine:g} (the robot's {own:g})"
         for name, mine, own in zip(names, problem.parameters, ctx.robot.parameters, strict=True)
-        if name != SMOOTHING and mine != own
+        if name not in bounds and mine != own
     ]
-    controls = problem.model.controls
     for c, (lo, hi) in ctx.scenario.control_bounds.items():
         u = tr.u[:, controls.index(c)]
         if u.min() < lo - BOUND_SLACK * (hi - lo) or u.max() > hi + BOUND_SLACK * (hi - lo):
