@@ -131,6 +131,23 @@ def test_a_car_is_given_no_turn_in_place_and_finds_the_cheaper_manoeuvre():
     assert abs(r.cost - (c200 + (c200 - c100) / 3)) <= 1e-4 * r.cost
 
 
+def parking_car(index: int) -> Scenario:
+    """Layout ``index`` of the goals close behind (headings in every direction, seed 4, start
+    and goal at least 0.3 apart) for the car, the steering straight at both ends."""
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+
+    spec = GeneratorSpec(n=index + 1, seed=4, heading_spread=3.14159, min_distance=0.3)
+    unicycle = list(generate(spec))[index]
+    return Scenario(
+        name=f"parking-car-{index}",
+        horizon=unicycle.horizon,
+        start=[*unicycle.start, 0.0],
+        goal=[*unicycle.goal, 0.0],
+        obstacles=unicycle.obstacles,
+        model="car",
+    )
+
+
 def test_a_car_that_finds_no_extremal_says_why_in_a_few_lines(tmp_path):
     # A goal close behind the car (headings in every direction, seed 4, layout 11): every
     # path's Leapfrog converges with the turn assist, and the continuation to the car itself
@@ -138,20 +155,11 @@ def test_a_car_that_finds_no_extremal_says_why_in_a_few_lines(tmp_path):
     # run. The message says so once, with the count and the first path (it listed all 18
     # runs' messages: 3,000 characters), and the command line's table counts the failed
     # paths in one row; the JSON result keeps each one's message.
-    import dataclasses
     import json
 
-    from leapfrog_planner.batch.generate import GeneratorSpec, generate
     from test_cli import run_cli
 
-    spec = GeneratorSpec(n=12, seed=4, heading_spread=3.14159, min_distance=0.3)
-    unicycle = list(generate(spec))[11]
-    sc = dataclasses.replace(
-        unicycle,
-        model="car",
-        start=np.append(unicycle.start, 0.0),
-        goal=np.append(unicycle.goal, 0.0),
-    )
+    sc = parking_car(11)
     (tmp_path / "park.toml").write_text(sc.to_toml())
     run = run_cli(["solve", "park.toml", "--json", "out.json"], tmp_path)
     assert run.returncode == 1
@@ -175,10 +183,8 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
     # costs less than the car's extremal: it was reported as a cheaper motion on 29 of 32
     # converged parking layouts (and sent those plans on to twice the partitions). Only
     # motions the car can make count.
-    import dataclasses
     import math
 
-    from leapfrog_planner.batch.generate import GeneratorSpec, generate
     from leapfrog_planner.planning.answer import (
         CHEAPER_BY,
         choose_answer,
@@ -187,14 +193,7 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
     )
     from leapfrog_planner.planning.planner import Planner
 
-    spec = GeneratorSpec(n=2, seed=4, heading_spread=3.14159, min_distance=0.3)
-    unicycle = list(generate(spec))[1]
-    sc = dataclasses.replace(
-        unicycle,
-        model="car",
-        start=np.append(unicycle.start, 0.0),
-        goal=np.append(unicycle.goal, 0.0),
-    )
+    sc = parking_car(1)
     p = Planner(sc)
     runs, _ = p._stages(p.initial_paths())
     ctx = p._context()
