@@ -50,17 +50,21 @@ def car_direct(sc: Scenario, weight: float, intervals: int, guess) -> float:
     return float(opti.solve().value(cost))
 
 
-def car_case(case: int) -> Scenario:
-    """A paper case's layout, start and goal, for the car with the steering straight."""
-    base = load_scenario(f"paper-case-{case}")
+def as_car(base: Scenario, name: str) -> Scenario:
+    """``base``'s layout, start and goal for the car, the steering straight at both ends."""
     return Scenario(
-        name=f"car-{case}",
+        name=name,
         horizon=base.horizon,
         start=[*base.start, 0.0],
         goal=[*base.goal, 0.0],
         obstacles=base.obstacles,
         model="car",
     )
+
+
+def car_case(case: int) -> Scenario:
+    """A paper case for the car."""
+    return as_car(load_scenario(f"paper-case-{case}"), f"car-{case}")
 
 
 @pytest.mark.parametrize("case", [1, 2, 3, 4])
@@ -133,19 +137,11 @@ def test_a_car_is_given_no_turn_in_place_and_finds_the_cheaper_manoeuvre():
 
 def parking_car(index: int) -> Scenario:
     """Layout ``index`` of the goals close behind (headings in every direction, seed 4, start
-    and goal at least 0.3 apart) for the car, the steering straight at both ends."""
+    and goal at least 0.3 apart) for the car."""
     from leapfrog_planner.batch.generate import GeneratorSpec, generate
 
     spec = GeneratorSpec(n=index + 1, seed=4, heading_spread=3.14159, min_distance=0.3)
-    unicycle = list(generate(spec))[index]
-    return Scenario(
-        name=f"parking-car-{index}",
-        horizon=unicycle.horizon,
-        start=[*unicycle.start, 0.0],
-        goal=[*unicycle.goal, 0.0],
-        obstacles=unicycle.obstacles,
-        model="car",
-    )
+    return as_car(list(generate(spec))[index], f"parking-car-{index}")
 
 
 def test_a_car_that_finds_no_extremal_says_why_in_a_few_lines(tmp_path):
