@@ -145,32 +145,48 @@ def parking_car(index: int) -> Scenario:
 
 
 def test_a_car_that_finds_no_extremal_says_why_in_a_few_lines(tmp_path):
-    # A goal close behind the car (headings in every direction, seed 4, layout 11): every
-    # path's Leapfrog converges with the turn assist, and the continuation to the car itself
-    # stops at the same fold of the family of extremals (assist 0.958) on 15 of the 18 paths
-    # run. The message says so once, with the count and the first path (it listed all 18
-    # runs' messages: 3,000 characters), and the command line's table counts the failed
-    # paths in one row; the JSON result keeps each one's message.
+    # A car in the general preset's room (seed 3, layout 10): no collision-free extremal of
+    # the car, also with the weaker assist, over 27 runs. The message says how they failed,
+    # alike runs together with the count and the first (each run's message in full had made
+    # a parking car's plan say 3,000 characters), and the command line's table counts the
+    # failed paths in one row; the JSON result keeps each one's message.
     import json
 
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
     from test_cli import run_cli
 
-    sc = parking_car(11)
-    (tmp_path / "park.toml").write_text(sc.to_toml())
-    run = run_cli(["solve", "park.toml", "--json", "out.json"], tmp_path)
+    room = list(generate(GeneratorSpec.preset("general", n=11, seed=3)))[10]
+    (tmp_path / "room.toml").write_text(as_car(room, "room").to_toml())
+    run = run_cli(["solve", "room.toml", "--json", "out.json"], tmp_path)
     assert run.returncode == 1
     d = json.loads((tmp_path / "out.json").read_text())
     assert d["status"] == "failed" and len(d["message"]) < 600
-    assert "stopped at 4.2% (turn assist 0.957" in d["message"]
-    assert " on 15 of 18 paths (first: straight)" in d["message"]
+    assert (
+        "the continuation to the problem itself stopped on 24 of 27 paths (first: three-point"
+        " turn at (2.47, 0.851), forward, then reverse, at 51.5% (turn assist 0.484619))"
+    ) in d["message"]
+    assert "segment 15)" in d["message"]  # the runs that failed at an initial segment
     # The motion handed back turns with the assist: it says so.
     assert d["message"].endswith(
         "returned: the Leapfrog iterate (q = 4) with turn_assist 1 (the robot's 0): not a"
         " motion the robot can make"
     )
-    assert len(d["alternatives"]) == 17 and all(a["message"] for a in d["alternatives"])
+    assert len(d["alternatives"]) == 26 and all(a["message"] for a in d["alternatives"])
     text = " ".join(run.stdout.split())
-    assert "17 other paths │ failed" in text and "other path straight" not in text
+    assert "26 other paths │ failed" in text and "other path straight" not in text
+
+
+def test_a_car_whose_assist_folds_converges_with_a_weaker_assist():
+    # The goal close behind the car (parking layout 11): every path's Leapfrog converges with
+    # the turn assist 1, and its continuation to the car stops at 0.958, where the family of
+    # extremals folds. The plan runs its paths again with the assist 0.5, whose continuation
+    # reaches the car: the car's extremal, which the independent transcription confirms.
+    sc = parking_car(11)
+    r = plan(sc)
+    assert r.success, r.message
+    assert r.initial_path.endswith("turn assist 0.5")  # the path run with the weaker assist
+    assert r.cost == pytest.approx(3.777307, rel=1e-5)
+    assert abs(car_direct(sc, sc.weight, 100, (r.trajectory.t, r.trajectory.x)) - r.cost) < 1e-3
 
 
 def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():

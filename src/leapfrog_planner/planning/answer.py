@@ -18,6 +18,7 @@ from ..integrate.flow import Flow, Trajectory
 from ..model.bounds import SMOOTHING, bound_names
 from ..model.problem import OptimalControlProblem
 from ..roots import RootSettings
+from .bounded import STOPPED
 from .initial_path import InitialPath
 from .leapfrog import LeapfrogSolution
 from .path_ranking import PathGuide, estimated_costs
@@ -272,16 +273,20 @@ def _how_failed(r: PathRun) -> str:
         return "the final solve failed"
     if run.success:  # an extremal that its re-integration did not confirm
         return "the re-integrated extremal missed the goal"
-    return run.message.rsplit("; ", 1)[-1]  # Leapfrog converged; what came after did not
+    last = run.message.rsplit("; ", 1)[-1]  # Leapfrog converged; what came after did not
+    return STOPPED if last.startswith(STOPPED) else last
 
 
 def _detail(run: LeapfrogSolution) -> str:
-    """What :func:`_how_failed` leaves out of the first such run: its segment, or how its final
-    solve failed."""
+    """What :func:`_how_failed` leaves out of the first such run: its segment, how its final
+    solve failed, or where its continuation stopped."""
     if run.failed_segment is not None:
         return f", segment {run.failed_segment}"
     root = run.final_root
-    return f": {root.status}: {root.message}" if root is not None and not root.success else ""
+    if root is not None and not root.success:
+        return f": {root.status}: {root.message}"
+    last = run.message.rsplit("; ", 1)[-1]
+    return f", {last[len(STOPPED) + 1 :]}" if last.startswith(STOPPED) else ""
 
 
 def best_of(runs: list[PathRun]) -> PathRun:

@@ -29,6 +29,9 @@ from .leapfrog import Arcs, LeapfrogSolution
 from .results import piecewise_trajectory
 
 MAX_HALVINGS = 10
+#: How a run's message says that its continuation did not reach the scenario's problem (it
+#: goes on with where it stopped).
+STOPPED = "the continuation to the problem itself stopped"
 JUNCTIONS = 16
 #: Relaxed bounds lie this many ranges outside the scenario's.
 RELAXED = 10.0
@@ -150,7 +153,7 @@ def continue_to_bounds(
         note = f"; continued to the problem itself ({_what(current)})"
     else:
         done = np.floor(1000.0 * s) / 10.0  # never rounded up to a 100% that was not reached
-        note = f"; the continuation to the problem itself stopped at {done:g}% ({_what(current)})"
+        note = f"; {STOPPED} at {done:g}% ({_what(current)})"
     one = arcs is not None and arcs.t.size == 2
     run = replace(
         run,
