@@ -127,15 +127,27 @@ def choose_answer(runs: list[PathRun], ctx: Context) -> tuple[PlanStatus, PathRu
         v = best.validation
         rivals = [r for r in runs if r.weight == best.weight and r is not best]
         below = (1.0 - CHEAPER_BY) * v.cost
-        found = next(_robot_motions(clear_iterates(rivals, ctx, below), ctx), None)
+        found = next(
+            (
+                (r, tr)
+                for r, tr in clear_iterates(rivals, ctx, below)
+                if not unlike_robot(r.iterate_problem, tr, ctx)
+            ),
+            None,
+        )
         cheaper = None if found is None else (found[0], float(found[0].run.arcs.cost.sum()))
         return PlanStatus.CONVERGED, best, Answer(v.trajectory, v, "extremal", cheaper)
     extremals = [r for r in runs if r.extremal]
     status = PlanStatus.COLLIDES if extremals else PlanStatus.FAILED
-    found = next(_robot_motions(clear_iterates(runs, ctx), ctx), None)
+    first = found = None  # the first collision-free iterate, and the first the robot can make
+    for r, tr in clear_iterates(runs, ctx):  # (each integrated once)
+        first = first or (r, tr)
+        if not unlike_robot(r.iterate_problem, tr, ctx):
+            found = (r, tr)
+            break
     path_run, path_answer = _initial_path(runs, ctx)
     if found is None and unlike_robot(path_run.guide.problem, path_answer.trajectory, ctx):
-        found = next(clear_iterates(runs, ctx), None)
+        found = first
     if found is None:
         return status, path_run, path_answer
     r, tr = found
@@ -185,11 +197,6 @@ def unlike_robot(problem: OptimalControlProblem, tr: Trajectory, ctx: Context) -
 def _not_optimal(what: str, problem: OptimalControlProblem, tr: Trajectory, ctx: Context) -> str:
     why = unlike_robot(problem, tr, ctx)
     return f"{what} with {why}: not a motion the robot can make" if why else f"{what}, not optimal"
-
-
-def _robot_motions(found, ctx: Context):
-    """The ``(run, trajectory)`` pairs of ``found`` that are motions the robot can make."""
-    return ((r, tr) for r, tr in found if not unlike_robot(r.iterate_problem, tr, ctx))
 
 
 def clear_iterates(runs: list[PathRun], ctx: Context, below: float = np.inf):

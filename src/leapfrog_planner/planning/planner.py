@@ -173,11 +173,9 @@ class Planner:
         names = self.problem.model.parameters
         self._assist = None
         if "turn_assist" in names:
-            i = self._assist_index = names.index("turn_assist")
-            self._assist = self.problem.parameters[i]
-            values = list(self.problem.parameters)
-            values[i] = ASSIST
-            self.problem = replace(self.problem, parameters=tuple(values))
+            self._assist_index = names.index("turn_assist")
+            self._assist = self.problem.parameters[self._assist_index]
+            self.problem = self._with_assist(ASSIST)
         self.flow = Flow(self.problem, self.settings.leapfrog.final_shooting.integrator)
         self.progress = progress
         self._progress_lock = threading.Lock()
@@ -414,14 +412,18 @@ class Planner:
         """This planner for the car with :data:`WEAKER_ASSIST` (a copy with its own problem and
         flows), labelling its paths with it."""
         weaker = copy.copy(self)
-        values = list(self.problem.parameters)
-        values[self._assist_index] = WEAKER_ASSIST
-        weaker.problem = replace(self.problem, parameters=tuple(values))
+        weaker.problem = self._with_assist(WEAKER_ASSIST)
         weaker.flow = Flow(weaker.problem, self.flow.settings)
         weaker._weights_lock = threading.Lock()
         weaker._weighted = {float(self.scenario.weight): (weaker.problem, weaker.flow)}
         weaker._suffix = f"{self._suffix}, turn assist {WEAKER_ASSIST:g}"
         return weaker
+
+    def _with_assist(self, assist: float) -> OptimalControlProblem:
+        """The plan's problem (the car's) with the turn assist ``assist``."""
+        values = list(self.problem.parameters)
+        values[self._assist_index] = assist
+        return replace(self.problem, parameters=tuple(values))
 
     def _context(self) -> Context:
         return Context(
