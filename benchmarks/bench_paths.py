@@ -41,7 +41,7 @@ def _paths_of(job: tuple[int, int]) -> dict:
     est = estimated_costs(planner.problem, paths, sc.horizon, ends=ends).tolist()
     rows = []
     for j, path in enumerate(paths):
-        run = planner.run_path(path, j, len(paths))
+        run = planner.run_path(path)
         cost = run.validation.cost if run.clear else None
         rows.append({"label": path.label, "estimate": est[j], "cost": cost})
     return {"name": sc.name, "paths": rows}

@@ -199,18 +199,28 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
 
     from leapfrog_planner.planning.answer import (
         CHEAPER_BY,
+        Context,
         choose_answer,
         clear_iterates,
         unlike_robot,
     )
     from leapfrog_planner.planning.planner import Planner
+    from leapfrog_planner.planning.search import STAGES, Search
 
     sc = parking_car(1)
     p = Planner(sc)
-    runs, _ = p._stages(p.initial_paths())
-    ctx = p._context()
-    status, best, answer = choose_answer(runs, ctx)
-    assert str(status) == "converged" and answer.cheaper is None
+    search = Search(
+        p.scenario, p.settings, p.initial_paths(), p.robot.model.aid, p.runner.problem_of,
+        p.initial_paths, p.choose,
+    )  # fmt: skip
+    runs = []
+    for stage in STAGES:
+        while asked := stage(search, p.first_round, runs):
+            runs += p.runner.run_all(asked)
+    ctx = Context(p.scenario, p.problem, p.settings.samples, p.runner.flow_of, p.robot)
+    chosen = choose_answer(runs, ctx)
+    best, answer = chosen.run, chosen.answer
+    assert str(chosen.status) == "converged" and answer.cheaper is None
     rivals = [r for r in runs if r is not best and r.weight == best.weight]
     below = (1.0 - CHEAPER_BY) * best.validation.cost
     cheaper = list(clear_iterates(rivals, ctx, below))

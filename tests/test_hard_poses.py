@@ -93,22 +93,24 @@ def test_continuation_steps_adapt_and_predict():
     secant predictor carries the guess along."""
     calls = []
 
-    class Root:
-        def __init__(self, s):
-            self.costate0 = s
+    from leapfrog_planner.bvp.shooting import LocalSolution
+    from leapfrog_planner.roots import RootStatus
 
     def solve_at(p, guess):
         calls.append(p)
         root = 10.0 * p**2
-        return Root(root) if abs(guess - root) < 0.3 else None
+        if abs(guess - root) < 0.3:
+            return LocalSolution(RootStatus.CONVERGED, np.array([root]), np.array([0.0]), 0, 1, 1)
+        return LocalSolution.failure(RootStatus.DIVERGED, np.array([guess]))
 
     settings = LeapfrogSettings(continuation_steps=60)
     r = continuation(solve_at, 0.0, 1.0, settings)
-    assert r is not None and r.costate0 == 10.0
+    assert r.success and r.costate0 == 10.0
     steps = np.diff([0.0] + sorted(set(calls)))
     assert steps.min() < settings.continuation_first_step  # halved somewhere
     # Within a tight step budget, or with a too small minimum step, it gives up.
-    assert continuation(solve_at, 0.0, 1.0, LeapfrogSettings(continuation_steps=3)) is None
+    failed = continuation(solve_at, 0.0, 1.0, LeapfrogSettings(continuation_steps=3))
+    assert not failed.success and failed.status is RootStatus.MAX_ITERATIONS
 
 
 def test_general_preset_sample_converges_without_collisions():

@@ -513,15 +513,17 @@ def test_the_weight_is_not_raised_again_when_every_run_at_a_raise_failed(monkeyp
     validation dropped): after the first raise found no extremal at all, no second raise is
     tried (at 3,000 obstacles every run at x4, x16 and x64 failed: 6.4 s of 17.4 s). The result
     is the extremal through an obstacle, said so, with the best collision-free motion."""
+    from leapfrog_planner.planning.runner import Runner
+
     calls = []
-    real = Planner.run_path
+    real = Runner.run
 
-    def failing_when_raised(self, path, k=0, paths=1, raises=0):
-        calls.append(raises)
-        run = real(self, path, k, paths, raises)
-        return replace(run, validation=None) if raises else run
+    def failing_when_raised(self, request, k=0, paths=1):
+        calls.append(request.raises)
+        run = real(self, request, k, paths)
+        return replace(run, validation=None) if request.raises else run
 
-    monkeypatch.setattr(Planner, "run_path", failing_when_raised)
+    monkeypatch.setattr(Runner, "run", failing_when_raised)
     r = plan(replace(load_scenario(CASES[4].name), weight=5.0), threads=1)
     assert r.status is PlanStatus.COLLIDES and not r.optimal and r.min_clearance >= 0.0
     assert 0 < calls.count(1) == len(calls) - calls.count(0)  # one raise, and no further

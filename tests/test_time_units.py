@@ -153,7 +153,7 @@ def test_paths_at_the_penalty_margin_run_too_where_the_penalty_dominates(monkeyp
     (0.9448): near the obstacles the penalty dominates. The paths at the penalty's own distance
     that start cheaper run too, and one converges to 0.5363, the optimum that IPOPT,
     independently, finds. Without that stage the answer is the dear extremal."""
-    import leapfrog_planner.planning.planner as planner
+    import leapfrog_planner.planning.search as search
     from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
     from leapfrog_planner.experiments.direct import solve_direct
 
@@ -164,7 +164,7 @@ def test_paths_at_the_penalty_margin_run_too_where_the_penalty_dominates(monkeyp
     ipopt = solve_direct(sc.start, sc.goal, sc.horizon, sc.obstacles, weight=sc.weight)
     assert ipopt.success and r.cost == pytest.approx(ipopt.cost, rel=1e-3)
 
-    monkeypatch.setattr(planner, "WIDER_WHEN", math.inf)
+    monkeypatch.setattr(search, "WIDER_WHEN", math.inf)
     alone = plan(sc)
     assert alone.success and alone.cost > 1.5 * r.cost
     assert "margin" not in alone.initial_path

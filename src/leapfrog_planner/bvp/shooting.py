@@ -296,12 +296,23 @@ def _loop_arguments(
 class LocalSolution:
     """What Leapfrog keeps of a local two-point problem (see :class:`LocalShooter`)."""
 
-    success: bool
+    status: RootStatus
     costate0: np.ndarray  # lambda(t0) of the last iterate
     costate1: np.ndarray  # lambda(t1) of the extremal (NaN unless success)
     cost: float  # of the extremal (NaN unless success)
     iterations: int
     f_evals: int
+
+    @property
+    def success(self) -> bool:
+        return self.status is RootStatus.CONVERGED
+
+    @classmethod
+    def failure(cls, status: RootStatus, costate0, iterations: int = 0, f_evals: int = 0):
+        """A failed local problem: ``status`` says how, ``costate0`` is its last iterate."""
+        costate0 = np.asarray(costate0, dtype=float)
+        nan = np.full(costate0.size, np.nan)
+        return cls(status, costate0, nan, float("nan"), int(iterations), int(f_evals))
 
 
 class LocalShooter:
@@ -352,21 +363,23 @@ class LocalShooter:
                 settings=self._plain, flow=self.flow,
             )  # fmt: skip
             if not (r.success and np.isfinite(r.cost)):
-                return self._failed(r.costate0, r.root.iterations, r.root.f_evals)
+                status = r.status if not r.success else RootStatus.NON_FINITE
+                return LocalSolution.failure(status, r.costate0, r.root.iterations, r.root.f_evals)
             return LocalSolution(
-                True, r.costate0, r.costate1, r.cost, r.root.iterations, r.root.f_evals
+                r.status, r.costate0, r.costate1, r.cost, r.root.iterations, r.root.f_evals
             )
         out = self._loop((x0, x1, np.array([t0, t1], dtype=float)), s0)
         x, its, evals, (last_s, Y, last_ok) = out.x, out.iterations, out.f_evals, out.last
         nx = self._nx
         if out.code != _CONVERGED:
-            return self._failed(x, its, evals)
+            return LocalSolution.failure(_CODES[out.code], x, its, evals)
         if not (last_ok and (last_s == x).all()):  # as shooting_result: the end of x itself
             r = self.flow(t0, np.concatenate([x0, x]), t1)
             if r.status != FlowStatus.OK:
-                return self._failed(x, its, evals)
+                return LocalSolution.failure(RootStatus.NON_FINITE, x, its, evals)
             Y = np.concatenate([r.z, [r.cost]])
-        return LocalSolution(True, x, Y[nx : 2 * nx].copy(), float(Y[2 * nx]), int(its), int(evals))
+        lam1, cost = Y[nx : 2 * nx].copy(), float(Y[2 * nx])
+        return LocalSolution(RootStatus.CONVERGED, x, lam1, cost, int(its), int(evals))
 
     @property
     def fused(self) -> bool:
@@ -385,11 +398,6 @@ class LocalShooter:
         """The compiled loop (a method of its own so that the profiler can time it: see
         :mod:`.profiling`)."""
         return self.flow.kernels.shoot_newton(ends, s0, *self._args, self._norms, self._lams)
-
-    def _failed(self, x, its, evals) -> LocalSolution:
-        return LocalSolution(
-            False, x, np.full(self._nx, np.nan), float("nan"), int(its), int(evals)
-        )
 
 
 _CONVERGED = _CODES.index(RootStatus.CONVERGED)

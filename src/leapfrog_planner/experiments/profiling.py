@@ -164,6 +164,7 @@ def _patched(clock: _Clock):
     from ..bvp import shooting
     from ..integrate.flow import Flow
     from ..planning import planner as planner_mod
+    from ..planning import runner as runner_mod
     from ..roots import loop
 
     targets = [
@@ -174,7 +175,7 @@ def _patched(clock: _Clock):
         (loop, "newton_correction", "linear_algebra"),
         (loop, "linear_solve", "linear_algebra"),
         (planner_mod.Planner, "initial_paths", "initial_path"),
-        (planner_mod, "validate_arcs", "validation"),
+        (runner_mod, "validate_arcs", "validation"),
         (shooting, "expm", "linear_algebra"),
         (shooting, "solve", "linear_algebra"),
     ] + [(np.linalg, name, "linear_algebra") for name in ("solve", "svd", "lstsq", "norm")]

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..errors import ModelError
+from .aid import PlanningAid
 
 
 @dataclass(frozen=True)
@@ -32,6 +33,9 @@ class VehicleModel:
     # width ``smoothing`` (see :mod:`.bounds`); empty for free controls.
     control_bounds: tuple[tuple[int, sp.Symbol, sp.Symbol], ...] = ()
     smoothing: sp.Symbol | None = None
+    # A parameter that widens the model while Leapfrog runs, continued to the robot's own value
+    # afterwards (the car's turn assist; see :mod:`.aid`); None for models that need none.
+    aid: PlanningAid | None = None
 
     def __post_init__(self):
         if len(self.states) < 3:
@@ -49,6 +53,10 @@ class VehicleModel:
         if free - known:
             names = ", ".join(sorted(str(s) for s in free - known))
             raise ModelError(f"model {self.name!r}: undeclared symbols {names}")
+        if self.aid is not None and self.aid.parameter not in self.parameter_names:
+            raise ModelError(
+                f"model {self.name!r}: its planning aid {self.aid.parameter!r} is no parameter"
+            )
         if not self.control_names:
             object.__setattr__(self, "control_names", tuple(str(u) for u in self.controls))
 
@@ -70,5 +78,6 @@ class VehicleModel:
             *(sp.srepr(e) for e in self.dynamics),
             sp.srepr(self.running_cost),
             *(f"bound {i}: {sp.srepr(lo)} {sp.srepr(hi)}" for i, lo, hi in self.control_bounds),
+            f"aid: {self.aid.as_tuple() if self.aid else None}",
         ]
         return "\n".join(parts)

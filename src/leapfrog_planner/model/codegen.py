@@ -127,6 +127,7 @@ def model_source(model: VehicleModel) -> str:
             f"PARAMETER_DEFAULTS = {tuple(float(d) for d in model.defaults)!r}",
             f"PARAMETER_POSITIVE = {tuple(bool(p.is_positive) for p in model.parameters)!r}",
             f"DESCRIPTION = {model.description!r}",
+            f"PLANNING_AID = {model.aid.as_tuple() if model.aid else None!r}",
             "# No fast math: it measured no faster here, and without it the flow gives the same",
             "# bits whether called from Python or inlined into the compiled shooting loop (fast",
             "# math lets LLVM reassociate differently in each context). Finiteness is still",

@@ -24,6 +24,7 @@ from .._atomic import write_atomic
 from .._cache import cache_dir, copy_atomic, copy_compiled, numba_cache_of, writable_dir
 from ..errors import ModelError
 from . import MODELS, builtin_source, get_model
+from .aid import PlanningAid
 
 log = logging.getLogger(__name__)
 
@@ -37,6 +38,7 @@ _GENERATOR_FILES = (
     "integrate/flow_template.py",
     "bvp/newton_template.py",
     "model/base.py",
+    "model/aid.py",
     "model/penalty.py",
     "roots/linear.py",
     "bvp/abi.py",
@@ -144,6 +146,7 @@ class ModelInfo:
     defaults: tuple[float, ...]
     positive: tuple[bool, ...]
     description: str
+    aid: PlanningAid | None
     definition: Any = field(repr=False, compare=False)  # a built-in name or a VehicleModel
 
     @property
@@ -185,5 +188,6 @@ def model_info(model) -> ModelInfo:
         defaults=K.PARAMETER_DEFAULTS,
         positive=K.PARAMETER_POSITIVE,
         description=K.DESCRIPTION,
+        aid=PlanningAid(*K.PLANNING_AID) if K.PLANNING_AID else None,
         definition=model,
     )

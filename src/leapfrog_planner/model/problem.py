@@ -122,6 +122,16 @@ class OptimalControlProblem:
             self.model, ObstaclePenalty(pen.obstacles, weight, pen.exponent), self.parameters
         )
 
+    def with_parameter(self, name: str, value: float) -> OptimalControlProblem:
+        """The same problem with the model parameter ``name`` set to ``value``."""
+        values = list(self.parameters)
+        values[self.model.parameters.index(name)] = float(value)
+        return OptimalControlProblem(self.model, self.penalty, tuple(values))
+
+    def parameter(self, name: str) -> float:
+        """The value of the model parameter ``name``."""
+        return self.parameters[self.model.parameters.index(name)]
+
     def __reduce__(self):
         # Pickle by model definition (a name for built-ins), not by the loaded kernel module.
         return (

@@ -17,74 +17,17 @@ import numpy as np
 from ..integrate.flow import Flow, Trajectory
 from ..model.bounds import SMOOTHING, bound_names
 from ..model.problem import OptimalControlProblem
-from ..roots import RootSettings
 from .bounded import STOPPED
-from .initial_path import InitialPath
-from .leapfrog import LeapfrogSolution
-from .path_ranking import PathGuide, estimated_costs
-from .results import PathOutcome, PlanStatus, Validation, piecewise_trajectory
+from .leapfrog import LeapfrogSolution, LeapfrogStatus
+from .path_ranking import estimated_costs
+from .results import PlanStatus, Validation, piecewise_trajectory
+from .runs import PathRun
 from .scenario import Scenario
-
-# A result whose re-integrated end state misses the goal by more than this (times the final
-# solve's |F| tolerance) is not converged: 1e-8 by default. The re-integration runs at the final
-# solve's tolerances (DOP853 at rtol 1e-12 by default), so that the final settings set the
-# answer's accuracy in one place.
-END_STATE_FACTOR = 100.0
-END_STATE_TOLERANCE = END_STATE_FACTOR * RootSettings().tol
 
 #: A collision-free iterate of another path this much cheaper (relative) than a converged
 #: extremal is reported in the message: 3 of 315 converged plans (default and general presets,
 #: T = 0.1 to 100), two of them at T = 10.
 CHEAPER_BY = 1e-3
-
-
-@dataclass(frozen=True)
-class PathRun:
-    """Leapfrog from one initial path at one obstacle weight: the run and its validated answer
-    (``None`` when the run failed)."""
-
-    path: InitialPath
-    guide: PathGuide
-    run: LeapfrogSolution
-    junctions: tuple[np.ndarray, np.ndarray]  # (t, X) of the initial path
-    validation: Validation | None
-    weight: float
-    raises: int  # how often the weight was raised from the scenario's for this run
-    validation_time_s: float
-    # The problem whose piecewise extremal the run's Leapfrog iterate (``run.arcs``) is: the
-    # car with its turn assist, or the bounds relaxed, where Leapfrog ran on those.
-    iterate_problem: OptimalControlProblem
-    end_tolerance: float = END_STATE_TOLERANCE
-    margin: float = 0.0  # the clearance a clear run keeps (the scenario's robot margin)
-
-    @property
-    def extremal(self) -> bool:
-        """A validated extremal (through an obstacle or not)."""
-        return _valid(self.validation, self.end_tolerance)
-
-    @property
-    def collides(self) -> bool:
-        return self.extremal and _touches(self.validation.clearance, self.margin)
-
-    @property
-    def clear(self) -> bool:
-        return self.extremal and not _touches(self.validation.clearance, self.margin)
-
-    def outcome(self) -> PathOutcome:
-        v = self.validation
-        status = PlanStatus.CONVERGED if self.clear else PlanStatus.FAILED
-        if self.collides:
-            status = PlanStatus.COLLIDES
-        return PathOutcome(
-            label=self.path.label,
-            status=status,
-            cost=v.cost if self.extremal else float("nan"),
-            initial_cost=self.run.initial_cost,
-            sweeps=len(self.run.history),
-            message=self.run.message,
-            weight=self.weight,
-            trajectory=v.trajectory if self.extremal else None,
-        )
 
 
 @dataclass(frozen=True)
@@ -111,7 +54,16 @@ class Context:
     robot: OptimalControlProblem  # the scenario's own problem (no turn assist, its bounds)
 
 
-def choose_answer(runs: list[PathRun], ctx: Context) -> tuple[PlanStatus, PathRun, Answer]:
+@dataclass(frozen=True)
+class Chosen:
+    """A plan's answer: its status, the run it rests on and the trajectory returned."""
+
+    status: PlanStatus
+    run: PathRun
+    answer: Answer
+
+
+def choose_answer(runs: list[PathRun], ctx: Context) -> Chosen:
     """The status, the run it rests on, and the trajectory returned.
 
     Converged: the collision-free extremal at the lowest obstacle weight (the scenario's own
@@ -136,7 +88,7 @@ def choose_answer(runs: list[PathRun], ctx: Context) -> tuple[PlanStatus, PathRu
             None,
         )
         cheaper = None if found is None else (found[0], float(found[0].run.arcs.cost.sum()))
-        return PlanStatus.CONVERGED, best, Answer(v.trajectory, v, "extremal", cheaper)
+        return Chosen(PlanStatus.CONVERGED, best, Answer(v.trajectory, v, "extremal", cheaper))
     extremals = [r for r in runs if r.extremal]
     status = PlanStatus.COLLIDES if extremals else PlanStatus.FAILED
     first = found = None  # the first collision-free iterate, and the first the robot can make
@@ -149,10 +101,10 @@ def choose_answer(runs: list[PathRun], ctx: Context) -> tuple[PlanStatus, PathRu
     if found is None and unlike_robot(path_run.guide.problem, path_answer.trajectory, ctx):
         found = first
     if found is None:
-        return status, path_run, path_answer
+        return Chosen(status, path_run, path_answer)
     r, tr = found
     what = f"Leapfrog iterate (q = {r.run.arcs.t.size - 1})"
-    return status, r, Answer(tr, None, _not_optimal(what, r.iterate_problem, tr, ctx))
+    return Chosen(status, r, Answer(tr, None, _not_optimal(what, r.iterate_problem, tr, ctx)))
 
 
 def _initial_path(runs: list[PathRun], ctx: Context) -> tuple[PathRun, Answer]:
@@ -216,13 +168,14 @@ def clear_iterates(runs: list[PathRun], ctx: Context, below: float = np.inf):
             yield r, tr
 
 
-def plan_message(status, best: PathRun, answer: Answer, runs: list[PathRun], margin: float):
+def plan_message(chosen: Chosen, runs: list[PathRun], margin: float) -> str:
     """What the plan's message says: how the answer was found, or why none converged and what
     was returned instead."""
+    status, best, answer = chosen.status, chosen.run, chosen.answer
     if status is PlanStatus.CONVERGED:
         msg = best.run.message
         if best.raises:
-            first = next(r for r in runs if r.path is best.path and r.raises == 0)
+            first = next(r for r in runs if r.same_line(best) and r.raises == 0)
             msg += (
                 f"; the obstacle weight was raised from {first.weight:g} to"
                 f" {best.weight:g} to clear the obstacles (at {first.weight:g} the extremal"
@@ -231,7 +184,7 @@ def plan_message(status, best: PathRun, answer: Answer, runs: list[PathRun], mar
         if answer.cheaper is not None:
             other, cost = answer.cheaper
             msg += (
-                f"; but path {other.path.label} left a collision-free motion that is not an"
+                f"; but path {other.request.label} left a collision-free motion that is not an"
                 f" extremal (its Leapfrog iterate) costing {cost:.6g}, less than this"
                 f" extremal's {best.validation.cost:.6g}: a cheaper optimum exists that no"
                 " run converged to"
@@ -259,48 +212,41 @@ def _failures(runs: list[PathRun]) -> str:
     of 18 failed paths say 3,000 characters.)"""
     tried = [r for r in runs if not r.raises]
     if len(tried) == 1:
-        return f"path {tried[0].path.label}: {tried[0].run.message}"
+        return f"path {tried[0].request.label}: {tried[0].run.message}"
     groups: dict[str, list[PathRun]] = {}
     for r in tried:
         groups.setdefault(_how_failed(r), []).append(r)
     parts = []
     for how, same in groups.items():
         count = f"all {len(same)}" if len(same) == len(tried) else f"{len(same)} of {len(tried)}"
-        parts.append(f"{how} on {count} paths (first: {same[0].path.label}{_detail(same[0].run)})")
+        first = f"{same[0].request.label}{_detail(same[0].run)}"
+        parts.append(f"{how} on {count} paths (first: {first})")
     return "; ".join(parts)
 
 
 def _how_failed(r: PathRun) -> str:
     """A failed run's reason, in the same words for runs that failed the same way."""
     run = r.run
-    i = run.failed_segment
-    if i is not None:  # the same strategies failed, at whichever segment
-        return run.message.replace(f"initial segment {i}", "an initial segment")
-    if run.final_root is not None and not run.final_root.success:
+    if run.status is LeapfrogStatus.SEGMENT_FAILED:  # the same strategies, whichever segment
+        return run.message.replace(f"initial segment {run.failed_segment}", "an initial segment")
+    if run.status is LeapfrogStatus.FINAL_FAILED:
         return "the final solve failed"
-    if run.success:  # an extremal that its re-integration did not confirm
-        return "the re-integrated extremal missed the goal"
-    last = run.message.rsplit("; ", 1)[-1]  # Leapfrog converged; what came after did not
-    return STOPPED if last.startswith(STOPPED) else last
+    if run.status is LeapfrogStatus.CONTINUATION_STOPPED:
+        return STOPPED
+    return "the re-integrated extremal missed the goal"  # one its validation did not confirm
 
 
 def _detail(run: LeapfrogSolution) -> str:
     """What :func:`_how_failed` leaves out of the first such run: its segment, how its final
     solve failed, or where its continuation stopped."""
-    if run.failed_segment is not None:
+    if run.status is LeapfrogStatus.SEGMENT_FAILED:
         return f", segment {run.failed_segment}"
-    root = run.final_root
-    if root is not None and not root.success:
-        return f": {root.status}: {root.message}"
-    last = run.message.rsplit("; ", 1)[-1]
-    return f", {last[len(STOPPED) + 1 :]}" if last.startswith(STOPPED) else ""
-
-
-def best_of(runs: list[PathRun]) -> PathRun:
-    """A path's run to report: the first that clears, else the first extremal, else the last."""
-    return next((r for r in runs if r.clear), None) or next(
-        (r for r in runs if r.extremal), runs[-1]
-    )
+    if run.status is LeapfrogStatus.FINAL_FAILED:
+        return f": {run.final_root.status}: {run.final_root.message}"
+    if run.status is LeapfrogStatus.CONTINUATION_STOPPED:
+        last = run.message.rsplit("; ", 1)[-1]
+        return f", {last[len(STOPPED) + 1 :]}"
+    return ""
 
 
 def min_clearance(problem: OptimalControlProblem, tr: Trajectory) -> float:
@@ -312,13 +258,3 @@ def _too_close(clearance: float, margin: float) -> str:
     if clearance < 0.0:
         return f"passed {-clearance:.3g} inside one"
     return f"came within {clearance:.3g} of one, closer than the margin {margin:g}"
-
-
-def _touches(clearance: np.ndarray, margin: float = 0.0) -> bool:
-    """Closer than ``margin`` to an obstacle (grown by the footprint), or through one."""
-    return bool(clearance.size) and not clearance.min() >= margin
-
-
-def _valid(v, end_tolerance: float = END_STATE_TOLERANCE) -> bool:
-    """A validated extremal: re-integrated without failure, reaching the goal."""
-    return v is not None and np.isfinite(v.cost) and v.end_state_error <= end_tolerance

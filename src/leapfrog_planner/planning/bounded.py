@@ -25,7 +25,7 @@ from ..bvp.shooting import ShootingSettings, solve_shooting
 from ..integrate.flow import Flow
 from ..model.bounds import SMOOTHING, bound_names
 from ..model.problem import OptimalControlProblem
-from .leapfrog import Arcs, LeapfrogSolution
+from .leapfrog import Arcs, LeapfrogSolution, LeapfrogStatus
 from .results import piecewise_trajectory
 
 MAX_HALVINGS = 10
@@ -157,7 +157,7 @@ def continue_to_bounds(
     one = arcs is not None and arcs.t.size == 2
     run = replace(
         run,
-        success=run.success and reached,
+        status=run.status if reached else LeapfrogStatus.CONTINUATION_STOPPED,
         message=run.message + note,
         costate0=arcs.lam0[0] if reached else run.costate0,
         extremal=arcs if reached else run.extremal,

@@ -22,7 +22,7 @@ from ..errors import LeapfrogError
 from ..integrate.flow import Trajectory
 from .leapfrog import SweepRecord
 from .scenario import scenario_from_dict
-from .status import PathOutcome, PlanStatus
+from .status import PathOutcome, PlanStatus, RunRecord
 
 SCHEMA = 2
 _EXTRA = ("running_cost", "hamiltonian")  # trajectory columns besides t, states, controls, costates
@@ -96,6 +96,52 @@ def _columns_json(cols: dict[str, np.ndarray]) -> dict[str, list]:
 # --------------------------------------------------------------------------- to and from a dict
 
 
+#: The result's numbers, saved as they are (non-finite ones as null).
+_NUMBERS = (
+    "cheaper_motion", "cost", "energy", "penalty", "initial_cost", "min_clearance",
+    "end_state_error", "max_costate_jump", "max_dH_du", "hamiltonian_variation",
+)  # fmt: skip
+_PLAIN = (
+    "message", "scenario", "model", "method", "final_solver", "initial_path", "optimal",
+    "trajectory_source", "weight", "wall_time_s", "sweeps", "newton_iterations", "f_evals",
+    "cost_increases",
+)  # fmt: skip
+_TIMING = {
+    "initial_path_s": "time_initial_path_s",
+    "sweeps_s": "time_sweeps_s",
+    "final_s": "time_final_s",
+    "validation_s": "time_validation_s",
+}
+
+
+def _history_json(h: SweepRecord) -> dict:
+    return {
+        **{f.name: getattr(h, f.name) for f in fields(SweepRecord) if f.name not in ("t", "X")},
+        "cost": _num(h.cost),
+        "max_costate_jump": _num(h.max_costate_jump),
+        "junction_t": np.asarray(h.t).tolist(),
+        "junction_X": np.asarray(h.X).tolist(),
+    }
+
+
+def _alternative_json(a: PathOutcome, names) -> dict:
+    return {
+        "label": a.label,
+        "status": str(a.status),
+        "cost": _num(a.cost),
+        "initial_cost": _num(a.initial_cost),
+        "sweeps": a.sweeps,
+        "weight": a.weight,
+        "message": a.message,
+        "trajectory": _columns_json(trajectory_columns(a.trajectory, *names)),
+    }
+
+
+def _record_json(rec: RunRecord) -> dict:
+    d = {f.name: getattr(rec, f.name) for f in fields(RunRecord)}
+    return {**d, "status": str(rec.status), "cost": _num(rec.cost), "aid": _num(rec.aid)}
+
+
 def result_to_dict(r) -> dict:
     """Every field of ``r`` as JSON values (non-finite numbers as null)."""
     names = (r.state_names, r.control_names)
@@ -103,68 +149,17 @@ def result_to_dict(r) -> dict:
     return {
         "schema": SCHEMA,
         "status": str(r.status),
-        "message": r.message,
-        "scenario": r.scenario,
-        "model": r.model,
+        **{k: getattr(r, k) for k in _PLAIN},
         "state_names": list(r.state_names),
         "control_names": list(r.control_names),
-        "method": r.method,
-        "final_solver": r.final_solver,
-        "initial_path": r.initial_path,
-        "optimal": r.optimal,
-        "trajectory_source": r.trajectory_source,
-        "weight": r.weight,
-        "cheaper_motion": _num(r.cheaper_motion),
-        "cost": _num(r.cost),
-        "energy": _num(r.energy),
-        "penalty": _num(r.penalty),
-        "initial_cost": _num(r.initial_cost),
-        "min_clearance": _num(r.min_clearance),
+        **{k: _num(getattr(r, k)) for k in _NUMBERS},
         "clearance": [_num(c) for c in r.clearance],
-        "end_state_error": _num(r.end_state_error),
-        "max_costate_jump": _num(r.max_costate_jump),
-        "max_dH_du": _num(r.max_dH_du),
-        "hamiltonian_variation": _num(r.hamiltonian_variation),
         "costate0": None if r.costate0 is None else r.costate0.tolist(),
-        "wall_time_s": r.wall_time_s,
-        "sweeps": r.sweeps,
-        "newton_iterations": r.newton_iterations,
-        "f_evals": r.f_evals,
-        "cost_increases": r.cost_increases,
-        "timing": {
-            "initial_path_s": r.time_initial_path_s,
-            "sweeps_s": r.time_sweeps_s,
-            "final_s": r.time_final_s,
-            "validation_s": r.time_validation_s,
-        },
-        "history": [
-            {
-                **{
-                    f.name: getattr(h, f.name)
-                    for f in fields(SweepRecord)
-                    if f.name not in ("t", "X")
-                },
-                "cost": _num(h.cost),
-                "max_costate_jump": _num(h.max_costate_jump),
-                "junction_t": np.asarray(h.t).tolist(),
-                "junction_X": np.asarray(h.X).tolist(),
-            }
-            for h in r.history
-        ],
+        "timing": {k: getattr(r, name) for k, name in _TIMING.items()},
+        "history": [_history_json(h) for h in r.history],
         "initial_junctions": {"t": np.asarray(t0).tolist(), "X": np.asarray(X0).tolist()},
-        "alternatives": [
-            {
-                "label": a.label,
-                "status": str(a.status),
-                "cost": _num(a.cost),
-                "initial_cost": _num(a.initial_cost),
-                "sweeps": a.sweeps,
-                "weight": a.weight,
-                "message": a.message,
-                "trajectory": _columns_json(trajectory_columns(a.trajectory, *names)),
-            }
-            for a in r.alternatives
-        ],
+        "alternatives": [_alternative_json(a, names) for a in r.alternatives],
+        "search": [_record_json(rec) for rec in r.search],
         "scenario_file": None if r.task is None else r.task.to_dict(),
         "settings": r.settings,
         "trajectory": _columns_json(r.trajectory_columns()),
@@ -173,6 +168,35 @@ def result_to_dict(r) -> dict:
 
 def _float(v) -> float:
     return float("nan") if v is None else float(v)
+
+
+def _history(h: dict) -> SweepRecord:
+    return SweepRecord(
+        **{k: v for k, v in h.items() if not k.startswith("junction_")},
+        t=np.array(h["junction_t"], dtype=float),
+        X=np.array(h["junction_X"], dtype=float),
+    )
+
+
+def _alternative(a: dict, names) -> PathOutcome:
+    return PathOutcome(
+        label=a["label"],
+        status=PlanStatus(a["status"]),
+        cost=_float(a["cost"]),
+        initial_cost=_float(a["initial_cost"]),
+        sweeps=a["sweeps"],
+        message=a["message"],
+        weight=a["weight"],
+        trajectory=trajectory_from_columns(a["trajectory"], *names),
+    )
+
+
+def _record(d: dict) -> RunRecord:
+    rec = {f.name: d[f.name] for f in fields(RunRecord)}
+    status = PlanStatus(d["status"])
+    return RunRecord(
+        **{**rec, "status": status, "cost": _float(d["cost"]), "aid": _float(d["aid"])}
+    )
 
 
 def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
@@ -186,68 +210,23 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
         )
     try:
         names = (tuple(d["state_names"]), tuple(d["control_names"]))
-        history = tuple(
-            SweepRecord(
-                **{k: v for k, v in h.items() if not k.startswith("junction_")},
-                t=np.array(h["junction_t"], dtype=float),
-                X=np.array(h["junction_X"], dtype=float),
-            )
-            for h in d["history"]
-        )
-        alternatives = tuple(
-            PathOutcome(
-                label=a["label"],
-                status=PlanStatus(a["status"]),
-                cost=_float(a["cost"]),
-                initial_cost=_float(a["initial_cost"]),
-                sweeps=a["sweeps"],
-                message=a["message"],
-                weight=a["weight"],
-                trajectory=trajectory_from_columns(a["trajectory"], *names),
-            )
-            for a in d["alternatives"]
-        )
-        task = d["scenario_file"]
-        timing = d["timing"]
-        ij = d["initial_junctions"]
+        task, ij = d["scenario_file"], d["initial_junctions"]
         return dict(
             status=PlanStatus(d["status"]),
-            message=d["message"],
-            scenario=d["scenario"],
-            model=d["model"],
+            **{k: d[k] for k in _PLAIN if k != "sweeps"},
             state_names=names[0],
             control_names=names[1],
-            method=d["method"],
-            final_solver=d["final_solver"],
-            initial_path=d["initial_path"],
+            **{k: _float(d.get(k)) for k in _NUMBERS if k != "min_clearance"},
             costate0=None if d["costate0"] is None else np.array(d["costate0"], dtype=float),
             trajectory=trajectory_from_columns(d["trajectory"], *names),
-            cost=_float(d["cost"]),
-            energy=_float(d["energy"]),
-            penalty=_float(d["penalty"]),
             clearance=np.array([_float(c) for c in d["clearance"]]),
-            end_state_error=_float(d["end_state_error"]),
-            max_costate_jump=_float(d["max_costate_jump"]),
-            max_dH_du=_float(d["max_dH_du"]),
-            hamiltonian_variation=_float(d["hamiltonian_variation"]),
-            initial_cost=_float(d["initial_cost"]),
-            history=history,
+            history=tuple(_history(h) for h in d["history"]),
             initial_junctions=(np.array(ij["t"], dtype=float), np.array(ij["X"], dtype=float)),
-            newton_iterations=d["newton_iterations"],
-            f_evals=d["f_evals"],
-            cost_increases=d["cost_increases"],
-            time_initial_path_s=timing["initial_path_s"],
-            time_sweeps_s=timing["sweeps_s"],
-            time_final_s=timing["final_s"],
-            time_validation_s=timing["validation_s"],
-            wall_time_s=d["wall_time_s"],
-            alternatives=alternatives,
-            weight=d["weight"],
-            optimal=d["optimal"],
-            trajectory_source=d["trajectory_source"],
+            **{name: d["timing"][k] for k, name in _TIMING.items()},
+            alternatives=tuple(_alternative(a, names) for a in d["alternatives"]),
             task=None if task is None else scenario_from_dict(task, source),
             settings=d["settings"],
-            cheaper_motion=_float(d.get("cheaper_motion")),  # absent from older files
+            search=tuple(_record(rec) for rec in d.get("search", ())),  # absent before
         )
     except (KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, LeapfrogError):

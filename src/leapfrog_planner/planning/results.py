@@ -34,7 +34,10 @@ Further keys: ``schema``, ``scenario``, ``model``, ``final_solver`` (``"shooting
 ``max_costate_jump``, ``newton_iterations``, ``f_evals``, ``failures``, ``rejected``, ``time_s``,
 and the junctions ``junction_t``, ``junction_X``), ``initial_junctions`` (``t``, ``X``) and
 ``alternatives`` (the other initial paths: ``label``, ``status``, ``cost``, ``sweeps``,
-``weight``, ``message`` and their extremal's ``trajectory``, empty when they found none).
+``weight``, ``message`` and their extremal's ``trajectory``, empty when they found none) and
+``search`` (every Leapfrog run in the order made: ``stage``, ``reason``, ``label``,
+``partitions``, ``weight``, ``aid`` (the value of the model's planning aid, null without one),
+``status``, ``cost``, ``sweeps``, ``time_s``, ``message``).
 """
 
 from __future__ import annotations
@@ -49,7 +52,7 @@ from .export import interpolate_columns, resample_columns, result_html
 from .leapfrog import Arcs, SweepRecord
 from .result_files import load_result, result_to_dict, save_json, save_npz, trajectory_columns
 from .scenario import Scenario
-from .status import PathOutcome, PlanStatus
+from .status import PathOutcome, PlanStatus, RunRecord
 
 VALIDATION = IntegratorSettings(method="dop853", rtol=1e-12, atol=1e-12)
 
@@ -221,6 +224,9 @@ class PlanResult:
     # path's last Leapfrog iterate, not an extremal): a cheaper optimum exists that no run
     # converged to. NaN when none was found.
     cheaper_motion: float = float("nan")
+    # Every Leapfrog run of the search, in the order made: which stage asked for it, why, and
+    # what it gave (see :mod:`.search`).
+    search: tuple[RunRecord, ...] = ()
 
     @classmethod
     def load(cls, path) -> PlanResult:

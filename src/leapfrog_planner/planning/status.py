@@ -29,6 +29,25 @@ class PathOutcome:
     trajectory: Trajectory | None = None  # its extremal, when it found one
 
 
+@dataclass(frozen=True)
+class RunRecord:
+    """One Leapfrog run of a plan's search: the stage that asked for it and why, what it ran
+    (the path's label, the partitions, the obstacle weight, the value of the model's planning
+    aid, NaN without one) and what it gave."""
+
+    stage: str
+    reason: str
+    label: str
+    partitions: int
+    weight: float
+    aid: float
+    status: PlanStatus
+    cost: float  # of its extremal (NaN without one)
+    sweeps: int
+    time_s: float  # its Leapfrog run, continuation and validation
+    message: str
+
+
 #: More runs without an extremal than this are counted, not listed, among a plan's other paths
 #: (in the command line's table and the figure's legend): a car's plan can try 18 paths.
 FAILED_LISTED = 3

@@ -32,7 +32,7 @@ terminate, postprocess).
 from __future__ import annotations
 
 from .arcs import Arcs, Junctions
-from .driver import LeapfrogSolution, leapfrog
+from .driver import LeapfrogSolution, LeapfrogStatus, leapfrog
 from .levels import Level, LevelState, next_level
 from .local import LocalSolver, continuation
 from .settings import FINAL_MODES, LOCAL_STEPS, LeapfrogSettings
@@ -49,6 +49,7 @@ __all__ = [
     "LeapfrogRun",
     "LeapfrogSettings",
     "LeapfrogSolution",
+    "LeapfrogStatus",
     "Level",
     "LevelState",
     "LocalSolver",

@@ -8,6 +8,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
 
 import numpy as np
 
@@ -17,18 +18,29 @@ from ...model.problem import OptimalControlProblem
 from ...roots import RootResult
 from ..path_ranking import PathGuide
 from .arcs import Arcs, Junctions
-from .final import FinalSolver
+from .final import FinalSolution, FinalSolver
 from .levels import Level, LevelState, idle, next_level
 from .local import LocalSolver
 from .settings import LeapfrogSettings
-from .sweep import SegmentFailure, SweepRecord, fit_initial_path, sweep
+from .sweep import InitialFit, SweepRecord, fit_initial_path, sweep
+
+
+class LeapfrogStatus(StrEnum):
+    """How a run of Leapfrog ended."""
+
+    CONVERGED = "converged"  # an extremal from start to goal (its validation is the planner's)
+    SEGMENT_FAILED = "segment-failed"  # an initial segment's two-point problem failed
+    FINAL_FAILED = "final-failed"  # the sweeps ended; the final solve failed
+    # The extremal of a problem with planning aids (smoothed or relaxed bounds, the car's turn
+    # assist) did not continue to the problem itself (see :mod:`..bounded`).
+    CONTINUATION_STOPPED = "continuation-stopped"
 
 
 @dataclass(frozen=True)
 class LeapfrogSolution:
     """What the algorithm produced for one initial path (before validation)."""
 
-    success: bool
+    status: LeapfrogStatus
     message: str
     costate0: np.ndarray | None  # lambda(0) of the final extremal
     # The final extremal as its solver found it: one arc (simple shooting) or the junctions of
@@ -55,6 +67,10 @@ class LeapfrogSolution:
     fit_strategies: dict[str, int] = field(default_factory=dict)
     # The initial segment whose two-point problem failed every strategy (None otherwise).
     failed_segment: int | None = None
+
+    @property
+    def success(self) -> bool:
+        return self.status is LeapfrogStatus.CONVERGED
 
 
 @dataclass
@@ -95,9 +111,10 @@ def leapfrog(
     t, X = np.asarray(t, dtype=float), np.asarray(X, dtype=float)
     local, final = _solvers(problem, t, X, guide, settings, flow)
     t_start = time.perf_counter()
-    state = init(local, t, X)
-    if isinstance(state, SegmentFailure):
-        return _failed(state, local, time.perf_counter() - t_start)
+    fit = fit_initial_path(local, t, X)
+    if not fit.success:
+        return _failed(fit, local, time.perf_counter() - t_start)
+    state = init(fit)
     while not terminate(state, settings):
         step(state, local, settings, progress)
     return postprocess(state, local, final, settings, progress, t_start)
@@ -116,11 +133,9 @@ def _solvers(problem, t, X, guide, settings, flow) -> tuple[LocalSolver, FinalSo
     return local, FinalSolver(local, final_flow, start, goal, float(t[0]), float(t[-1]))
 
 
-def init(local: LocalSolver, t: np.ndarray, X: np.ndarray) -> State | SegmentFailure:
-    """The initial path's arcs as the first level; the failure when a segment failed."""
-    arcs = fit_initial_path(local, t, X)
-    if isinstance(arcs, SegmentFailure):
-        return arcs
+def init(fit: InitialFit) -> State:
+    """The initial path's arcs as the first level."""
+    arcs = fit.arcs
     return State(arcs, arcs, LevelState(), float(arcs.cost.sum()))
 
 
@@ -162,18 +177,18 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
     final_jump = arcs.max_jump()
     t_final = time.perf_counter()
     retry_time, first_failure, swept = 0.0, None, len(state.history)
-    extremal, solver, root = final.solve(arcs.lam0[0], level)
+    found = final.solve(arcs.lam0[0], level)
     last = state.history[-1] if state.history else None
     stuck = last is not None and last.q == level.q and idle(last)
     if (
-        extremal is None
+        not found.success
         and settings.final_retry_sweeps
         and arcs.q == 2
         and level.q > 2
         and not stuck
     ):
         t_more = time.perf_counter()
-        first_failure = root
+        first_failure = found.root
         for _ in range(settings.final_retry_sweeps):
             before = state.last_cost()
             rec = _sweep(state, level, local, progress)
@@ -181,15 +196,16 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
                 break
         retry_time = time.perf_counter() - t_more
         final_jump = level.max_jump()
-        extremal, solver, root = final.solve(level.lam0[0], level)
+        found = final.solve(level.lam0[0], level)
     final_time = time.perf_counter() - t_final - retry_time
     more = len(state.history) - swept
+    extremal = found.extremal
     return LeapfrogSolution(
-        success=extremal is not None,
-        message=_message(extremal, solver, root, first_failure, more, level.q, state),
+        status=LeapfrogStatus.CONVERGED if found.success else LeapfrogStatus.FINAL_FAILED,
+        message=_message(found, first_failure, more, level.q, state),
         costate0=None if extremal is None else extremal.lam0[0].copy(),
         extremal=extremal,
-        final_solver=solver,
+        final_solver=found.solver,
         initial_cost=state.initial_cost,
         max_costate_jump=final_jump,
         history=tuple(state.history),
@@ -198,19 +214,20 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
         cost_increases=state.increases,
         sweep_time_s=sweep_time + retry_time,
         final_time_s=final_time,
-        final_root=root,
+        final_root=found.root,
         arcs=(arcs if arcs.q > 2 or arcs is level else level).frozen(),
         fit_strategies=dict(local.strategies.counts),
     )
 
 
-def _message(extremal, solver, root, first_failure, more: int, q: int, state: State) -> str:
-    if extremal is None:
-        msg = f"final solve failed ({root.status}: {root.message})" if root else "no final solve"
+def _message(found: FinalSolution, first_failure, more: int, q: int, state: State) -> str:
+    root = found.root
+    if not found.success:
+        msg = f"final solve failed ({root.status}: {root.message})"
         if first_failure is not None:
             msg += f", also after {more} more sweeps at q = {q}"
         return msg
-    msg = f"converged by {solver} after {len(state.history)} sweeps"
+    msg = f"converged by {found.solver} after {len(state.history)} sweeps"
     if first_failure is not None:
         msg += (
             f" ({more} of them at q = {q} after the final solves had failed:"
@@ -219,11 +236,11 @@ def _message(extremal, solver, root, first_failure, more: int, q: int, state: St
     return msg
 
 
-def _failed(failure: SegmentFailure, local: LocalSolver, sweep_time: float) -> LeapfrogSolution:
+def _failed(fit: InitialFit, local: LocalSolver, sweep_time: float) -> LeapfrogSolution:
     """A run whose initial path's segments could not all be solved."""
     return LeapfrogSolution(
-        success=False,
-        message=failure.message,
+        status=LeapfrogStatus.SEGMENT_FAILED,
+        message=fit.message,
         costate0=None,
         extremal=None,
         final_solver=None,
@@ -237,5 +254,5 @@ def _failed(failure: SegmentFailure, local: LocalSolver, sweep_time: float) -> L
         final_time_s=0.0,
         final_root=None,
         fit_strategies=dict(local.strategies.counts),
-        failed_segment=failure.segment,
+        failed_segment=fit.failed_segment,
     )

@@ -5,16 +5,35 @@ conditioned system), and so on up to ``final_refinements`` times."""
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ...bvp.multiple_shooting import MultipleShootingSystem, solve_multiple_shooting
 from ...bvp.shooting import solve_shooting
 from ...integrate.flow import Flow
-from ...roots import RootResult
+from ...roots import RootResult, RootStatus
 from .arcs import Arcs, Junctions
 from .local import LocalSolver
+
+
+@dataclass(frozen=True)
+class FinalSolution:
+    """The final solve: its status (the last root solve's), the extremal's arcs (one arc for
+    simple shooting, the junctions of multiple shooting; None when every solve failed), which
+    solver found it, and the last root result."""
+
+    extremal: Arcs | None
+    solver: str | None
+    root: RootResult
+
+    @property
+    def status(self) -> RootStatus:
+        return RootStatus.CONVERGED if self.extremal is not None else self.root.status
+
+    @property
+    def success(self) -> bool:
+        return self.extremal is not None
 
 
 class FinalSolver:
@@ -33,9 +52,9 @@ class FinalSolver:
         )
         self.coarse_root = replace(self.shooting.root, tol=local.shooting.root.tol)
 
-    def solve(self, lam0, junctions: Junctions) -> tuple[Arcs | None, str | None, RootResult]:
-        """(the extremal's arcs, solver name, last root result): one arc for simple shooting,
-        the junctions of multiple shooting; (None, None, root) when both fail."""
+    def solve(self, lam0, junctions: Junctions) -> FinalSolution:
+        """Simple shooting from ``lam0``, else multiple shooting over ``junctions`` (and their
+        refinements), as the settings' ``final`` allows."""
         root = None
         count, final = self.local.count, self.settings.final
         if final in ("auto", "shooting"):
@@ -47,19 +66,20 @@ class FinalSolver:
             root = r.root
             if r.success:
                 t, ends = np.array([self.T0, self.T1]), np.array([self.start, self.goal])
-                return Arcs(t, ends, r.costate0[None, :]), "shooting", root
+                return FinalSolution(Arcs(t, ends, r.costate0[None, :]), "shooting", root)
         if final in ("auto", "multiple-shooting"):
             level = junctions
             for refinements in range(self.settings.final_refinements + 1):
                 if refinements:
                     level = level.refined(self.local.flow)
-                extremal, root = self.multiple_shooting(level)
-                if extremal is not None:
-                    return extremal, "multiple-shooting", root
-        return None, None, root
+                found = self.multiple_shooting(level)
+                root = found.root
+                if found.success:
+                    return found
+        return FinalSolution(None, None, root)
 
-    def multiple_shooting(self, junctions: Junctions) -> tuple[Arcs | None, RootResult]:
-        """Multiple shooting from the arcs ``junctions``: (its extremal or None, root result).
+    def multiple_shooting(self, junctions: Junctions) -> FinalSolution:
+        """Multiple shooting from the arcs ``junctions``.
 
         Converged first with the local problems' tolerances (rtol 1e-7, |F| <= 1e-5), then
         polished with the final ones (one or two iterations): an evaluation integrates every
@@ -78,8 +98,8 @@ class FinalSolver:
             root = solve_multiple_shooting(ms, root.x, method, self.shooting.root, compiled)
         count.add(root)
         if not root.success:
-            return None, root
+            return FinalSolution(None, None, root)
         Z = ms.unpack(root.x)
         nx = self.start.size
         ends = np.vstack([Z[:, :nx], self.goal[None, :]])
-        return Arcs(ms.t.copy(), ends, Z[:, nx:].copy()), root
+        return FinalSolution(Arcs(ms.t.copy(), ends, Z[:, nx:].copy()), "multiple-shooting", root)

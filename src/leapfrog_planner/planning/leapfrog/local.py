@@ -20,7 +20,7 @@ from ...bvp.multiple_shooting import MultipleShootingSystem, solve_multiple_shoo
 from ...bvp.shooting import LocalShooter, LocalSolution, ShootingResult
 from ...integrate.flow import Flow
 from ...model.problem import OptimalControlProblem
-from ...roots import RootResult
+from ...roots import RootResult, RootStatus
 from ..path_ranking import PathGuide
 from .arcs import Junctions
 from .settings import LeapfrogSettings
@@ -50,9 +50,9 @@ class Strategies:
         self.counts[name] = self.counts.get(name, 0) + 1
         return r
 
-    def failed(self):
+    def failed(self, r):
         self.counts["failed"] = self.counts.get("failed", 0) + 1
-        return None
+        return r
 
     def split(self):
         self.counts["split"] = self.counts.get("split", 0) + 1
@@ -99,8 +99,9 @@ class LocalSolver:
         self.strategies = Strategies()
         self._shooters: dict[tuple, LocalShooter] = {}
         self._weighted: dict[float, tuple[OptimalControlProblem, Flow]] = {}
-        # The sweeps' local problems that failed: whether the end-state continuation was tried.
-        self._failed: dict[bytes, bool] = {}
+        # The sweeps' local problems that failed: whether the end-state continuation was tried,
+        # and the failure.
+        self._failed: dict[bytes, tuple[bool, LocalSolution]] = {}
 
     # ------------------------------------------------------------------ one solve
 
@@ -114,13 +115,12 @@ class LocalSolver:
         return shoot
 
     def solve(self, ta, xa, tb, xb, guess=None, local=None, flow=None, settings=None):
-        """A local two-point problem (by default the run's problem, as an attempt); None when
-        it fails (the callers handle failures)."""
+        """A local two-point problem (by default the run's problem, as an attempt)."""
         local = self.problem if local is None else local
         flow = self.flow if flow is None else flow
         r = self.shooter(local, flow, settings or self.attempt)(ta, xa, tb, xb, guess)
         self.count.add(r)
-        return r if r.success else None
+        return r
 
     def at_weight(self, w: float) -> tuple[OptimalControlProblem, Flow]:
         """The problem with obstacle weight ``w`` and its flow (built once per run)."""
@@ -137,12 +137,15 @@ class LocalSolver:
 
         The affine guess is not tried after the two arcs: where both attempts from the current
         arcs fail, it succeeded too rarely to pay; continuation takes over."""
-        r = not warm_failed and guess is not None and self.solve(ta, xa, tb, xb, guess, local, flow)
-        if not r and mid is not None and self.settings.two_arc_attempt:
+        if not warm_failed and guess is not None:
+            r = self.solve(ta, xa, tb, xb, guess, local, flow)
+            if r.success:
+                return r
+        if mid is not None and self.settings.two_arc_attempt:
             return self.two_arcs(ta, xa, tb, xb, guess, mid)
-        return r or self.solve(ta, xa, tb, xb, None, local, flow)
+        return self.solve(ta, xa, tb, xb, None, local, flow)
 
-    def two_arcs(self, ta, xa, tb, xb, guess, mid) -> LocalSolution | None:
+    def two_arcs(self, ta, xa, tb, xb, guess, mid) -> LocalSolution:
         """The local problem as two arcs through the junction ``mid = (t_i, x_i, lambda_i)``.
 
         Unknowns ``(lambda_a, x_i, lambda_i)`` start at the current arcs, so the only residual is
@@ -154,26 +157,28 @@ class LocalSolver:
         a = self.attempt
         root = solve_multiple_shooting(ms, w0, self.step, a.root, a.compiled)
         self.count.add(root)
-        return self.solve(ta, xa, tb, xb, root.x[: xa.size]) if root.success else None
+        if not root.success:
+            return LocalSolution.failure(root.status, guess)
+        return self.solve(ta, xa, tb, xb, root.x[: xa.size])
 
-    def weight_continuation(self, ta, xa, tb, xb, guess) -> LocalSolution | None:
+    def weight_continuation(self, ta, xa, tb, xb, guess) -> LocalSolution:
         """Raise the obstacle weight from 0 to W (:func:`continuation`), from a solve at
         weight 0 (the direct attempts there)."""
         r = self.direct(ta, xa, tb, xb, guess, *self.at_weight(0.0))
-        if r is None:
-            return None
+        if not r.success:
+            return r
 
         def at(w, g):
             return self.solve(ta, xa, tb, xb, g, *self.at_weight(w))
 
         return continuation(at, r.costate0, self.W, self.settings)
 
-    def end_state_continuation(self, ta, xa, tb, xb, guess) -> LocalSolution | None:
+    def end_state_continuation(self, ta, xa, tb, xb, guess) -> LocalSolution:
         """Move the end state from where ``guess`` leads (there ``guess`` is exact) to ``xb``
         (:func:`continuation`): a problem family that starts solved, for any method."""
         r = self.flow(ta, np.concatenate([xa, guess]), tb)
         if not r.ok:
-            return None
+            return LocalSolution.failure(RootStatus.NON_FINITE, guess)
         reached = r.x
 
         def at(p, g):
@@ -197,20 +202,21 @@ class LocalSolver:
         key = np.concatenate([(ta, tb, mid[0], warm_failed), xa, xb, guess, mid[1], mid[2]])
         key = key.tobytes()
         end_state = i not in level.hopeless
-        if key in self._failed and (self._failed[key] or not end_state):
-            return None
+        before = self._failed.get(key)
+        if before is not None and (before[0] or not end_state):
+            return before[1]
         r = self.direct(ta, xa, tb, xb, guess, mid=mid, warm_failed=warm_failed)
-        if r is None and self.has_obstacles:
+        if not r.success and self.has_obstacles:
             r = self.weight_continuation(ta, xa, tb, xb, guess)
-        if r is None and end_state:
+        if not r.success and end_state:
             r = self.end_state_continuation(ta, xa, tb, xb, guess)
-            if r is None:
+            if not r.success:
                 level.hopeless.add(i)
-        if r is None:
-            self._failed[key] = end_state or self._failed.get(key, False)
+        if not r.success:
+            self._failed[key] = (end_state or (before is not None and before[0]), r)
         return r
 
-    def segment_solve(self, ta, xa, tb, xb, warm) -> LocalSolution | None:
+    def segment_solve(self, ta, xa, tb, xb, warm) -> LocalSolution:
         """A segment of the initial path, by the first of these that succeeds (counted in
         :attr:`strategies`): from the costate ``warm`` at the end of the segment before (if
         any); from the path's own costate (or, with neither, from the affine guess); by
@@ -223,28 +229,28 @@ class LocalSolver:
         each segment in 2 ms."""
         solve, s = self.solve, self.strategies
         first = warm
-        if warm is not None and (r := solve(ta, xa, tb, xb, warm)):
+        if warm is not None and (r := solve(ta, xa, tb, xb, warm)).success:
             return s.solved("warm", r)
         if self.guide is not None:  # computed only when needed: 40-80 us, paper case 1's are 8
             lam = self.guide.costate(ta)
             first = warm if warm is not None else lam
-            if r := solve(ta, xa, tb, xb, lam):
+            if (r := solve(ta, xa, tb, xb, lam)).success:
                 return s.solved("path costate", r)
-        elif warm is None and (r := solve(ta, xa, tb, xb, None)):
+        elif warm is None and (r := solve(ta, xa, tb, xb, None)).success:
             return s.solved("affine guess", r)
-        if self.has_obstacles and (r := self.weight_continuation(ta, xa, tb, xb, first)):
+        if self.has_obstacles and (r := self.weight_continuation(ta, xa, tb, xb, first)).success:
             return s.solved("weight continuation", r)
-        if first is not None and (r := self.end_state_continuation(ta, xa, tb, xb, first)):
+        if first is not None and (r := self.end_state_continuation(ta, xa, tb, xb, first)).success:
             return s.solved("end-state continuation", r)
-        if first is not None and (r := solve(ta, xa, tb, xb, None)):
+        if first is not None and (r := solve(ta, xa, tb, xb, None)).success:
             return s.solved("affine guess", r)
-        return s.failed()
+        return s.failed(r)
 
     def fit(self, ta, xa, tb, xb, warm, depth: int = 0) -> list[Piece] | None:
         """The segment from ``(ta, xa)`` to ``(tb, xb)`` solved, split in two at the path's
         state at its middle time while it fails (up to ``max_split_depth``)."""
         r = self.segment_solve(ta, xa, tb, xb, warm)
-        if r is not None:
+        if r.success:
             return [Piece(ta, xa, r.costate0, r.costate1, r.cost)]
         if depth >= self.settings.max_split_depth or self.guide is None:
             return None
@@ -256,13 +262,14 @@ class LocalSolver:
         return None if right is None else left + right
 
 
-def continuation(solve_at, s0, end: float, settings: LeapfrogSettings):
+def continuation(solve_at, s0, end: float, settings: LeapfrogSettings) -> LocalSolution:
     """Natural-parameter continuation: ``solve_at(p, guess)`` solves the problem at parameter
-    ``p`` (None on failure); ``s0`` solves it at ``p = 0``. ``p`` goes to ``end``: the step
-    (first ``continuation_first_step * end``) doubles after a success and halves after a
+    ``p`` (a :class:`LocalSolution`); ``s0`` solves it at ``p = 0``. ``p`` goes to ``end``: the
+    step (first ``continuation_first_step * end``) doubles after a success and halves after a
     failure, down to ``continuation_min_step * end``; each guess is extrapolated from the last
     two solutions (secant predictor), else the last one is tried too; at most
-    ``continuation_steps`` steps. Returns the solution at ``end``, or None."""
+    ``continuation_steps`` steps. Returns the solution at ``end``, or the failure that ended
+    it (the step budget spent: ``max-iterations``)."""
     p, s, prev = 0.0, s0, None
     dp = settings.continuation_first_step * end
     min_dp = settings.continuation_min_step * end
@@ -270,15 +277,15 @@ def continuation(solve_at, s0, end: float, settings: LeapfrogSettings):
         pn = min(end, p + dp)
         pred = s if prev is None else s + (pn - p) * (s - prev[1]) / (p - prev[0])
         r = solve_at(pn, pred)
-        if r is None and prev is not None:
+        if not r.success and prev is not None:
             r = solve_at(pn, s)
-        if r is None:
+        if not r.success:
             if dp <= min_dp:
-                return None
+                return r
             dp = max(0.5 * dp, min_dp)
             continue
         prev, p, s = (p, s), pn, r.costate0
         if p >= end:
             return r
         dp *= 2.0
-    return None  # the step budget is spent: a failure, handled like any other
+    return LocalSolution.failure(RootStatus.MAX_ITERATIONS, s)  # the step budget is spent

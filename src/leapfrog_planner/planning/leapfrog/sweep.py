@@ -39,20 +39,20 @@ class SweepRecord:
 
 
 @dataclass(frozen=True)
-class SegmentFailure:
-    """An initial segment whose two-point problem failed every strategy in ``tried``."""
+class InitialFit:
+    """The initial path's arcs (``arcs``), each segment a local extremal; where a segment's
+    two-point problem failed every strategy, no arcs, the segment and the message."""
 
-    segment: int
-    tried: str
+    arcs: Junctions | None
+    message: str
+    failed_segment: int | None = None
 
     @property
-    def message(self) -> str:
-        return f"the two-point problem of initial segment {self.segment} failed ({self.tried})"
+    def success(self) -> bool:
+        return self.arcs is not None
 
 
-def fit_initial_path(
-    local: LocalSolver, t: np.ndarray, X: np.ndarray
-) -> Junctions | SegmentFailure:
+def fit_initial_path(local: LocalSolver, t: np.ndarray, X: np.ndarray) -> InitialFit:
     """The arcs through the initial path's junctions ``(t, X)``, each segment a local extremal
     (split where it fails); or, when a segment fails every strategy, which one and what was
     tried."""
@@ -64,11 +64,13 @@ def fit_initial_path(
             tried = "warm start, path costate, weight and end-state continuation, affine guess"
             if local.guide is not None and local.settings.max_split_depth:
                 tried += f", split {local.settings.max_split_depth} times"
-            return SegmentFailure(i, tried)
+            message = f"the two-point problem of initial segment {i} failed ({tried})"
+            return InitialFit(None, message, i)
         pieces += seg
-    return Junctions.from_pieces(
+    arcs = Junctions.from_pieces(
         [(p.t0, p.x0, p.lam0, p.lam1, p.cost) for p in pieces], float(t[-1]), X[-1].copy()
     )
+    return InitialFit(arcs, f"{len(pieces)} segments")
 
 
 def sweep(arcs: Junctions, local: LocalSolver, number: int) -> SweepRecord:
@@ -98,7 +100,7 @@ def sweep(arcs: Junctions, local: LocalSolver, number: int) -> SweepRecord:
         xa, xb = arcs.X[i - 1], arcs.X[i + 1]
         mid = (arcs.t[i], arcs.X[i], arcs.lam0[i])
         r = local.sweep_solve(ta, xa, tb, xb, arcs.lam0[i - 1], mid, warm_failed, arcs, i)
-        if r is None:
+        if not r.success:
             failures += 1
             continue
         old = arcs.cost[i - 1] + arcs.cost[i]

@@ -1,0 +1,211 @@
+"""The planner's search as data: which Leapfrog runs to make, from the runs made so far.
+
+A run is asked for by a :class:`RunRequest`: an initial path, the obstacle weight, the round
+(:class:`Round`: Leapfrog's partitions and the value of the model's planning aid), the stage
+that asks and why. Stages are pure functions of the runs so far (:data:`STAGES`); the planner
+asks each in turn until it asks for nothing more, runs what it asks, and moves to the next
+round (:func:`next_round`) when the stages of a round are done:
+
+1. ``paths``: the initial paths of least estimated cost.
+2. ``wider margin``: initial paths at the penalty's own margin, where those at the robot's
+   margin led to no extremal, or were estimated far dearer than the extremals they led to.
+3. ``penalty-timed``: still no extremal (an end in the penalty's grip): the paths followed at
+   the pace the penalty sets.
+4. ``weight raised``: every extremal passes through an obstacle: their paths again with the
+   obstacle weight raised (x4, up to three times).
+
+Rounds: the first at the settings' partitions and the aid's first value; when its answer falls
+short, the same stages with twice the partitions (``finer_doublings`` times); when no run
+clears the obstacles and the model has a planning aid, the stages again at its next value.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from ..errors import ScenarioError
+from ..model.aid import PlanningAid
+from ..model.problem import OptimalControlProblem
+from .answer import Chosen
+from .initial_path import InitialPath
+from .leapfrog.settings import MAX_PARTITIONS
+from .path_ranking import estimated_costs, penalty_margin, penalty_timed
+from .runs import PathRun, Round, RunRequest
+from .scenario import Scenario
+from .settings import PlannerSettings
+from .status import PlanStatus
+
+log = logging.getLogger(__name__)
+
+#: When no extremal clears the obstacles and some passed through one, those initial paths are
+#: planned again with the obstacle weight raised by this factor, at most ``WEIGHT_RAISES`` times
+#: (64 W in all; see docs/tuning.md).
+WEIGHT_FACTOR = 4.0
+WEIGHT_RAISES = 3
+
+#: When every initial path, followed at its own pace, is estimated at more than this many times
+#: the cheapest collision-free extremal found, the paths at the penalty's margin whose estimate
+#: is below that extremal's cost are run too (see docs/tuning.md).
+WIDER_WHEN = 4.0
+
+
+class Search:
+    """What the stages read: the scenario, the settings, the ranked initial paths, the model's
+    planning aid, the problem of each round (for estimates), initial paths at other margins
+    (planned once) and the answer the runs so far give (``choose``)."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        settings: PlannerSettings,
+        paths: list[InitialPath],
+        aid: PlanningAid | None,
+        problem_of: Callable[[Round], OptimalControlProblem],
+        paths_at: Callable[[float], list[InitialPath]],
+        choose: Callable[[list[PathRun]], Chosen],
+    ):
+        self.scenario, self.settings, self.paths, self.aid = scenario, settings, paths, aid
+        self.problem_of, self.paths_at, self.choose = problem_of, paths_at, choose
+        self._wider: dict[float, list[InitialPath]] = {}
+
+    def request(self, path, rnd: Round, stage: str, reason: str, raises: int = 0) -> RunRequest:
+        weight = float(self.scenario.weight) * WEIGHT_FACTOR**raises
+        label = path.label + rnd.suffix(self.aid.parameter if self.aid else "")
+        return RunRequest(path, rnd, stage, reason, weight, raises, label)
+
+    def estimates(self, paths: list[InitialPath], rnd: Round) -> np.ndarray:
+        s = self.scenario
+        return estimated_costs(self.problem_of(rnd), paths, s.horizon, ends=(s.start, s.goal))
+
+    def wider_paths(self, margin: float) -> list[InitialPath]:
+        """Initial paths at ``margin``, labelled with it; none when every gap closes at it."""
+        if margin not in self._wider:
+            try:
+                wide = self.paths_at(margin)
+            except ScenarioError:
+                wide = []
+            label = f", margin {margin:.3g}"
+            self._wider[margin] = [replace(p, label=p.label + label) for p in wide]
+        return self._wider[margin]
+
+
+Stage = Callable[[Search, Round, list[PathRun]], list[RunRequest]]
+
+
+def _asked(runs: list[PathRun], stage: str) -> list[PathRun]:
+    return [r for r in runs if r.request.stage == stage]
+
+
+def ranked_paths(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
+    """The initial paths of least estimated cost (:meth:`.Planner.initial_paths`)."""
+    if runs:
+        return []
+    return [search.request(p, rnd, "paths", rnd.reason) for p in search.paths]
+
+
+def wider_margin(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
+    """The paths at the penalty's own distance (:func:`penalty_margin`). Where the penalty
+    dwarfs the control energy near the obstacles (a long horizon or a heavy weight), paths at
+    the robot's margin are poor starts: when no run found an extremal, all of them run; when
+    every path run, followed at its own pace, is estimated at more than ``WIDER_WHEN`` times
+    the cheapest collision-free extremal found, those estimated cheaper than every path run.
+    (Every path of a homotopy class, that is: the three-point turn, run besides them, backs
+    away from the obstacles in its own way and is no measure of how poor their margin is.)"""
+    wide = penalty_margin(search.scenario)
+    if _asked(runs, "wider margin") or not wide > search.settings.margin:
+        return []
+    if not any(r.extremal for r in runs):
+        why = f"no extremal from the paths at the robot's margin: margin {wide:.3g}"
+        log.info("no extremal: initial paths again with margin %.3g", wide)
+        return [search.request(p, rnd, "wider margin", why) for p in search.wider_paths(wide)]
+    clear = [r.validation.cost for r in runs if r.clear]
+    plain = [p for p in search.paths if not p.modes.cusp] or search.paths
+    top = float(search.estimates(plain, rnd).min())
+    if not (clear and top > WIDER_WHEN * min(clear)):
+        return []
+    why = f"the paths were estimated at {top / min(clear):.3g} times the extremal's cost"
+    log.info("%s: margin %.3g too", why, wide)
+    wider = search.wider_paths(wide)
+    cheaper = [p for p, c in zip(wider, search.estimates(wider, rnd), strict=True) if c < top]
+    return [search.request(p, rnd, "wider margin", why) for p in cheaper]
+
+
+def timed_by_penalty(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
+    """Still no extremal (a start or goal in the penalty's grip): the paths timed by it (the
+    paths at the wider margin, where those ran in place of the first)."""
+    s = search.scenario
+    if _asked(runs, "penalty-timed") or any(r.extremal for r in runs) or not s.weight > 0.0:
+        return []
+    wider = _asked(runs, "wider margin")
+    replaced = wider and not any(r.extremal for r in _asked(runs, "paths"))
+    paths = [r.path for r in wider] if replaced else search.paths
+    log.info("no extremal: the paths again, timed by the penalty")
+    problem = search.problem_of(rnd)
+    timed = [penalty_timed(problem, p, s.horizon) for p in paths]
+    why = "no extremal yet: the paths followed at the pace the penalty sets"
+    return [search.request(p, rnd, "penalty-timed", why) for p in timed]
+
+
+def weight_raised(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
+    """No path clears at the scenario's weight, and some extremal passed through an obstacle:
+    those paths again with the weight raised, until one clears (also where a path's run at the
+    last raise failed: a higher weight may still clear), unless every run at the last raise
+    failed (the higher weights are stiffer still)."""
+    raises = 1 + max((r.raises for r in runs), default=0)
+    if raises > WEIGHT_RAISES or any(r.clear for r in runs) or not search.scenario.weight > 0:
+        return []
+    collided = [r.path for r in runs if r.collides]
+    last = [r for r in runs if r.raises == raises - 1]
+    again = list(dict.fromkeys(r.path for r in last if any(r.path is c for c in collided)))
+    if not again:
+        return []
+    if raises > 1 and not any(r.extremal for r in last):
+        log.info("no extremal at weight x %g: not raised further", WEIGHT_FACTOR ** (raises - 1))
+        return []
+    log.info("no extremal clears the obstacles: weight x %g", WEIGHT_FACTOR**raises)
+    why = "every extremal found passes through an obstacle"
+    return [search.request(p, rnd, "weight raised", why, raises) for p in again]
+
+
+#: The stages of a round, in order; each is asked until it asks for nothing more.
+STAGES: tuple[Stage, ...] = (ranked_paths, wider_margin, timed_by_penalty, weight_raised)
+
+
+def falls_short(runs: list[PathRun], chosen: Chosen) -> str:
+    """Why the answer of ``runs`` falls short (empty when it does not): no extremal at all, a
+    collision-free iterate cheaper than the best extremal, or no extremal from a path of a
+    homotopy class (a three-point turn's alone). (Extremals that only pass through obstacles
+    are the weight raises' to mend.)"""
+    if chosen.status is PlanStatus.FAILED:
+        return "no extremal"
+    if chosen.answer.cheaper is not None:
+        return "a collision-free iterate is cheaper than the extremal"
+    if not any(r.extremal for r in runs if not r.path.modes.cusp):
+        return "no extremal from a path of a homotopy class"
+    return ""
+
+
+def next_round(search: Search, rnd: Round, runs: list[PathRun]) -> Round | None:
+    """The round after ``rnd``, whose stages are done, or None: the search ends. Twice the
+    partitions while the answer falls short (at the aid's first value, ``finer_doublings``
+    times); then, while no run clears the obstacles, the aid's next value."""
+    doubled = rnd.partitions * 2
+    if not rnd.aid_step and rnd.doublings < search.settings.finer_doublings:
+        why = falls_short(runs, search.choose(runs)) if doubled <= MAX_PARTITIONS else ""
+        if why:
+            log.info("the answer falls short (%s): the stages again with q = %d", why, doubled)
+            reason = f"the answer fell short ({why}): twice the partitions"
+            return Round(doubled, rnd.aid, reason, rnd.doublings + 1)
+    aid = search.aid
+    if aid is None or rnd.aid_step + 1 >= len(aid.values) or any(r.clear for r in runs):
+        return None
+    value = aid.values[rnd.aid_step + 1]
+    name = aid.parameter.replace("_", " ")
+    log.info("no extremal clears: the paths again, %s %g", name, value)
+    reason = f"no extremal cleared the obstacles: {name} {value:g}"
+    q = search.settings.leapfrog.partitions
+    return Round(q, value, reason, aid_step=rnd.aid_step + 1)

@@ -1,0 +1,81 @@
+"""The planner's settings: validated, frozen, built from flat options or a scenario's
+``[solver]`` table (the measurements behind the defaults: ``docs/tuning.md``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+from ..errors import ScenarioError, SettingsError, require_integer
+from .leapfrog import LeapfrogSettings
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """The planner's settings (the measurements behind the defaults: ``docs/tuning.md``)."""
+
+    initial_paths: int = 3  # paths tried, of least estimated cost (see Planner.initial_paths)
+    candidate_paths: int = 8  # homotopy classes planned, from which those are picked
+    margin: float = 0.02  # obstacle inflation of the initial paths
+    samples: int = 1001  # points of the returned dense trajectory
+    # Initial paths run in parallel threads (the compiled flow releases the GIL): 0 means one
+    # per path, all at once; 1 runs them one after the other. Results do not depend on it.
+    threads: int = 0
+    # A plan whose answer falls short (no extremal at all, or a collision-free Leapfrog iterate
+    # cheaper than the best extremal) runs its stages again with the partitions doubled, this
+    # many times at most: at long horizons the arcs of q = 8 are too long for a stiff penalty.
+    finer_doublings: int = 1
+    leapfrog: LeapfrogSettings = LeapfrogSettings()
+
+    def __post_init__(self):
+        require_integer("initial_paths", self.initial_paths, 1, 32)
+        require_integer("candidate_paths", self.candidate_paths, 1, 64)
+        require_integer("threads", self.threads, 0, 256)
+        require_integer("finer_doublings", self.finer_doublings, 0, 7)
+        if not 0 <= self.margin <= 1e6:
+            raise SettingsError(f"margin must be between 0 and 1e6, got {self.margin!r}")
+        require_integer("samples", self.samples, 2, 1_000_000)
+
+    @classmethod
+    def from_options(cls, base: PlannerSettings | None = None, **options) -> PlannerSettings:
+        """Settings from flat options (``method``, ``partitions``, ``initial_paths``, ...).
+
+        Keys of :class:`LeapfrogSettings` and of this class are accepted; anything else is an error.
+        """
+        base = base or cls()
+        own = {f.name for f in fields(cls)} - {"leapfrog"}
+        lf = {f.name for f in fields(LeapfrogSettings)}
+        unknown = sorted(set(options) - own - lf)
+        if unknown:
+            raise SettingsError(
+                f"unknown option {unknown[0]!r} (known: {', '.join(sorted(own | lf))})"
+            )
+        lf_opts = {k: v for k, v in options.items() if k in lf}
+        return replace(
+            base,
+            leapfrog=replace(base.leapfrog, **lf_opts),
+            **{k: v for k, v in options.items() if k in own},
+        )
+
+    @classmethod
+    def of_scenario(cls, scenario, base: PlannerSettings | None = None, **options):
+        """The settings of ``scenario``'s ``[solver]`` table over ``base``, with ``options`` on
+        top; a bad value in the file is the file's error, which names it."""
+        from_file = {SOLVER_KEYS[k]: v for k, v in scenario.solver.items()}
+        for key, name in SOLVER_KEYS.items():
+            if name in from_file:
+                try:
+                    cls.from_options(base, **{name: from_file[name]})
+                except SettingsError as e:
+                    source = scenario.source or scenario.name
+                    raise ScenarioError(f"{source}: solver.{key}: {e}") from None
+        return cls.from_options(base, **{**from_file, **options})
+
+
+#: A scenario's ``[solver]`` keys, and the settings they set.
+SOLVER_KEYS = {
+    "method": "method",
+    "partitions": "partitions",
+    "initial_paths": "initial_paths",
+    "max_sweeps": "max_sweeps",
+    "tolerance": "reduce_tol",
+}

@@ -1,0 +1,108 @@
+"""The planner's search as data: each run is asked for by a stage, for a reason, and recorded in
+the result; the stages are pure functions of the runs so far; rounds follow from the answer."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import pytest
+
+from leapfrog_planner import PlanResult
+from leapfrog_planner.planning.planner import Planner, plan
+from leapfrog_planner.planning.runner import Runner
+from leapfrog_planner.planning.scenario import Scenario, load_scenario
+from leapfrog_planner.planning.search import STAGES, Search
+from leapfrog_planner.planning.status import PlanStatus
+
+
+def test_every_run_is_recorded_with_the_stage_that_asked_and_why(tmp_path):
+    r = plan("paper-case-4")
+    assert r.success and len(r.search) == 3
+    assert {rec.stage for rec in r.search} == {"paths"}
+    assert all(rec.reason and rec.partitions == 8 and rec.weight == 100.0 for rec in r.search)
+    answer = [rec for rec in r.search if rec.label == r.initial_path]
+    assert len(answer) == 1 and answer[0].cost == r.cost
+    assert answer[0].status is PlanStatus.CONVERGED
+    assert min(rec.cost for rec in r.search) == r.cost  # the cheapest of the runs
+    r.save_json(tmp_path / "r.json")
+    saved = json.loads((tmp_path / "r.json").read_text())["search"]
+    assert [s["label"] for s in saved] == [rec.label for rec in r.search]
+    assert saved[0]["aid"] is None  # the unicycle has no planning aid
+    assert PlanResult.load(tmp_path / "r.json").search == r.search
+
+
+def _search(planner: Planner) -> Search:
+    return Search(
+        planner.scenario, planner.settings, planner.initial_paths(), planner.robot.model.aid,
+        planner.runner.problem_of, planner.initial_paths, planner.choose,
+    )  # fmt: skip
+
+
+def test_stages_are_pure_functions_of_the_runs_so_far():
+    """Asked twice with the same runs, every stage asks for the same runs; once a stage's runs
+    are made, it asks for no more."""
+    planner = Planner("paper-case-3")
+    search = _search(planner)
+    first = planner.first_round
+    asked = STAGES[0](search, first, [])
+    again = STAGES[0](search, first, [])
+    assert [q.label for q in asked] == [q.label for q in again] and len(asked) == 3
+    assert all(a.path is b.path for a, b in zip(asked, again, strict=True))
+    runs = planner.runner.run_all(asked)
+    for stage in STAGES:
+        assert [q.label for q in stage(search, first, runs)] == [
+            q.label for q in stage(search, first, runs)
+        ]
+    assert STAGES[0](search, first, runs) == []
+
+
+def _failing(monkeypatch, seen: list):
+    """Every run made, its answer dropped (as if its extremal were not confirmed)."""
+    real = Runner.run
+
+    def run(self, request, k=0, paths=1):
+        seen.append(request)
+        return replace(real(self, request, k, paths), validation=None)
+
+    monkeypatch.setattr(Runner, "run", run)
+
+
+def test_an_answer_that_falls_short_is_sought_again_with_twice_the_partitions(monkeypatch):
+    seen = []
+    _failing(monkeypatch, seen)
+    r = plan("paper-case-1")
+    assert r.status is PlanStatus.FAILED and not r.optimal
+    rounds = list(dict.fromkeys((q.round.partitions, q.round.reason) for q in seen))
+    assert [q for q, _ in rounds] == [8, 16]
+    assert "fell short (no extremal)" in rounds[1][1]
+    assert [rec.partitions for rec in r.search] == [q.round.partitions for q in seen]
+    assert {rec.stage for rec in r.search} >= {"paths", "penalty-timed"}
+    no_doubling = []
+    _failing(monkeypatch, no_doubling)
+    plan("paper-case-1", finer_doublings=0)
+    assert {q.round.partitions for q in no_doubling} == {8}
+
+
+def test_a_car_whose_runs_clear_nothing_runs_again_at_the_aids_next_value(monkeypatch):
+    """The car's planning aid comes from its model: Leapfrog runs with the turn assist 1, then
+    (no run clears) twice the partitions, then the assist 0.5; a unicycle has no such round."""
+    seen = []
+    _failing(monkeypatch, seen)
+    sc = load_scenario("paper-case-1")
+    car = Scenario(
+        name="car", horizon=sc.horizon, start=[*sc.start, 0.0], goal=[*sc.goal, 0.0], model="car"
+    )
+    r = plan(car, initial_paths=1)
+    assert r.status is PlanStatus.FAILED
+    rounds = list(dict.fromkeys((q.round.partitions, q.round.aid) for q in seen))
+    assert rounds == [(8, 1.0), (16, 1.0), (8, 0.5)]
+    assert all(rec.aid in (1.0, 0.5) for rec in r.search)
+    assert any(rec.label.endswith("turn assist 0.5") for rec in r.search)
+
+
+@pytest.mark.parametrize("name", ["paper-case-2", "paper-case-4"])
+def test_the_planner_is_deterministic(name):
+    a, b = plan(name), plan(name)
+    assert a.cost == b.cost and a.initial_path == b.initial_path
+    assert [rec.label for rec in a.search] == [rec.label for rec in b.search]
