@@ -42,16 +42,16 @@ def schedule(
     bounds: dict[str, tuple[float, float]],
     widths: tuple[float, ...],
     relaxed: tuple[str, ...] = (),
-    assist: tuple[float, float] | None = None,
+    aid: tuple[str, float, float] | None = None,
 ) -> Callable[[float], OptimalControlProblem]:
     """The problem at ``s`` in [0, 1]: the bounds of the ``relaxed`` controls from relaxed at 0
     to the scenario's at 1 (the others at the scenario's throughout), the width from
-    ``widths[0]`` to ``widths[-1]`` geometrically, and the car's turn assist linearly from
-    ``assist[0]`` to ``assist[1]``."""
+    ``widths[0]`` to ``widths[-1]`` geometrically, and the model's planning aid ``aid = (its
+    parameter, from, to)`` (the car's turn assist) linearly from ``from`` to ``to``."""
     names = problem.model.parameters
     base = np.array(problem.parameters, dtype=float)
     used = (*sum((bound_names(c) for c in bounds), ()), *((SMOOTHING,) if bounds else ()))
-    index = {n: names.index(n) for n in (*used, *(("turn_assist",) if assist else ()))}
+    index = {n: names.index(n) for n in (*used, *((aid[0],) if aid else ()))}
 
     def at(s: float) -> OptimalControlProblem:
         p = base.copy()
@@ -61,8 +61,9 @@ def schedule(
             p[index[lo_name]], p[index[hi_name]] = lo - pull, hi + pull
         if bounds:
             p[index[SMOOTHING]] = widths[0] ** (1.0 - s) * widths[-1] ** s
-        if assist:
-            p[index["turn_assist"]] = assist[0] + s * (assist[1] - assist[0])
+        if aid:
+            name, start, end = aid
+            p[index[name]] = start + s * (end - start)
         return replace(problem, parameters=tuple(p.tolist()))
 
     return at
@@ -172,6 +173,7 @@ def _what(problem: OptimalControlProblem) -> str:
     if SMOOTHING in names:
         width = values[names.index(SMOOTHING)]
         parts.append(f"controls saturated sharply at the bounds, smoothing width {width:.2g}")
-    if "turn_assist" in names:
-        parts.append(f"turn assist {values[names.index('turn_assist')]:g}")
+    aid = problem.model.aid
+    if aid is not None:
+        parts.append(f"{aid.parameter.replace('_', ' ')} {problem.parameter(aid.parameter):g}")
     return "; ".join(parts)

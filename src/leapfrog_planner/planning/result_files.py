@@ -139,7 +139,7 @@ def _alternative_json(a: PathOutcome, names) -> dict:
 
 def _record_json(rec: RunRecord) -> dict:
     d = {f.name: getattr(rec, f.name) for f in fields(RunRecord)}
-    return {**d, "status": str(rec.status), "cost": _num(rec.cost), "aid": _num(rec.aid)}
+    return {**d, "status": str(rec.status), "cost": _num(rec.cost)}
 
 
 def result_to_dict(r) -> dict:
@@ -193,10 +193,7 @@ def _alternative(a: dict, names) -> PathOutcome:
 
 def _record(d: dict) -> RunRecord:
     rec = {f.name: d[f.name] for f in fields(RunRecord)}
-    status = PlanStatus(d["status"])
-    return RunRecord(
-        **{**rec, "status": status, "cost": _float(d["cost"]), "aid": _float(d["aid"])}
-    )
+    return RunRecord(**{**rec, "status": PlanStatus(d["status"]), "cost": _float(d["cost"])})
 
 
 def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:

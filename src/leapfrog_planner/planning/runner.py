@@ -97,6 +97,7 @@ class Runner:
     def run(self, request: RunRequest, k: int = 0, paths: int = 1) -> PathRun:
         """Leapfrog from the request's path, continued to the robot's problem (bounds, planning
         aid) and validated; progress names it path ``k`` of ``paths``."""
+        t_start = time.perf_counter()
         s = self.scenario
         rnd, path = request.round, request.path
         label = request.label + (f" (obstacle weight {request.weight:g})" if request.raises else "")
@@ -138,6 +139,7 @@ class Runner:
             iterate_problem=iterate_problem,
             end_tolerance=self._end_tolerance,
             margin=s.margin,
+            time_s=time.perf_counter() - t_start,
         )
 
     def _continued(self, run, problem, junctions, guide, lf: LeapfrogSettings):

@@ -132,7 +132,7 @@ class PathRun:
             label=rq.label,
             partitions=rq.round.partitions,
             weight=rq.weight,
-            aid=float("nan") if rq.round.aid is None else rq.round.aid,
+            aid=rq.round.aid,
             status=self.status,
             cost=self.validation.cost if self.extremal else float("nan"),
             sweeps=len(self.run.history),

@@ -33,14 +33,14 @@ class PathOutcome:
 class RunRecord:
     """One Leapfrog run of a plan's search: the stage that asked for it and why, what it ran
     (the path's label, the partitions, the obstacle weight, the value of the model's planning
-    aid, NaN without one) and what it gave."""
+    aid, None without one) and what it gave."""
 
     stage: str
     reason: str
     label: str
     partitions: int
     weight: float
-    aid: float
+    aid: float | None
     status: PlanStatus
     cost: float  # of its extremal (NaN without one)
     sweeps: int
