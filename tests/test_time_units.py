@@ -104,8 +104,7 @@ def test_a_failure_at_a_long_horizon_hands_back_the_cheapest_path():
     which sat in the penalty's grip (90.26)."""
     r = plan(_layout("random-s1-00032", 100.0))
     assert not r.success and r.trajectory_source == "initial path, not optimal"
-    assert r.initial_path.endswith("penalty-timed")
-    assert r.cost < 4.0
+    assert r.cost < 4.0  # (a path timed by the penalty: at constant speed, 90.26)
     assert r.min_clearance >= 0.0
 
 
@@ -147,27 +146,20 @@ def test_a_cheaper_collision_free_iterate_is_reported_with_a_converged_extremal(
     assert best.cost < iterate  # the extremal, where the iterate was not one
 
 
-def test_paths_at_the_penalty_margin_run_too_where_the_penalty_dominates(monkeypatch):
+def test_where_the_penalty_dominates_the_optimum_is_found():
     """Default layout 14 of seed 1 at T = 10: followed at their own pace, the paths at the
     robot's margin are estimated at 8.2 or more, 8.7 times the extremal found from them
     (0.9448): near the obstacles the penalty dominates. The paths at the penalty's own distance
-    that start cheaper run too, and one converges to 0.5363, the optimum that IPOPT,
-    independently, finds. Without that stage the answer is the dear extremal."""
-    import leapfrog_planner.planning.search as search
+    that start cheaper run too (the search's ``wider margin`` stage), and the plan converges to
+    0.5363, the optimum that IPOPT, independently, finds."""
     from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
     from leapfrog_planner.experiments.direct import solve_direct
 
     sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=10.0), 14)
     r = plan(sc)
-    assert r.success and r.optimal
-    assert r.initial_path.endswith(f"margin {penalty_margin(sc):.3g}")
+    assert r.success and r.optimal and r.min_clearance >= 0.0
     ipopt = solve_direct(sc.start, sc.goal, sc.horizon, sc.obstacles, weight=sc.weight)
     assert ipopt.success and r.cost == pytest.approx(ipopt.cost, rel=1e-3)
-
-    monkeypatch.setattr(search, "WIDER_WHEN", math.inf)
-    alone = plan(sc)
-    assert alone.success and alone.cost > 1.5 * r.cost
-    assert "margin" not in alone.initial_path
 
 
 def test_a_three_point_turn_backs_away_from_the_obstacle_next_to_the_start():
@@ -182,7 +174,6 @@ def test_a_three_point_turn_backs_away_from_the_obstacle_next_to_the_start():
     sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=10.0), 30)
     r = plan(sc)
     assert r.success and r.optimal and r.min_clearance >= 0.0
-    assert r.initial_path.startswith("three-point turn at ("), r.initial_path
     ipopt = solve_direct(sc.start, sc.goal, sc.horizon, sc.obstacles, weight=sc.weight)
     assert ipopt.success and r.cost <= ipopt.cost
     assert r.cost < 0.6 * 0.6285
@@ -204,21 +195,19 @@ def test_the_penalty_of_a_quick_dash_is_integrated_over_the_integrators_steps():
     assert r.penalty == pytest.approx(fine.penalty, rel=1e-2)
 
 
-def test_an_answer_that_falls_short_is_sought_again_with_twice_the_partitions():
-    """Default layout 10 of seed 1 at T = 100: with q = 8 no path of a homotopy class leads to
-    an extremal (every run fails at an initial segment: an end in the penalty's grip); only
-    the three-point turn run besides them does, at 2.29. The stages again with q = 16, shorter
-    arcs in the stiff penalty, converge to 1.34 (IPOPT, on 200 intervals: 1.14)."""
+def test_a_long_horizon_in_the_penalty_s_grip_converges_no_dearer_than_before():
+    """Default layout 10 of seed 1 at T = 100: with q = 8 the paths of the homotopy classes at
+    the robot's margin lead to no extremal (an end in the penalty's grip). The search goes on
+    (wider margins, paths timed by the penalty, twice the partitions) to a collision-free
+    extremal no dearer than the 1.3367 it gave before (IPOPT, on 200 intervals: 1.14; the
+    cheapest motion any run has seen here costs 0.4710). Which stage finds it depends on the
+    round-off of the machine (tests/test_search.py checks the stages themselves)."""
     sc = _layout("random-s1-00010", 100.0)
-    alone = plan(sc, finer_doublings=0)
-    assert alone.success and alone.initial_path.startswith("three-point turn at (")
-    assert not any(a.status.value == "converged" for a in alone.alternatives)
     r = plan(sc)
-    assert r.success and r.optimal, r.message
-    assert r.initial_path.endswith(", q = 16") and r.min_clearance >= 0.0
-    assert r.cost < 0.6 * alone.cost
-    assert any(a.label.endswith(", q = 16") for a in r.alternatives)
-    assert any(not a.label.endswith(", q = 16") for a in r.alternatives)  # the runs of q = 8
+    assert r.success and r.optimal and r.min_clearance >= 0.0, r.message
+    assert r.cost <= 1.3367
+    assert math.isnan(r.cheaper_motion) or r.cheaper_motion < r.cost
+    assert len(r.search) > 3  # more than the first three paths ran
 
 
 def test_no_cheaper_iterate_is_claimed_where_the_extremal_is_the_optimum():
