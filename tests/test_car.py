@@ -209,7 +209,7 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
     sc = parking_car(1)
     p = Planner(sc)
     search = Search(
-        p.scenario, p.settings, p.initial_paths(), p.robot.model.aid, p.runner.problem_of,
+        p.scenario, p.settings, p.path_selection(), p.robot.model.aid, p.runner.problem_of,
         p.initial_paths, p.choose,
     )  # fmt: skip
     runs = []

@@ -22,6 +22,9 @@ Presets (:data:`PRESETS`, ``GeneratorSpec.preset(name, **overrides)``):
 - ``general``: what a user meets: headings uniform in every direction (a goal behind the robot, a
   goal heading that points back), 1 to 9 obstacles of radius 0.08 to 0.4 in a 3 x 3 room, start
   and goal at least 1 apart, horizon uniform in 0.5 to 3.
+- ``metric``: a room at a robot's scale, in metres and seconds: 10 x 10 m, 2 to 12 discs of
+  radius 0.3 to 1.5 m, start and goal at least 3 m apart and 0.1 m clear of the discs, headings
+  uniform, the horizon 1 to 1.5 s per metre of the straight line (about 1 m/s).
 """
 
 from __future__ import annotations
@@ -80,6 +83,9 @@ class GeneratorSpec:
     obstacle_gap: float = 0.0  # edge to edge between obstacles; 0: may touch, never overlap
     heading_spread: float = math.pi / 4  # headings: goal direction +- this (radians)
     horizon: tuple[float, float] = (1.0, 1.0)  # inclusive range; a number means exactly that
+    # Seconds per metre of the straight line from start to goal, an inclusive range: when
+    # given, the horizon is drawn from it times that distance (``horizon`` is then unused).
+    pace: tuple[float, float] | None = None
     prefix: str = "random"  # scenario names: f"{prefix}-s{seed}-{i:05d}"
     max_attempts: int = 1000
 
@@ -133,6 +139,13 @@ class GeneratorSpec:
         if h[0] > h[1]:
             raise SettingsError(f"horizon: min {h[0]} > max {h[1]}")
         set_("horizon", h)
+        if self.pace is not None:
+            if len(self.pace) != 2:
+                raise SettingsError(f"pace must be (min, max) seconds per metre, got {self.pace!r}")
+            pace = tuple(real("pace", v, 0.0, strict=True) for v in self.pace)
+            if pace[0] > pace[1]:
+                raise SettingsError(f"pace: min {pace[0]} > max {pace[1]}")
+            set_("pace", pace)
         if not isinstance(self.prefix, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", self.prefix):
             raise SettingsError(
                 f"prefix must be letters, digits, '_', '-' or '.', got {self.prefix!r}"
@@ -161,6 +174,16 @@ PRESETS: dict[str, dict] = {
         "heading_spread": math.pi,
         "horizon": (0.5, 3.0),
         "prefix": "general",
+    },
+    "metric": {
+        "obstacles": (2, 12),
+        "workspace": (0.0, 0.0, 10.0, 10.0),
+        "radius": (0.3, 1.5),
+        "min_distance": 3.0,
+        "clearance": 0.1,
+        "heading_spread": math.pi,
+        "pace": (1.0, 1.5),
+        "prefix": "metric",
     },
 }
 
@@ -205,8 +228,10 @@ def generate_one(spec: GeneratorSpec, i: int) -> Scenario:
         )
     direction = math.atan2(g[1] - s[1], g[0] - s[0])
     th0, th1 = direction + rng.uniform(-1.0, 1.0, size=2) * spec.heading_spread
-    lo, hi = spec.horizon
+    lo, hi = spec.horizon if spec.pace is None else spec.pace
     horizon = lo if lo == hi else float(rng.uniform(lo, hi))
+    if spec.pace is not None:
+        horizon *= float(np.hypot(*(g - s)))
     return Scenario(
         name=spec.name(i),
         horizon=horizon,

@@ -50,11 +50,12 @@ def _generator_options(fn):
         click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True),
         click.option(
             "--preset",
-            type=click.Choice(["default", "general"]),
+            type=click.Choice(["default", "general", "metric"]),
             default="default",
             show_default=True,
             help="the distribution: 'general' has headings in every direction, T in 0.5..3,"
-            " radii 0.08..0.4 in a 3 x 3 room; the options below override it",
+            " radii 0.08..0.4 in a 3 x 3 room; 'metric' a 10 x 10 m room, discs of 0.3..1.5 m,"
+            " headings in every direction, 1..1.5 s per metre; the options below override it",
         ),
         click.option(
             "--obstacles",
@@ -107,6 +108,13 @@ def _generator_options(fn):
             help="T: a value or LO..HI (uniform)  [default preset: 1]",
         ),
         click.option(
+            "--pace",
+            default=None,
+            callback=_range(float, "pace"),
+            help="T from the start-goal distance: seconds per metre, a value or LO..HI"
+            " (instead of --horizon)  [metric preset: 1..1.5]",
+        ),
+        click.option(
             "--prefix", default=None, help="scenario name prefix  [default: the preset's]"
         ),
     ]
@@ -124,6 +132,8 @@ def _spec(n, seed, preset, prefix=None, **given):
         overrides["workspace"] = tuple(overrides["workspace"])
     if prefix is not None:
         overrides["prefix"] = prefix
+    if "horizon" in overrides and "pace" not in overrides:  # a horizon given: no pace
+        overrides["pace"] = None
     return GeneratorSpec.preset(preset, n=n, seed=seed, **overrides)
 
 

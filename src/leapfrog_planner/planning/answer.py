@@ -233,6 +233,8 @@ def _how_failed(r: PathRun) -> str:
         return "the final solve failed"
     if run.status is LeapfrogStatus.CONTINUATION_STOPPED:
         return STOPPED
+    if run.status is LeapfrogStatus.ABANDONED:
+        return "stopped, far dearer than the extremal of another path"
     return "the re-integrated extremal missed the goal"  # one its validation did not confirm
 
 

@@ -23,7 +23,7 @@ from .results import PlanResult
 from .runner import PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest
 from .scenario import Scenario, load_scenario
-from .search import STAGES, Search, next_round
+from .search import STAGES, Search, next_round, select_paths
 from .settings import PlannerSettings
 
 __all__ = ["PlanEvent", "Planner", "PlannerSettings", "plan"]
@@ -59,20 +59,26 @@ class Planner:
         return self.runner.progress
 
     def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
-        """The ``initial_paths`` candidates of least estimated cost, cheapest first, keeping
-        ``margin`` (default: the settings') from the obstacles.
+        """The paths a plan runs first, keeping ``margin`` (default: the settings') from the
+        obstacles: the ``initial_paths`` of least estimated cost, one per family
+        (:func:`.search.select_paths`).
 
         Where an end heading points away from the chord, three-point turns are ranked with the
         paths of the homotopy classes. Elsewhere they are planned too, but the best one runs
         besides the class paths, and only when it is estimated cheapest of all: backing away
         from an obstacle next to an end looks cheap, and ranked with the others it took the
         place of paths that led to the optimum (docs/tuning.md)."""
+        return self.path_selection(margin)[0]
+
+    def path_selection(self, margin=None) -> tuple[list[InitialPath], list[InitialPath]]:
+        """The paths a plan runs first (:meth:`initial_paths`) and the extra ones it races
+        against them (the ``more paths`` stage of :mod:`.search`)."""
         s, st = self.scenario, self.settings
         candidates = initial_paths(
             s.start[:3],  # poses: a model's further states are filled along the paths
             s.goal[:3],
             s.footprint_obstacles,
-            k=max(st.initial_paths, st.candidate_paths),
+            k=max(st.initial_paths + st.extra_paths, st.candidate_paths),
             margin=max(st.margin, s.margin) if margin is None else margin,
             waypoints=s.waypoints,
             turns=True,
@@ -90,12 +96,10 @@ class Planner:
             ]
         candidates = [p for p, ok in zip(candidates, keep, strict=True) if ok] or candidates
         if len(candidates) < 2:  # nothing to rank: the estimate took 0.6 ms of paper case 1's 9
-            return candidates
-        ranked = [path for _, path in rank_paths(self.problem, candidates, s.horizon, ends)]
-        if points_away(s.start, s.goal):  # the turns are among the natural ways there
-            return ranked[: st.initial_paths]
-        plain_paths = [p for p in ranked if not p.modes.cusp][: st.initial_paths]
-        return plain_paths + ranked[:1] if ranked[0].modes.cusp else plain_paths
+            return candidates, []
+        ranked = rank_paths(self.problem, candidates, s.horizon, ends)
+        turns_ranked = points_away(s.start, s.goal)
+        return select_paths(ranked, st.initial_paths, st.extra_paths, turns_ranked)
 
     def run_path(self, path: InitialPath) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) in the plan's
@@ -112,7 +116,7 @@ class Planner:
 
     def _plan(self) -> PlanResult:
         t_begin = time.perf_counter()
-        paths = self.initial_paths()
+        paths = self.path_selection()
         search = Search(
             self.scenario, self.settings, paths, self.robot.model.aid,
             self.runner.problem_of, self.initial_paths, self.choose,
@@ -128,7 +132,7 @@ class Planner:
                     t_runs += time.perf_counter() - t0
             rnd = next_round(search, rnd, runs)
         chosen = self.choose(runs)
-        self.runner.emit(PlanEvent("final", len(paths) - 1, len(paths), ""))
+        self.runner.emit(PlanEvent("final", len(paths[0]) - 1, len(paths[0]), ""))
         wall = time.perf_counter() - t_begin
         problem = self.runner.problem_of(self.first_round, chosen.run.weight)
         timing = Timing(paths_s=wall - t_runs, runs_s=t_runs, wall_s=wall)

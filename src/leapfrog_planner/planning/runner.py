@@ -117,7 +117,10 @@ class Runner:
         flow = self.flow_of(problem)
         guide = PathGuide(problem, path, s.horizon, 0.0, (s.start, s.goal))
         with held_by_parent():
-            run = leapfrog(problem, t, X, guide=guide, settings=lf, flow=flow, progress=on_sweep)
+            run = leapfrog(
+                problem, t, X, guide=guide, settings=lf, flow=flow, progress=on_sweep,
+                stop_above=request.stop_above,
+            )  # fmt: skip
             iterate_problem = problem
             if s.control_bounds or self.aid is not None:  # on to the problem itself
                 run, problem, iterate_problem = self._continued(run, problem, (t, X), guide, lf)

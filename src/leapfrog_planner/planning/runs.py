@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,6 +55,9 @@ class RunRequest:
     weight: float
     raises: int = 0
     label: str = ""
+    # The run stops after a sweep that leaves its piecewise cost above this (a race against
+    # the extremals of the paths run before it: see :mod:`.search`).
+    stop_above: float = math.inf
 
 
 @dataclass(frozen=True)

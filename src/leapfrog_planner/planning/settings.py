@@ -14,6 +14,9 @@ class PlannerSettings:
     """The planner's settings (the measurements behind the defaults: ``docs/tuning.md``)."""
 
     initial_paths: int = 3  # paths tried, of least estimated cost (see Planner.initial_paths)
+    # Paths run after those, while estimated within a factor of the cheapest, each stopped
+    # when it turns out far dearer than the extremals found (see search.py); 0: none.
+    extra_paths: int = 5
     candidate_paths: int = 8  # homotopy classes planned, from which those are picked
     margin: float = 0.02  # obstacle inflation of the initial paths
     samples: int = 1001  # points of the returned dense trajectory
@@ -28,6 +31,7 @@ class PlannerSettings:
 
     def __post_init__(self):
         require_integer("initial_paths", self.initial_paths, 1, 32)
+        require_integer("extra_paths", self.extra_paths, 0, 32)
         require_integer("candidate_paths", self.candidate_paths, 1, 64)
         require_integer("threads", self.threads, 0, 256)
         require_integer("finer_doublings", self.finer_doublings, 0, 7)

@@ -34,6 +34,9 @@ class LeapfrogStatus(StrEnum):
     # The extremal of a problem with planning aids (smoothed or relaxed bounds, the car's turn
     # assist) did not continue to the problem itself (see :mod:`..bounded`).
     CONTINUATION_STOPPED = "continuation-stopped"
+    # Stopped after a sweep left it dearer than a bound (``stop_above``): another path's
+    # extremal is far cheaper (see :mod:`..search`).
+    ABANDONED = "abandoned"
 
 
 @dataclass(frozen=True)
@@ -99,13 +102,15 @@ def leapfrog(
     settings: LeapfrogSettings | None = None,
     flow: Flow | None = None,
     progress: Callable[[SweepRecord], None] | None = None,
+    stop_above: float = np.inf,
 ) -> LeapfrogSolution:
     """Run Leapfrog from the junctions ``(t, X)`` of a feasible path from ``X[0]`` to ``X[-1]``.
 
     ``guide`` is that path followed in time (:class:`.path_ranking.PathGuide`): its costates
     start the initial segments' shooting, and its states split a segment whose two-point
     problem fails. ``flow`` is reused for the stage it was built for (the final solves or the
-    local problems). ``progress`` is called after each sweep.
+    local problems). ``progress`` is called after each sweep. A sweep that leaves the piecewise
+    cost above ``stop_above`` ends the run (``abandoned``).
     """
     settings = settings or LeapfrogSettings()
     t, X = np.asarray(t, dtype=float), np.asarray(X, dtype=float)
@@ -117,6 +122,8 @@ def leapfrog(
     state = init(fit)
     while not terminate(state, settings):
         step(state, local, settings, progress)
+        if state.last_cost() > stop_above:
+            return _abandoned(state, local, time.perf_counter() - t_start, stop_above)
     return postprocess(state, local, final, settings, progress, t_start)
 
 
@@ -255,4 +262,29 @@ def _failed(fit: InitialFit, local: LocalSolver, sweep_time: float) -> LeapfrogS
         final_root=None,
         fit_strategies=dict(local.strategies.counts),
         failed_segment=fit.failed_segment,
+    )
+
+
+def _abandoned(state: State, local: LocalSolver, sweep_time: float, bound: float):
+    """A run stopped after a sweep that left it dearer than ``bound``: its arcs (a piecewise
+    extremal from start to goal) are kept."""
+    arcs = state.arcs if state.arcs.q > 2 else state.last_multi
+    cost = state.last_cost()
+    return LeapfrogSolution(
+        status=LeapfrogStatus.ABANDONED,
+        message=f"abandoned after sweep {len(state.history)} at cost {cost:.6g}, above {bound:.6g}",
+        costate0=None,
+        extremal=None,
+        final_solver=None,
+        initial_cost=state.initial_cost,
+        max_costate_jump=arcs.max_jump(),
+        history=tuple(state.history),
+        newton_iterations=local.count.iterations,
+        f_evals=local.count.f_evals,
+        cost_increases=state.increases,
+        sweep_time_s=sweep_time,
+        final_time_s=0.0,
+        final_root=None,
+        arcs=arcs.frozen(),
+        fit_strategies=dict(local.strategies.counts),
     )
