@@ -11,8 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-#: Cells per disc, at most (a disc much larger than the others covers several).
-_CELLS_PER_DISC = 4.0
+from ...model.grid import cell_lists, grid_layout
 
 
 class DiscGrid:
@@ -23,58 +22,17 @@ class DiscGrid:
         C = np.ascontiguousarray(C, dtype=np.float64).reshape(-1, 2)
         R = np.ascontiguousarray(R, dtype=np.float64).reshape(-1)
         self.C, self.R = C, R
-        m = R.size
-        if m == 0:
-            lo, hi = np.zeros(2), np.ones(2)
-        else:
-            lo = np.min(C - (R + pad)[:, None], axis=0)
-            hi = np.max(C + (R + pad)[:, None], axis=0)
-        span = np.maximum(hi - lo, 1e-12 * max(1.0, float(np.max(np.abs(hi)))))
-        area = float(span[0] * span[1])
         # Cells about the size of a typical disc, but no more than a few per disc.
-        typical = 2.0 * float(np.median(R + pad)) if m else 1.0
-        h = max(typical, math.sqrt(area / (_CELLS_PER_DISC * max(m, 1))), 1e-300)
-        nx, ny = (int(min(max(math.ceil(s / h), 1), 1 << 15)) for s in span)
-        h = max(h, float(span[0]) / nx, float(span[1]) / ny)
+        typical = 2.0 * float(np.median(R + pad)) if R.size else 1.0
+        lo, h, nx, ny = grid_layout(C, R + pad, typical)
         self.origin, self.h, self.nx, self.ny = lo.astype(np.float64), h, nx, ny
         # Registered a little beyond the box, so that rounding never loses a disc.
         reach = (R + pad) * (1.0 + 1e-12) + 1e-9 * h
-        self.starts, self.items = _fill(C, reach, self.origin, h, nx, ny)
+        self.starts, self.items = cell_lists(C, reach, self.origin, h, nx, ny)
 
     def arrays(self):
         """The grid as positional arguments of the compiled loops."""
         return self.starts, self.items, self.origin[0], self.origin[1], self.h, self.nx, self.ny
-
-
-def _fill(C, reach, origin, h, nx, ny):
-    """CSR lists of the discs per cell (row-major cells, discs in increasing index)."""
-    m = reach.size
-    if m == 0:
-        return np.zeros(nx * ny + 1, np.int64), np.zeros(0, np.int64)
-    ix0 = np.clip(np.floor((C[:, 0] - reach - origin[0]) / h), 0, nx - 1).astype(np.int64)
-    ix1 = np.clip(np.floor((C[:, 0] + reach - origin[0]) / h), 0, nx - 1).astype(np.int64)
-    iy0 = np.clip(np.floor((C[:, 1] - reach - origin[1]) / h), 0, ny - 1).astype(np.int64)
-    iy1 = np.clip(np.floor((C[:, 1] + reach - origin[1]) / h), 0, ny - 1).astype(np.int64)
-    return _fill_loops(ix0, ix1, iy0, iy1, nx, ny)
-
-
-@njit(cache=True, error_model="numpy")
-def _fill_loops(ix0, ix1, iy0, iy1, nx, ny):
-    count = np.zeros(nx * ny + 1, np.int64)
-    for j in range(ix0.size):
-        for iy in range(iy0[j], iy1[j] + 1):
-            for ix in range(ix0[j], ix1[j] + 1):
-                count[iy * nx + ix + 1] += 1
-    starts = np.cumsum(count)
-    items = np.empty(starts[-1], np.int64)
-    fill = starts[:-1].copy()
-    for j in range(ix0.size):  # increasing j: each cell's list is sorted
-        for iy in range(iy0[j], iy1[j] + 1):
-            for ix in range(ix0[j], ix1[j] + 1):
-                c = iy * nx + ix
-                items[fill[c]] = j
-                fill[c] += 1
-    return starts, items
 
 
 @njit(cache=True, error_model="numpy")
