@@ -254,7 +254,16 @@ def test_direct_end_state_is_exact_for_arcs():
 
 @pytest.mark.parametrize(
     "bad",
-    [{"solvers": ("ipopt",)}, {"repeat": 0}, {"cases": (7,)}, {"meshes": (1,)}, {"random": -1}],
+    [
+        {"solvers": ("ipopt",)},
+        {"repeat": 0},
+        {"repeat": 2.0},
+        {"cases": (7,)},
+        {"cases": (True,)},
+        {"meshes": (1,)},
+        {"meshes": (100.0,)},
+        {"random": -1},
+    ],
 )
 def test_settings_validated(bad):
     with pytest.raises(SettingsError):

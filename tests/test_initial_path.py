@@ -398,7 +398,7 @@ def test_paths_are_immutable():
         ({"obstacles": [[0.0, 0.0, float("inf")]]}, r"obstacles\[0\]\[2\]: must be finite"),
         ({"obstacles": [[0.0, 0.0, -1.0]]}, r"obstacles\[0\]\.radius: must be > 0"),
         ({"obstacles": [[0.0, 0.0]]}, r"obstacles\[0\]: expected 3 numbers, got 2"),
-        ({"k": 0}, "k: expected an integer >= 1"),
+        ({"k": 0}, "k: must be an integer >= 1, got 0"),
         ({"k": 2.0}, "k: expected an integer >= 1"),
         ({"k": True}, "k: expected an integer >= 1"),
         ({"margin": -0.1}, "margin: must be >= 0"),

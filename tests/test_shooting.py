@@ -576,6 +576,7 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
         ({"method": "secant"}, "unknown method"),
         ({"samples": -1}, "samples"),
         ({"samples": 2.5}, "samples"),
+        ({"samples": 3.0}, "samples: expected an integer >= 0, got number 3.0"),
         ({"inexact": "yes"}, "inexact"),
         ({"compiled": 1}, "compiled"),
         ({"root": {"tol": 1e-8}}, "root must be RootSettings"),

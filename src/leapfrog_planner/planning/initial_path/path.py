@@ -4,12 +4,11 @@ signature and clearance."""
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ...errors import ScenarioError, SettingsError
+from ...errors import ScenarioError, SettingsError, require_integer
 from .curve import _SmoothCurve
 from .ends import (
     FORWARD,
@@ -105,13 +104,11 @@ class InitialPath:
         The times are uniform on ``[t0, t0 + horizon]`` and the junctions uniform in arclength.
         ``X[0]`` and ``X[-1]`` are exactly the start and goal states.
         """
-        if isinstance(q, bool) or not isinstance(q, numbers.Integral) or q < 1:
-            raise SettingsError(f"q: expected an integer >= 1, got {q!r}")
+        q = require_integer("q", q)
         horizon = _real(horizon, "horizon", SettingsError)
         t0 = _real(t0, "t0", SettingsError)
         if not horizon > 0.0:
             raise SettingsError(f"horizon: must be > 0, got {horizon!r}")
-        q = int(q)
         frac = np.arange(q + 1, dtype=np.float64) / q
         frac[-1] = 1.0
         t = t0 + horizon * frac

@@ -4,12 +4,11 @@ ways of meeting the end poses, three-point turns and waypoint paths."""
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ...errors import ScenarioError
+from ...errors import ScenarioError, require_integer
 from .curve import _SmoothCurve
 from .ends import (
     FORWARD,
@@ -316,8 +315,7 @@ def initial_paths(
     S = _state(start, "start")
     G = _state(goal, "goal")
     obs = _obstacles(obstacles)
-    if isinstance(k, bool | np.bool_) or not isinstance(k, numbers.Integral) or k < 1:
-        raise ScenarioError(f"k: expected an integer >= 1, got {k!r}")
+    k = require_integer("k", k, error=ScenarioError)
     margin = _real(margin, "margin")
     if margin < 0.0:
         raise ScenarioError(f"margin: must be >= 0, got {margin!r}")
@@ -339,7 +337,7 @@ def initial_paths(
 
     used = None
     for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
-        cands = _plan(S, G, obs, m, int(k), tol)
+        cands = _plan(S, G, obs, m, k, tol)
         if cands is not None:
             used = m
             break
@@ -348,13 +346,13 @@ def initial_paths(
             f"no collision-free initial path from start {_fmt(S[:2])} to goal {_fmt(G[:2])}"
             f" round the {obs.shape[0]} obstacles (even with margin 0)"
         )
-    cands = cands[: int(k)]
+    cands = cands[:k]
 
     retry: dict[tuple[int, float], np.ndarray | None] = {}
     classes = []
     for cand in cands:
         variants = [
-            _smoothed_in_class(cand, S, G, obs, tol, used, int(k), retry, modes)
+            _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes)
             for modes in end_modes(cand.polyline, S, G)
         ]
         classes.append((variants, cand))
