@@ -14,8 +14,8 @@ from leapfrog_planner.cli.main import main
 from leapfrog_planner.errors import SettingsError
 from leapfrog_planner.experiments import bench, peers
 from leapfrog_planner.experiments.bench import BenchSettings, run_bench, target_ratios
-from leapfrog_planner.experiments.direct import DirectResult, arc_end_state
 from leapfrog_planner.experiments.profiling import PARTS
+from leapfrog_planner.planning.direct import DirectResult, arc_end_state
 from leapfrog_planner.planning.planner import Planner, plan
 from leapfrog_planner.planning.scenario import load_scenario
 

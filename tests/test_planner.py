@@ -280,7 +280,7 @@ def test_case_4_cheaper_optimum_agrees_with_casadi(planned):
     the N = 100 optimum, both extrapolated by Richardson (order 2) to ~1e-6.
     """
     pytest.importorskip("casadi")
-    from leapfrog_planner.experiments.direct import richardson, solve_direct
+    from leapfrog_planner.planning.direct import richardson, solve_direct
 
     r = planned(4, MNM).result
     assert r.success, r.message

@@ -21,9 +21,9 @@ import numpy as np
 
 from ..bvp.shooting import ShootingSettings, solve_shooting
 from ..errors import LeapfrogError, SettingsError, require_integer
-from ..experiments.direct import solve_direct
 from ..model.kernels import model_info
 from ..planning.answer import END_STATE_TOLERANCE
+from ..planning.direct import solve_direct
 from ..planning.planner import Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate
 from ..planning.scenario import Scenario

@@ -30,12 +30,12 @@ import numpy as np
 
 from ..errors import SettingsError, require_integer
 from ..integrate.flow import IntegratorSettings
+from ..planning.direct import clear_transcriptions, richardson
 from ..planning.leapfrog import LeapfrogSettings
 from ..planning.planner import Planner
 from ..planning.results import validate
 from ..planning.scenario import Scenario, load_scenario
 from . import peers
-from .direct import clear_transcriptions, richardson
 from .paper import ExperimentEvent, machine_info, paper_cases, warm_up
 
 MESHES = (25, 50, 100, 200, 400, 800, 1600, 3200)
