@@ -18,9 +18,9 @@ from leapfrog_planner.model.penalty import (
 )
 from leapfrog_planner.planning.initial_path import initial_paths
 from leapfrog_planner.planning.initial_path.geometry import (
-    _clearance,
     _clearance_loops,
-    _segment_distance,
+    segment_distance,
+    smallest_clearance,
 )
 from leapfrog_planner.planning.initial_path.spatial import (
     DiscGrid,
@@ -92,7 +92,7 @@ def test_grid_segment_test_matches_brute_force(kind):
         b[20:40, 0] = a[20:40, 0]  # vertical
         b[40:60, 1] = a[40:60, 1]  # horizontal
         tol = 1e-9
-        brute = np.any(_segment_distance(a, b, C) < R[None, :] - tol, axis=1)
+        brute = np.any(segment_distance(a, b, C) < R[None, :] - tol, axis=1)
         assert np.array_equal(segments_cut(a, b, C, R, tol, *grid.arrays()), brute)
 
 
@@ -103,11 +103,11 @@ def test_indexed_clearance_equals_the_loops(kind):
         C, R = _layout(rng, m, kind)
         obs = np.column_stack([C, R])
         xy = rng.uniform(-1.0, 6.0, (n, 2))
-        assert _clearance(xy, obs) == _clearance_loops(xy, obs)
+        assert smallest_clearance(xy, obs) == _clearance_loops(xy, obs)
         d = np.linalg.norm(xy[:, None, :] - obs[None, :, :2], axis=2) - obs[None, :, 2]
         assert np.array_equal(clearance(xy, obs), d.min(axis=0))
     xy[3, 1] = np.nan  # as the loops have it
-    assert np.array_equal(_clearance(xy, obs), _clearance_loops(xy, obs), equal_nan=True)
+    assert np.array_equal(smallest_clearance(xy, obs), _clearance_loops(xy, obs), equal_nan=True)
 
 
 @pytest.mark.parametrize("weight, exponent", [(100.0, 2), (1.0, 1), (6400.0, 3), (0.5, 2)])

@@ -109,6 +109,80 @@ def test_no_package_and_its_modules_import_each_other():
     assert cycle is None, " -> ".join(cycle)
 
 
+#: Modules that still take a private name of another module, each left out of the check below
+#: until the change of issue 34 that rewrites it removes the import: roots/ is being changed in
+#: parallel (roots/loop.py: ``from .steps import _Evaluator``).
+PENDING_PRIVATE_IMPORTS = {"leapfrog_planner.roots.loop"}
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def _private_uses(mod: str, path: Path, is_pkg: bool, modules) -> list[str]:
+    """``from .x import _y`` (absolute or relative; a private module of the package is no name
+    of another module) and ``x._y`` for a module ``x`` of the package imported as a name."""
+    base = mod.split(".") if is_pkg else mod.split(".")[:-1]
+    tree = ast.parse(path.read_text())
+    found, aliases = [], {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                up = base[: len(base) - (node.level - 1)]
+                target = ".".join(up + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target.split(".")[0] != PACKAGE.name:
+                continue
+            for a in node.names:
+                if f"{target}.{a.name}" in modules:
+                    aliases[a.asname or a.name] = f"{target}.{a.name}"
+                elif _private(a.name):
+                    found.append(f"{mod}:{node.lineno}: from {target} import {a.name}")
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name in modules and a.asname:
+                    aliases[a.asname] = a.name
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and _private(node.attr):
+            owner = aliases.get(node.value.id) if isinstance(node.value, ast.Name) else None
+            if owner and f"{owner}.{node.attr}" not in modules:
+                found.append(f"{mod}:{node.lineno}: {node.value.id}.{node.attr}")
+    return found
+
+
+def test_no_module_takes_another_modules_private_name():
+    """A name that starts with ``_`` belongs to its module: another module neither imports it
+    (``from .geometry import _x``) nor reads it (``geometry._x``). What modules share is public."""
+    modules = _modules()
+    found = {
+        mod: _private_uses(mod, path, is_pkg, modules) for mod, (path, is_pkg) in modules.items()
+    }
+    assert not [f for mod, fs in found.items() if mod not in PENDING_PRIVATE_IMPORTS for f in fs]
+    assert all(found[mod] for mod in PENDING_PRIVATE_IMPORTS), "pending: done, remove it"
+
+
+def test_private_names_are_found():
+    """The check itself, on made-up modules."""
+    import tempfile
+
+    modules = {"leapfrog_planner.a": (None, False), "leapfrog_planner.b": (None, False)}
+    text = (
+        "from .b import _x, y\nfrom leapfrog_planner.b import _z\nfrom . import b\n"
+        "import leapfrog_planner.b as bb\nb._w\nbb._v\nb.y\nfrom os import _exit\n"
+    )
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "a.py"
+        path.write_text(text)
+        found = _private_uses("leapfrog_planner.a", path, False, modules)
+    assert [f.split(": ", 1)[1] for f in found] == [
+        "from leapfrog_planner.b import _x",
+        "from leapfrog_planner.b import _z",
+        "b._w",
+        "bb._v",
+    ]
+
+
 def test_modules_and_functions_are_small():
     too_long, too_big = [], []
     for mod, (path, _) in _modules().items():

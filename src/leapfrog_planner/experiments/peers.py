@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from ..planning.direct import cached_transcription
 from ..planning.results import validate
 from ..planning.scenario import Scenario
 
@@ -295,13 +296,6 @@ def casadi_available() -> bool:
     return True
 
 
-def _transcription(n_obstacles: int, intervals: int, slot: int = 0):
-    """Built once per (obstacle count, mesh, slot) and process: only warm solves are timed."""
-    from ..planning.direct import cached_transcription
-
-    return cached_transcription(n_obstacles, intervals, slot=slot)
-
-
 def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
     """IPOPT from the straight line (``"line"``), from the planner's first initial path
     (``"path"``), or from each of its initial paths (``"paths"``, one thread per path; the
@@ -310,7 +304,7 @@ def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
     nodes = np.linspace(0.0, sc.horizon, intervals + 1)
 
     def solve_from(states, slot=0):
-        return _transcription(n_obstacles, intervals, slot).solve(
+        return cached_transcription(n_obstacles, intervals, slot=slot).solve(
             sc.start,
             sc.goal,
             sc.horizon,
@@ -333,7 +327,7 @@ def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
             states = [g[:, :3] for g in path_guesses(nodes)]
             slots = range(len(states))
             for k in slots:  # built here, not in the threads: building is not thread-safe
-                _transcription(n_obstacles, intervals, k)
+                cached_transcription(n_obstacles, intervals, slot=k)
             if len(states) == 1:
                 results = [solve_from(states[0])]
             else:

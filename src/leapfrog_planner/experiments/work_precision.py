@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import SettingsError, require_integer
 from ..integrate.flow import IntegratorSettings
-from ..planning.direct import clear_transcriptions, richardson
+from ..planning.direct import cached_transcription, clear_transcriptions, richardson
 from ..planning.leapfrog import LeapfrogSettings
 from ..planning.planner import Planner
 from ..planning.results import validate
@@ -137,7 +137,7 @@ def reference(sc: Scenario) -> tuple[Reference, object]:
     for n in REFERENCE_MESHES:
         t = np.linspace(0.0, sc.horizon, n + 1)
         guess = np.column_stack([np.interp(t, tr.t, tr.x[:, i]) for i in range(3)])
-        r = peers._transcription(sc.obstacles.shape[0], n).solve(
+        r = cached_transcription(sc.obstacles.shape[0], n).solve(
             sc.start, sc.goal, sc.horizon, sc.footprint_obstacles,
             weight=sc.weight, exponent=sc.exponent,
             guess_states=guess,

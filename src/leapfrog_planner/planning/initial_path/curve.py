@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
-_TWO_PI = 2.0 * math.pi
+TWO_PI = 2.0 * math.pi
 #: Target number of grid intervals of the arclength table (more for long polylines).
 _GRID_INTERVALS = 512
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(3)
@@ -53,7 +53,7 @@ def _hermite_eval(knots, width, coef, u, legs, xy, d):
 
 @njit(cache=True)
 def _spline(pts, m_first, m_last, intervals, gl_x):
-    """Hermite legs through ``pts`` and the arclength grid of :class:`_SmoothCurve`.
+    """Hermite legs through ``pts`` and the arclength grid of :class:`SmoothCurve`.
 
     Returns the leg lengths, the knots (cumulative chord length), the coefficients, the grid
     parameters (about ``intervals`` in all, at least two per leg), their legs, the half widths
@@ -137,7 +137,7 @@ def _unwrap(p):
 
 @njit(cache=True)
 def _newton_nodes(knots, width, coef, u_grid, cum, target, u, gl_x):
-    """For :meth:`_SmoothCurve.parameter`: per parameter ``u`` (an estimate of the arclength
+    """For :meth:`SmoothCurve.parameter`: per parameter ``u`` (an estimate of the arclength
     ``target``), its grid interval, the speed ``|dp/du|`` there, and the half width and the
     speeds at the Gauss-Legendre nodes of the part of the interval below ``u``."""
     n = u.size
@@ -162,7 +162,7 @@ def _newton_nodes(knots, width, coef, u_grid, cum, target, u, gl_x):
 
 @njit(cache=True)
 def _newton_step(u_grid, cum, target, u, i, speed, half, weighted):
-    """The Newton step of :meth:`_SmoothCurve.parameter` (none where the speed is 0), clipped
+    """The Newton step of :meth:`SmoothCurve.parameter` (none where the speed is 0), clipped
     to the grid interval like ``np.clip``."""
     out = np.empty(u.size)
     for r in range(u.size):
@@ -176,7 +176,7 @@ def _newton_step(u_grid, cum, target, u, i, speed, half, weighted):
     return out
 
 
-class _SmoothCurve:
+class SmoothCurve:
     """A C1 cubic Hermite curve through a polyline, parametrised by normalised arclength.
 
     The spline parameter ``u`` is cumulative chord length along the polyline; ``dp/du`` is the
@@ -230,7 +230,7 @@ class _SmoothCurve:
 
         # Tangent angle, unwrapped along the grid and starting on the branch of theta0.
         phi = _unwrap(np.arctan2(d[:, 1], d[:, 0]))
-        phi += _TWO_PI * np.round((self.theta0 - phi[0]) / _TWO_PI)
+        phi += TWO_PI * np.round((self.theta0 - phi[0]) / TWO_PI)
         self.phi = phi
         # theta1 - phi[-1] is a multiple of 2 pi (up to rounding): the number of extra turns the
         # goal heading asks for beyond the curve's own turning. It is spread linearly over s.
@@ -270,5 +270,5 @@ class _SmoothCurve:
         xy, d = self._eval(u)
         raw = np.arctan2(d[:, 1], d[:, 0])
         near = np.interp(u, self.u_grid, self.phi)
-        phi = raw + _TWO_PI * np.round((near - raw) / _TWO_PI)
+        phi = raw + TWO_PI * np.round((near - raw) / TWO_PI)
         return xy, phi + s * self.delta

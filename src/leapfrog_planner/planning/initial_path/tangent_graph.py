@@ -10,12 +10,12 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numba import njit
 
-from .curve import _TWO_PI
-from .geometry import _clean, _close_and_round, _cross, _rot
+from .curve import TWO_PI
+from .geometry import clean_polyline, close_and_round, cross, rotate
 from .spatial import DiscGrid, common_tangents, disc_pairs, points_inside, segments_cut
 
 #: Arcs of the tangent graph are sampled with at most this angle between polyline vertices.
-ARC_STEP = _TWO_PI / 36
+ARC_STEP = TWO_PI / 36
 
 
 #: Above this many active circles, the common tangents are kept only when usable and free.
@@ -61,7 +61,7 @@ class _Points:
         return np.concatenate(self.xy), np.concatenate(self.circ)
 
 
-class _TangentGraph:
+class TangentGraph:
     """Directed tangent graph of the inflated discs ``(C, R)``; node 0 is the start, 1 the goal.
 
     Tangent point ``p >= 2`` on circle ``circ[p]`` is node ``2 + 2 (p - 2)`` when travelled
@@ -89,7 +89,7 @@ class _TangentGraph:
 
     def _orient(self, p: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
         """+1 where direction ``d`` at point ``p`` of circle ``c`` turns counter-clockwise."""
-        return np.where(_cross(p - self.C[c], d) >= 0.0, 1, -1)
+        return np.where(cross(p - self.C[c], d) >= 0.0, 1, -1)
 
     def _end_tangents(self, points: _Points) -> tuple[list, int]:
         """Tangents from the start (travelled towards the circle) and to the goal (away from
@@ -104,7 +104,7 @@ class _TangentGraph:
             out = d > R[act] + tol
             co, Ro, uo = act[out], R[act][out], u[out]
             gamma = np.arccos(np.clip(Ro / d[out], -1.0, 1.0))
-            T = np.concatenate([C[co] + Ro[:, None] * _rot(uo, g) for g in (gamma, -gamma)])
+            T = np.concatenate([C[co] + Ro[:, None] * rotate(uo, g) for g in (gamma, -gamma)])
             cT = np.concatenate([co, co])
             idx = points.add(T, cT)
             o = self._orient(T, cT, T - P if end == 0 else P - T)
@@ -206,8 +206,8 @@ class _TangentGraph:
         wrap = nxt[valid] < idx[valid]
         span = np.where(
             wrap,
-            self.angle[b_pts] + _TWO_PI - self.angle[a_pts],
-            np.mod(self.angle[b_pts] - self.angle[a_pts], _TWO_PI),
+            self.angle[b_pts] + TWO_PI - self.angle[a_pts],
+            np.mod(self.angle[b_pts] - self.angle[a_pts], TWO_PI),
         )
         ca = self.circ[a_pts]
         if act.size >= 2:
@@ -239,7 +239,7 @@ class _TangentGraph:
         nb = j[first + np.arange(arc.size)]
         c = ca[arc]
         alpha = np.arctan2(C[nb, 1] - C[c, 1], C[nb, 0] - C[c, 0])
-        into = np.mod(alpha - self.angle[a_pts][arc], _TWO_PI) < span[arc]
+        into = np.mod(alpha - self.angle[a_pts][arc], TWO_PI) < span[arc]
         return np.bincount(arc[into], minlength=ca.size) == 0
 
     def _index(self, src, dst, wgt, geo) -> None:
@@ -307,7 +307,7 @@ class _TangentGraph:
         inside = np.hypot(*(C[None, :, :] - self.C[circles][:, None, :]).transpose(2, 0, 1))
         inside = inside < self.R[circles][:, None]
         total = _step_turns(sub, plen[found], angle, circ, self.node_orient[nodes], inside)
-        out[found] = _close_and_round(total, self.S2, self.G2, obs, self.tol)
+        out[found] = close_and_round(total, self.S2, self.G2, obs, self.tol)
         return out
 
     def polyline(self, nodes) -> np.ndarray:
@@ -343,7 +343,7 @@ class _TangentGraph:
                 o = 1 if (v0 - 2) % 2 == 0 else -1
                 span = 0.0
                 for t in range(i, j):
-                    span += ((angle[t + 1] - angle[t]) * o) % _TWO_PI
+                    span += ((angle[t + 1] - angle[t]) * o) % TWO_PI
                 n = math.ceil(span / ARC_STEP)
                 if n > 1:
                     parts.append((c, len(angles), n - 1))
@@ -372,7 +372,7 @@ class _TangentGraph:
         if len(keep) > 1 and math.hypot(out[-1][0] - keep[-1][0], out[-1][1] - keep[-1][1]) <= gap:
             keep.pop()
         keep.append(out[-1])
-        return _clean(np.array(keep), self.S2, self.G2, self.tol)
+        return clean_polyline(np.array(keep), self.S2, self.G2, self.tol)
 
     def crossings(self, origins: np.ndarray, dirs: np.ndarray, reach: float) -> np.ndarray:
         """Per edge, bit ``b`` set when it crosses the ray ``origins[b] + t dirs[b]``, t in
@@ -418,7 +418,7 @@ def _crossings(is_arc, geo, C, R, origins, dirs, reach):
 
 @njit(cache=True)
 def _step_turns(paths, plen, angle, node_circ, node_orient, inside):
-    """For :meth:`_TangentGraph.signatures`: the total turn ``(P, m)`` of each path seen from
+    """For :meth:`TangentGraph.signatures`: the total turn ``(P, m)`` of each path seen from
     each centre (``angle``: directions of the nodes from the centres), summed over its steps in
     order. A loop over the steps of a few dozen paths, where NumPy's gathers and masks cost
     more; the same operations as those (``np.round`` is ``rint``)."""
@@ -433,9 +433,9 @@ def _step_turns(paths, plen, angle, node_circ, node_orient, inside):
             for j in range(m):
                 x = angle[v, j] - angle[u, j]
                 if arc and inside[cu, j]:
-                    step = o * ((o * x) % _TWO_PI)
+                    step = o * ((o * x) % TWO_PI)
                 else:
-                    step = x - _TWO_PI * np.rint(x / _TWO_PI)
+                    step = x - TWO_PI * np.rint(x / TWO_PI)
                 total[p, j] = step if t == 0 else total[p, j] + step
     return total
 
