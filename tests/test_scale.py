@@ -23,7 +23,7 @@ from leapfrog_planner.planning.initial_path.geometry import (
     smallest_clearance,
 )
 from leapfrog_planner.planning.initial_path.spatial import (
-    DiscGrid,
+    disc_grid,
     disc_pairs,
     points_inside,
     segments_cut,
@@ -50,9 +50,9 @@ def _probe_points(rng, grid, n):
     """Random points inside and outside the grid, and points exactly on cell borders."""
     inside = rng.uniform(-1.0, 6.0, (n, 2))
     k = rng.integers(-1, max(grid.nx, grid.ny) + 2, (n, 2))
-    border = np.column_stack([grid.origin[0] + k[:, 0] * grid.h, grid.origin[1] + k[:, 1] * grid.h])
+    border = np.column_stack([grid.ox + k[:, 0] * grid.h, grid.oy + k[:, 1] * grid.h])
     far = rng.uniform(-1e3, 1e3, (8, 2))
-    return np.vstack([inside, border, far, grid.origin[None, :]])
+    return np.vstack([inside, border, far, [[grid.ox, grid.oy]]])
 
 
 KINDS = ("ordinary", "tiny", "huge", "equal")
@@ -63,14 +63,14 @@ def test_grid_point_and_pair_queries_match_brute_force(kind):
     rng = np.random.default_rng(len(kind))
     for m in (1, 7, 120):
         C, R = _layout(rng, m, kind)
-        grid = DiscGrid(C, R)
+        grid = disc_grid(C, R)
         tol = 1e-9
         xy = _probe_points(rng, grid, 400)
         gap = np.hypot(xy[:, None, 0] - C[None, :, 0], xy[:, None, 1] - C[None, :, 1])
         brute = np.any(gap < R[None, :] - tol, axis=1)
-        assert np.array_equal(points_inside(xy, C, R, tol, *grid.arrays()), brute)
+        assert np.array_equal(points_inside(xy, grid, tol), brute)
         # Every pair of overlapping discs is found, each once.
-        i, j = disc_pairs(C, R, 0.0, *grid.arrays())
+        i, j = disc_pairs(grid, 0.0)
         D = np.hypot(C[:, None, 0] - C[None, :, 0], C[:, None, 1] - C[None, :, 1])
         want = {
             (a, b) for a, b in zip(*np.nonzero(D < R[:, None] + R[None, :]), strict=True) if a != b
@@ -84,7 +84,7 @@ def test_grid_segment_test_matches_brute_force(kind):
     rng = np.random.default_rng(10 + len(kind))
     for m in (1, 9, 150):
         C, R = _layout(rng, m, kind)
-        grid = DiscGrid(C, R)
+        grid = disc_grid(C, R)
         pts = _probe_points(rng, grid, 300)
         a = pts[rng.integers(0, pts.shape[0], 600)]
         b = pts[rng.integers(0, pts.shape[0], 600)]
@@ -93,7 +93,7 @@ def test_grid_segment_test_matches_brute_force(kind):
         b[40:60, 1] = a[40:60, 1]  # horizontal
         tol = 1e-9
         brute = np.any(segment_distance(a, b, C) < R[None, :] - tol, axis=1)
-        assert np.array_equal(segments_cut(a, b, C, R, tol, *grid.arrays()), brute)
+        assert np.array_equal(segments_cut(a, b, grid, tol), brute)
 
 
 @pytest.mark.parametrize("kind", KINDS)

@@ -12,7 +12,7 @@ from numba import njit
 
 from .curve import TWO_PI
 from .geometry import clean_polyline, close_and_round, cross, rotate
-from .spatial import DiscGrid, common_tangents, disc_pairs, points_inside, segments_cut
+from .spatial import DiscGrid, common_tangents, disc_grid, disc_pairs, points_inside, segments_cut
 
 #: Arcs of the tangent graph are sampled with at most this angle between polyline vertices.
 ARC_STEP = TWO_PI / 36
@@ -31,8 +31,7 @@ def _active_circles(C: np.ndarray, R: np.ndarray, tol: float) -> np.ndarray:
     out = np.ones(m, bool)
     if m < 2:
         return out
-    grid = DiscGrid(C, R, abs(tol))
-    i, j = disc_pairs(C, R, abs(tol), *grid.arrays())
+    i, j = disc_pairs(disc_grid(C, R, abs(tol)), abs(tol))
     D = np.hypot(C[i, 0] - C[j, 0], C[i, 1] - C[j, 1])
     inside = D + R[i] <= R[j] + tol  # disc i within disc j
     D_t = np.hypot(C[j, 0] - C[i, 0], C[j, 1] - C[i, 1])
@@ -131,10 +130,10 @@ class TangentGraph:
         if act.size < 2:
             return segs
         prune = act.size > PRUNE_ABOVE
-        grid = self._grid().arrays()
+        grid = self._grid()
 
         def family(signs):
-            return common_tangents(self.C, self.R, act, *signs, prune, self.tol, *grid)
+            return common_tangents(grid, act, *signs, prune, self.tol)
 
         families = [(sigma, sgn) for sigma in (1.0, -1.0) for sgn in (1.0, -1.0)]
         workers = min(len(families), os.cpu_count() or 1) if prune else 1
@@ -153,7 +152,7 @@ class TangentGraph:
         """Tangent points inside another inflated disc are no use; the ends always are."""
         keep = np.ones(self.xy.shape[0], bool)
         if self.active.size:
-            keep = ~points_inside(self.xy, self.C, self.R, self.tol, *self._grid().arrays())
+            keep = ~points_inside(self.xy, self._grid(), self.tol)
             keep[:2] = True
         return keep
 
@@ -161,10 +160,10 @@ class TangentGraph:
         """The grid of the active discs (built once)."""
         if self._active_grid is None:
             act = self.active
-            grid = DiscGrid(self.C[act], self.R[act])
-            # Indices into the full disc arrays, so the loops read C and R directly.
-            grid.items = act[grid.items]
-            self._active_grid = grid
+            grid = disc_grid(self.C[act], self.R[act])
+            # Indices into the full disc arrays, which the loops read.
+            C, R = np.ascontiguousarray(self.C), np.ascontiguousarray(self.R)
+            self._active_grid = grid._replace(C=C, R=R, items=act[grid.items])
         return self._active_grid
 
     def _segment_edges(self, segs: list, one_way: int, keep: np.ndarray) -> tuple[list, ...]:
@@ -177,7 +176,7 @@ class TangentGraph:
         ok = keep[pa] & keep[pb]
         if self.active.size:
             a, b = self.xy[pa[ok]], self.xy[pb[ok]]
-            ok[ok] = ~segments_cut(a, b, self.C, self.R, self.tol, *self._grid().arrays())
+            ok[ok] = ~segments_cut(a, b, self._grid(), self.tol)
         pa, oa, pb, ob, both = pa[ok], oa[ok], pb[ok], ob[ok], both[ok]
         A, B = self.xy[pa], self.xy[pb]
         seg_geo = np.column_stack([A, B])
@@ -225,8 +224,7 @@ class TangentGraph:
         whether no other active circle that meets circle ``ca`` lies in its direction: only the
         pairs of circles near each other are compared."""
         C, R = self.C, self.R
-        grid = self._grid()
-        i, j = disc_pairs(C, R, 0.0, *grid.arrays())  # i, j: indices of active discs
+        i, j = disc_pairs(self._grid(), 0.0)  # i, j: indices of active discs
         D = np.hypot(C[i, 0] - C[j, 0], C[i, 1] - C[j, 1])
         meet = (np.abs(R[i] - R[j]) < D) & (D < R[i] + R[j])
         i, j = i[meet], j[meet]
