@@ -1,5 +1,6 @@
-"""The package's shape stays readable: no import cycle, small modules and functions, few modules
-at the root. Read from the source with ``ast``, nothing is imported."""
+"""The package's shape stays readable: no import cycle (between modules, nor between
+subpackages), no private name taken from another module, small modules and functions, few
+modules at the root. Read from the source with ``ast``, nothing is imported."""
 
 from __future__ import annotations
 
