@@ -96,7 +96,7 @@ def _closer(dx, dy, r):
     return r > 0.0 and dx * dx + dy * dy < r * r
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _point_inside(x, y, grid, tol):
     """Whether ``(x, y)`` lies deeper than ``tol`` inside some disc of its cell."""
     fx, fy = (x - grid.ox) / grid.h, (y - grid.oy) / grid.h
