@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 from leapfrog_planner.batch.generate import GeneratorSpec, generate
-from leapfrog_planner.experiments.direct import richardson, solve_direct
+from leapfrog_planner.planning.direct import richardson, solve_direct
 from leapfrog_planner.planning.planner import Planner, plan
 from leapfrog_planner.planning.scenario import Scenario
 

@@ -14,8 +14,8 @@ from leapfrog_planner.cli.main import main
 from leapfrog_planner.errors import SettingsError
 from leapfrog_planner.experiments import bench, peers
 from leapfrog_planner.experiments.bench import BenchSettings, run_bench, target_ratios
-from leapfrog_planner.experiments.direct import DirectResult, arc_end_state
 from leapfrog_planner.experiments.profiling import PARTS
+from leapfrog_planner.planning.direct import DirectResult, arc_end_state, cached_transcription
 from leapfrog_planner.planning.planner import Planner, plan
 from leapfrog_planner.planning.scenario import load_scenario
 
@@ -113,7 +113,7 @@ def test_direct_from_every_initial_path_is_the_cheapest_of_the_serial_solves():
     nodes = np.linspace(0.0, sc.horizon, n + 1)
     guesses = peers._path_guesses(sc)(nodes)
     assert len(guesses) == len(Planner(sc).initial_paths()) == 3
-    tr = peers._transcription(sc.obstacles.shape[0], n)
+    tr = cached_transcription(sc.obstacles.shape[0], n)
     serial = [
         tr.solve(sc.start, sc.goal, sc.horizon, sc.obstacles, weight=sc.weight,
                  exponent=sc.exponent, guess_states=g[:, :3])
@@ -254,7 +254,16 @@ def test_direct_end_state_is_exact_for_arcs():
 
 @pytest.mark.parametrize(
     "bad",
-    [{"solvers": ("ipopt",)}, {"repeat": 0}, {"cases": (7,)}, {"meshes": (1,)}, {"random": -1}],
+    [
+        {"solvers": ("ipopt",)},
+        {"repeat": 0},
+        {"repeat": 2.0},
+        {"cases": (7,)},
+        {"cases": (True,)},
+        {"meshes": (1,)},
+        {"meshes": (100.0,)},
+        {"random": -1},
+    ],
 )
 def test_settings_validated(bad):
     with pytest.raises(SettingsError):

@@ -186,13 +186,13 @@ BAD = [
     Bad(
         "solver-value-quiet",
         ("solve", "{file}", "--quiet"),
-        r"\.toml: solver\.partitions: partitions must be an integer >= 2, got 1",
+        r"\.toml: solver\.partitions: partitions: must be an integer >= 2, got 1",
         BASE + "\n[solver]\npartitions = 1\n",
     ),
     Bad(
         "solver-value",
         SOLVE,
-        r"\.toml: solver\.partitions: partitions must be an integer >= 2, got 1",
+        r"\.toml: solver\.partitions: partitions: must be an integer >= 2, got 1",
         BASE + "\n[solver]\npartitions = 1\n",
     ),
     Bad("derive-unknown-model", ("derive", "tank"), r"unknown model 'tank'"),

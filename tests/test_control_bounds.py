@@ -16,7 +16,7 @@ from leapfrog_planner.planning.planner import plan
 from leapfrog_planner.planning.scenario import load_scenario, load_scenario_text
 
 pytest.importorskip("casadi")
-from leapfrog_planner.experiments.direct import richardson, solve_direct  # noqa: E402
+from leapfrog_planner.planning.direct import richardson, solve_direct  # noqa: E402
 
 
 def test_the_smooth_clip_is_the_identity_inside_and_the_bound_outside():

@@ -18,7 +18,7 @@ pytest.importorskip("casadi")
 
 from conftest import CASES as PAPER
 from leapfrog_planner.errors import LeapfrogError  # noqa: E402
-from leapfrog_planner.experiments.direct import (  # noqa: E402
+from leapfrog_planner.planning.direct import (  # noqa: E402
     DirectResult,
     DirectTranscription,
     multistart_guesses,

@@ -91,6 +91,9 @@ def test_fixed_obstacle_count_and_ranges():
         {"horizon": 0.0},
         {"prefix": "a b"},
         {"seed": -3},
+        {"seed": True},
+        {"n": 3.0},
+        {"obstacles": (1.0, 3)},
         {"clearance": float("nan")},
     ],
 )

@@ -48,7 +48,7 @@ KINDS = {
 @pytest.mark.parametrize("kind", list(KINDS))
 def test_hard_pose_converges_to_the_direct_methods_cost(kind):
     pytest.importorskip("casadi")
-    from leapfrog_planner.experiments.direct import solve_direct
+    from leapfrog_planner.planning.direct import solve_direct
 
     sc = Scenario(name=kind, **KINDS[kind])
     planner = Planner(sc)

@@ -121,6 +121,8 @@ CASES: dict[str, Case] = {
     "--method unknown": Case(("solve", "s.toml", "--method", "bisection"), {"s.toml": BASE}),
     "solve --option bogus=1": Case(("solve", "s.toml", "--option", "bogus=1"), {"s.toml": BASE}, says="bogus"),
     "solve --option finer_doublings=99": Case(("solve", "s.toml", "--option", "finer_doublings=99"), {"s.toml": BASE}),
+    "solve --option partitions=8.0": Case(("solve", "s.toml", "--option", "partitions=8.0"), {"s.toml": BASE}, says="partitions: expected an integer >= 2, got number 8.0"),
+    "solve --option partitions=true": Case(("solve", "s.toml", "--option", "partitions=true"), {"s.toml": BASE}, says="partitions: expected an integer >= 2, got boolean true"),
     "solve --option without =": Case(("solve", "s.toml", "--option", "partitions"), {"s.toml": BASE}),
     "shoot --horizon inf": Case(("shoot", "--horizon", "inf")),
     "shoot --horizon nan": Case(("shoot", "--horizon", "nan")),

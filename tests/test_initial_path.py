@@ -398,7 +398,7 @@ def test_paths_are_immutable():
         ({"obstacles": [[0.0, 0.0, float("inf")]]}, r"obstacles\[0\]\[2\]: must be finite"),
         ({"obstacles": [[0.0, 0.0, -1.0]]}, r"obstacles\[0\]\.radius: must be > 0"),
         ({"obstacles": [[0.0, 0.0]]}, r"obstacles\[0\]: expected 3 numbers, got 2"),
-        ({"k": 0}, "k: expected an integer >= 1"),
+        ({"k": 0}, "k: must be an integer >= 1, got 0"),
         ({"k": 2.0}, "k: expected an integer >= 1"),
         ({"k": True}, "k: expected an integer >= 1"),
         ({"margin": -0.1}, "margin: must be >= 0"),
@@ -462,7 +462,7 @@ def _class_retries():
     out = []
     for sc in scenarios:
         S, G, obs = sc.start, sc.goal, sc.footprint_obstacles
-        tol = search._tolerance(S, G, obs)
+        tol = search.tolerance(S, G, obs)
         for cand in search._plan(S, G, obs, 0.02, 8, tol)[:8]:
             if any(
                 search._smooth_best(cand.polyline, S, G, obs, tol, cand.signature, m).min_clearance
@@ -500,7 +500,7 @@ def _same_route(a: np.ndarray, b: np.ndarray) -> bool:
     other (the whole graph may hold a tangent point more at the end of a tiny arc)."""
 
     def on(points, poly):
-        d = search._segment_distance(poly[:-1], poly[1:], points).min(axis=0)
+        d = search.segment_distance(poly[:-1], poly[1:], points).min(axis=0)
         return bool(np.all(d < 1e-4))
 
     return on(a, b) and on(b, a)
@@ -531,7 +531,7 @@ def test_a_leg_planned_among_the_obstacles_its_ellipse_holds_is_the_shortest_amo
     ]
     obs = sc.footprint_obstacles
     obs = np.vstack([ring, obs[np.hypot(*(obs[:, :2] - 5.0).T) > 0.8]])
-    tol = search._tolerance(sc.start, sc.goal, obs)
+    tol = search.tolerance(sc.start, sc.goal, obs)
     plans = []
     plan = search._plan_among
     monkeypatch.setattr(search, "_plan_among", lambda *a: plans.append(a[2].shape[0]) or plan(*a))
@@ -586,7 +586,7 @@ def test_class_paths_planned_among_the_obstacles_their_ellipse_holds_are_those_o
     smaller = 0
     for sc in fields:
         S, G, obs = sc.start, sc.goal, sc.footprint_obstacles
-        tol = search._tolerance(S, G, obs)
+        tol = search.tolerance(S, G, obs)
         whole = plan(S, G, obs, 0.02, 8, tol)[:8]
         plans.clear()
         cands = search._plan(S, G, obs, 0.02, 8, tol)

@@ -162,12 +162,15 @@ def test_a_swallowed_ctrl_c_still_ends_as_interrupted(tmp_path, where):
     property that C code calls: seen in numba's import, about 1 run of 10 with Ctrl-C 0.15 s
     into ``leapfrog solve``, which then ended with exit 0). The handler remembers the Ctrl-C;
     after the imports and after the command, a remembered one ends the run as interrupted.
-    Here the swallowed Ctrl-C is simulated by setting what the handler sets."""
+    Here the swallowed Ctrl-C is simulated by remembering it as the handler does."""
     code = {
-        "import": "import leapfrog_planner.cli as c; c._interrupted = True; c.run()",
+        "import": (
+            "import leapfrog_planner.cli as c; from leapfrog_planner.cli.ctrl_c import"
+            " remember_ctrl_c; remember_ctrl_c(); c.run()"
+        ),
         "command": (
-            "import leapfrog_planner.cli as c; from leapfrog_planner.cli.main import run;"
-            " c._interrupted = True; run()"
+            "from leapfrog_planner.cli.ctrl_c import remember_ctrl_c;"
+            " from leapfrog_planner.cli.main import run; remember_ctrl_c(); run()"
         ),
     }[where]
     _assert_interrupted(_run_python(code, tmp_path))
@@ -176,14 +179,14 @@ def test_a_swallowed_ctrl_c_still_ends_as_interrupted(tmp_path, where):
 #: A ``scenarios`` command that fails with RuntimeError, as a class created while a Ctrl-C's
 #: KeyboardInterrupt is raised fails; {cause}: the KeyboardInterrupt as its cause, or not.
 _WRAPPED = (
-    "import leapfrog_planner.cli as c, leapfrog_planner.cli.main as m\n"
+    "import leapfrog_planner.cli.ctrl_c as c, leapfrog_planner.cli.main as m\n"
     "def boom(*a, **k):\n"
     "    try:\n"
     "        raise {error}\n"
     "    except BaseException as e:\n"
     "        raise RuntimeError('Error calling __set_name__') from e\n"
     "m.cli.commands['scenarios'].callback = boom\n"
-    "c._interrupted = {remembered}\n"
+    "if {remembered}: c.remember_ctrl_c()\n"
     "m.run()"
 )
 

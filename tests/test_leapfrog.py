@@ -301,6 +301,8 @@ def test_default_settings_are_documented_values():
         ("final", "x", "final"),
         ("max_split_depth", -1, "max_split_depth"),
         ("attempt_iterations", 1.5, "attempt_iterations"),
+        ("partitions", 8.0, "partitions: expected an integer >= 2, got number 8.0"),
+        ("max_sweeps", True, "max_sweeps: expected an integer >= 1, got boolean true"),
         ("continuation_min_step", 0.5, "continuation_min_step"),  # above the first step
         ("continuation_first_step", 0.0, "continuation_first_step"),
         ("continuation_steps", 0, "continuation_steps"),

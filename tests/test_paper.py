@@ -121,7 +121,17 @@ def test_bad_input_exits_2(tmp_path, capsys, args):
 
 
 def test_settings_validated():
-    for bad in ({"repeat": 0}, {"repeat": 1.5}, {"cases": (5,)}, {"cases": ()}, {"cases": (1, 1)}):
+    bad_settings = (
+        {"repeat": 0},
+        {"repeat": 1.5},
+        {"repeat": 2.0},
+        {"cases": (5,)},
+        {"cases": ()},
+        {"cases": (1, 1)},
+        {"cases": (1.0,)},
+        {"cases": (True,)},
+    )
+    for bad in bad_settings:
         with pytest.raises(SettingsError):
             PaperSettings(**bad)
     assert PaperSettings(cases=(3, 1)).cases == (1, 3)

@@ -280,7 +280,7 @@ def test_case_4_cheaper_optimum_agrees_with_casadi(planned):
     the N = 100 optimum, both extrapolated by Richardson (order 2) to ~1e-6.
     """
     pytest.importorskip("casadi")
-    from leapfrog_planner.experiments.direct import richardson, solve_direct
+    from leapfrog_planner.planning.direct import richardson, solve_direct
 
     r = planned(4, MNM).result
     assert r.success, r.message
@@ -593,6 +593,9 @@ def test_unknown_option_is_named():
         ("candidate_paths", 0, "candidate_paths"),
         ("threads", -1, "threads"),
         ("threads", 1.5, "threads"),
+        ("initial_paths", 2.0, "initial_paths: expected an integer >= 1, got number 2.0"),
+        ("candidate_paths", True, "candidate_paths: expected an integer >= 1, got boolean"),
+        ("partitions", 8.0, "partitions: expected an integer >= 2, got number 8.0"),
         ("attempt_iterations", 0, "attempt_iterations"),
         ("continuation_min_step", 0.0, "continuation_min_step"),
         ("continuation_first_step", 2.0, "continuation_first_step"),

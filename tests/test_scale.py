@@ -18,12 +18,12 @@ from leapfrog_planner.model.penalty import (
 )
 from leapfrog_planner.planning.initial_path import initial_paths
 from leapfrog_planner.planning.initial_path.geometry import (
-    _clearance,
     _clearance_loops,
-    _segment_distance,
+    segment_distance,
+    smallest_clearance,
 )
 from leapfrog_planner.planning.initial_path.spatial import (
-    DiscGrid,
+    disc_grid,
     disc_pairs,
     points_inside,
     segments_cut,
@@ -50,9 +50,9 @@ def _probe_points(rng, grid, n):
     """Random points inside and outside the grid, and points exactly on cell borders."""
     inside = rng.uniform(-1.0, 6.0, (n, 2))
     k = rng.integers(-1, max(grid.nx, grid.ny) + 2, (n, 2))
-    border = np.column_stack([grid.origin[0] + k[:, 0] * grid.h, grid.origin[1] + k[:, 1] * grid.h])
+    border = np.column_stack([grid.ox + k[:, 0] * grid.h, grid.oy + k[:, 1] * grid.h])
     far = rng.uniform(-1e3, 1e3, (8, 2))
-    return np.vstack([inside, border, far, grid.origin[None, :]])
+    return np.vstack([inside, border, far, [[grid.ox, grid.oy]]])
 
 
 KINDS = ("ordinary", "tiny", "huge", "equal")
@@ -63,14 +63,14 @@ def test_grid_point_and_pair_queries_match_brute_force(kind):
     rng = np.random.default_rng(len(kind))
     for m in (1, 7, 120):
         C, R = _layout(rng, m, kind)
-        grid = DiscGrid(C, R)
+        grid = disc_grid(C, R)
         tol = 1e-9
         xy = _probe_points(rng, grid, 400)
         gap = np.hypot(xy[:, None, 0] - C[None, :, 0], xy[:, None, 1] - C[None, :, 1])
         brute = np.any(gap < R[None, :] - tol, axis=1)
-        assert np.array_equal(points_inside(xy, C, R, tol, *grid.arrays()), brute)
+        assert np.array_equal(points_inside(xy, grid, tol), brute)
         # Every pair of overlapping discs is found, each once.
-        i, j = disc_pairs(C, R, 0.0, *grid.arrays())
+        i, j = disc_pairs(grid, 0.0)
         D = np.hypot(C[:, None, 0] - C[None, :, 0], C[:, None, 1] - C[None, :, 1])
         want = {
             (a, b) for a, b in zip(*np.nonzero(D < R[:, None] + R[None, :]), strict=True) if a != b
@@ -84,7 +84,7 @@ def test_grid_segment_test_matches_brute_force(kind):
     rng = np.random.default_rng(10 + len(kind))
     for m in (1, 9, 150):
         C, R = _layout(rng, m, kind)
-        grid = DiscGrid(C, R)
+        grid = disc_grid(C, R)
         pts = _probe_points(rng, grid, 300)
         a = pts[rng.integers(0, pts.shape[0], 600)]
         b = pts[rng.integers(0, pts.shape[0], 600)]
@@ -92,8 +92,8 @@ def test_grid_segment_test_matches_brute_force(kind):
         b[20:40, 0] = a[20:40, 0]  # vertical
         b[40:60, 1] = a[40:60, 1]  # horizontal
         tol = 1e-9
-        brute = np.any(_segment_distance(a, b, C) < R[None, :] - tol, axis=1)
-        assert np.array_equal(segments_cut(a, b, C, R, tol, *grid.arrays()), brute)
+        brute = np.any(segment_distance(a, b, C) < R[None, :] - tol, axis=1)
+        assert np.array_equal(segments_cut(a, b, grid, tol), brute)
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -103,11 +103,11 @@ def test_indexed_clearance_equals_the_loops(kind):
         C, R = _layout(rng, m, kind)
         obs = np.column_stack([C, R])
         xy = rng.uniform(-1.0, 6.0, (n, 2))
-        assert _clearance(xy, obs) == _clearance_loops(xy, obs)
+        assert smallest_clearance(xy, obs) == _clearance_loops(xy, obs)
         d = np.linalg.norm(xy[:, None, :] - obs[None, :, :2], axis=2) - obs[None, :, 2]
         assert np.array_equal(clearance(xy, obs), d.min(axis=0))
     xy[3, 1] = np.nan  # as the loops have it
-    assert np.array_equal(_clearance(xy, obs), _clearance_loops(xy, obs), equal_nan=True)
+    assert np.array_equal(smallest_clearance(xy, obs), _clearance_loops(xy, obs), equal_nan=True)
 
 
 @pytest.mark.parametrize("weight, exponent", [(100.0, 2), (1.0, 1), (6400.0, 3), (0.5, 2)])

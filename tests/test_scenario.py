@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from conftest import CASES
 from leapfrog_planner import checks
-from leapfrog_planner.errors import ScenarioError
+from leapfrog_planner.errors import ScenarioError, SettingsError, require_integer
 from leapfrog_planner.model.problem import OptimalControlProblem
 from leapfrog_planner.planning.scenario import (
     SOLVER_KEYS,
@@ -529,3 +529,24 @@ def test_toml_text_written_for_minimal_scenario():
         exponent = 2
         """
     )
+
+
+def test_one_integer_rule_for_every_count():
+    """A count is an int or a NumPy integer (what TOML and JSON give for 3); 3.0, a boolean or
+    a string is refused with a one-line message naming the key, as is a value out of range."""
+    assert require_integer("n", 3) == 3 and type(require_integer("n", np.int64(3))) is int
+    assert require_integer("n", 0, None) == 0
+    for bad, said in [
+        (3.0, "n: expected an integer >= 1, got number 3.0"),
+        (True, "n: expected an integer >= 1, got boolean true"),
+        (np.bool_(True), "n: expected an integer >= 1, got boolean true"),
+        ("3", "n: expected an integer >= 1, got string '3'"),
+        (None, "n: expected an integer >= 1, got nothing (None)"),
+        (0, "n: must be an integer >= 1, got 0"),
+        (10**40, "n: must be at most 9, got 1" + "0" * 26 + "..."),  # cut short
+    ]:
+        with pytest.raises(SettingsError) as info:
+            require_integer("n", bad, 1, 9)
+        assert str(info.value) == said
+    with pytest.raises(ScenarioError, match="^k: "):
+        require_integer("k", 2.0, error=ScenarioError)

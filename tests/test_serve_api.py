@@ -197,12 +197,20 @@ def test_a_scenario_file_is_opened_with_the_command_lines_messages(client):
             {"scenario": CASE4, "options": {"initial_paths": 2.5}},
             "options.initial_paths: expected an integer >= 1, got number 2.5",
         ),
+        (
+            {"scenario": CASE4, "options": {"partitions": 8.0}},
+            "options.partitions: expected an integer >= 2, got number 8.0",
+        ),
+        (
+            {"scenario": CASE4, "options": {"partitions": True}},
+            "options.partitions: expected an integer >= 2, got boolean true",
+        ),
         ({"scenario": CASE4, "options": {"speed": 1}}, "options: unknown key 'speed'"),
         ({"options": {}}, "request: scenario: missing required key"),
         ([1, 2], "request: expected a JSON object, got an array of 2"),
         (
             {"scenario": dict(CASE4, solver={"partitions": 1})},
-            "scenario: solver.partitions: partitions must be an integer >= 2, got 1",
+            "scenario: solver.partitions: partitions: must be an integer >= 2, got 1",
         ),
     ],
 )

@@ -158,7 +158,7 @@ def test_paper_case_1_from_a_good_guess(method):
 def test_paper_case_1_agrees_with_the_direct_method():
     """CasADi/IPOPT, RK4 multiple shooting, Richardson-extrapolated from meshes 100 and 200."""
     pytest.importorskip("casadi")
-    from leapfrog_planner.experiments.direct import richardson, solve_direct
+    from leapfrog_planner.planning.direct import richardson, solve_direct
 
     c = CASES[1]
     costs = [solve_direct(c.start, c.goal, 1.0, intervals=n).cost for n in (100, 200)]
@@ -576,6 +576,7 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
         ({"method": "secant"}, "unknown method"),
         ({"samples": -1}, "samples"),
         ({"samples": 2.5}, "samples"),
+        ({"samples": 3.0}, "samples: expected an integer >= 0, got number 3.0"),
         ({"inexact": "yes"}, "inexact"),
         ({"compiled": 1}, "compiled"),
         ({"root": {"tol": 1e-8}}, "root must be RootSettings"),

@@ -119,7 +119,7 @@ def test_a_cheaper_collision_free_iterate_is_reported_with_a_converged_extremal(
 
     from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
     from leapfrog_planner.cli.solve import _summary
-    from leapfrog_planner.experiments.direct import solve_direct
+    from leapfrog_planner.planning.direct import solve_direct
 
     sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=100.0), 15)
     r = plan(sc, final_refinements=1, finer_doublings=0)  # (q = 16 would find the optimum)
@@ -153,7 +153,7 @@ def test_where_the_penalty_dominates_the_optimum_is_found():
     that start cheaper run too (the search's ``wider margin`` stage), and the plan converges to
     0.5363, the optimum that IPOPT, independently, finds."""
     from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
-    from leapfrog_planner.experiments.direct import solve_direct
+    from leapfrog_planner.planning.direct import solve_direct
 
     sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=10.0), 14)
     r = plan(sc)
@@ -169,7 +169,7 @@ def test_a_three_point_turn_backs_away_from_the_obstacle_next_to_the_start():
     The three-point turn runs besides the ranked paths and converges to it; the ranked paths
     alone ended on 0.6285, on the wrong side of a small disc."""
     from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
-    from leapfrog_planner.experiments.direct import solve_direct
+    from leapfrog_planner.planning.direct import solve_direct
 
     sc = generate_one(GeneratorSpec(n=40, seed=1, horizon=10.0), 30)
     r = plan(sc)

@@ -1,8 +1,9 @@
 """Old import paths, kept for one release.
 
-Until version 0.2 the package was flat (``leapfrog_planner.planner``, ``.shooting``, ...). Those
-names still import, as the modules they moved to, with a :class:`DeprecationWarning` that names
-the new path. No module file is kept for them: a finder on ``sys.meta_path`` resolves them.
+Until version 0.2 the package was flat (``leapfrog_planner.planner``, ``.shooting``, ...); later
+``experiments.direct`` moved to ``planning.direct``. Those names still import, as the modules
+they moved to, with a :class:`DeprecationWarning` that names the new path. No module file is
+kept for them: a finder on ``sys.meta_path`` resolves them.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ MOVED = {
     "bench": "experiments.bench",
     "peers": "experiments.peers",
     "profiling": "experiments.profiling",
-    "direct": "experiments.direct",
+    "direct": "planning.direct",
     "generate": "batch.generate",
     "sweep": "batch.sweep",
     "sweep_exec": "batch.engines",
@@ -42,6 +43,8 @@ MOVED = {
     "plots": "viz.plots",
     "cli_experiments": "cli.experiments",
     "cli_sweep": "cli.batch",
+    # Moved since: the direct method below batch, which runs it as a sweep method.
+    "experiments.direct": "planning.direct",
 }
 
 

@@ -2,20 +2,20 @@
 direct method): one function per kind of value, one message per fault, ``<key>: <problem>``.
 
 Each check raises the error class it is given (:class:`.errors.ScenarioError` by default) and
-returns the value converted (floats, float arrays). A scenario file's messages add the file's
-name in front (see :mod:`.planning.scenario`).
+returns the value converted (floats, float arrays); integers are checked by
+:func:`.errors.require_integer`, which the settings of every layer share. A scenario file's
+messages add the file's name in front (see :mod:`.planning.scenario`).
 """
 
 from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from .errors import ScenarioError
+from .errors import ScenarioError, describe
 
 # Bounds beyond which a value makes no physical sense for a mobile robot, in any consistent
 # units, and would only overflow the arithmetic. The scenario file format documents them.
@@ -28,33 +28,6 @@ WEIGHT_MAX = 1e12  # the obstacle weight W
 EXPONENT_MAX = 16  # the penalty exponent n (the penalty is a wall well before that)
 OBSTACLES_MAX = 10_000
 WAYPOINTS_MAX = 1_000
-
-
-def short(text: str, limit: int = 40) -> str:
-    r = repr(text)
-    return r if len(r) <= limit else r[: limit - 4] + "...'"
-
-
-def describe(value: Any) -> str:
-    """A short, one-line description of a (wrong) value for error messages."""
-    if isinstance(value, bool | np.bool_):
-        return f"boolean {str(bool(value)).lower()}"
-    if isinstance(value, str):
-        return f"string {short(value)}"
-    if isinstance(value, numbers.Integral):
-        digits = str(int(value))
-        return f"integer {digits if len(digits) <= 30 else digits[:27] + '...'}"
-    if isinstance(value, numbers.Real):
-        return f"number {float(value)!r}"
-    if isinstance(value, Mapping):
-        return "a table"
-    if isinstance(value, list | tuple):
-        return f"an array of {len(value)}"
-    if isinstance(value, np.ndarray):
-        return f"an array of shape {value.shape}"
-    if value is None:
-        return "nothing (None)"
-    return f"{type(value).__name__} {short(str(value))}"
 
 
 def fmt_point(p) -> str:
@@ -90,19 +63,6 @@ def magnitude(values, key: str, limit: float, *, error=ScenarioError) -> None:
     for i, x in enumerate(np.asarray(values, dtype=float).ravel().tolist()):
         if not abs(x) <= limit:
             raise error(f"{key}[{i}]: must be at most {limit:g} in size, got {x!r}")
-
-
-def integer(value: Any, key: str, *, minimum=None, maximum=None, error=ScenarioError) -> int:
-    """An integer (booleans and floats refused), ``>= minimum`` and ``<= maximum`` if given."""
-    bound = "" if minimum is None else f" >= {minimum}"
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
-        raise error(f"{key}: expected an integer{bound}, got {describe(value)}")
-    n = int(value)
-    if minimum is not None and n < minimum:
-        raise error(f"{key}: must be an integer{bound}, got {describe(n)[8:]}")
-    if maximum is not None and n > maximum:
-        raise error(f"{key}: must be at most {maximum}, got {describe(n)[8:]}")
-    return n
 
 
 def vector(value: Any, n: int, key: str, what: str = "", *, error=ScenarioError) -> np.ndarray:

@@ -1,4 +1,11 @@
-"""Exceptions. Each subclasses the built-in it refines, so callers may catch either."""
+"""Exceptions (each subclasses the built-in it refines, so callers may catch either), the words
+their messages describe a wrong value with, and the one integer check."""
+
+import numbers
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
 
 
 class LeapfrogError(Exception):
@@ -17,15 +24,56 @@ class SettingsError(LeapfrogError, ValueError):
     """An unknown option, or an option with a value outside its range."""
 
 
-def require_integer(name: str, value, minimum: int = 1, maximum: int | None = None) -> None:
-    """Raise :class:`SettingsError`, naming ``name``, unless ``value`` is an integer in
-    ``[minimum, maximum]`` (booleans and floats with a fraction are refused)."""
-    what = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
-    try:
-        ok = not isinstance(value, bool) and int(value) == value and value >= minimum
-    except (TypeError, ValueError, OverflowError):
-        ok = False
-    if not ok:
-        raise SettingsError(f"{name} must be {what}, got {value!r}")
-    if maximum is not None and value > maximum:
-        raise SettingsError(f"{name} must be at most {maximum}, got {value!r}")
+def short(text: str, limit: int = 40) -> str:
+    """``repr(text)``, cut to ``limit`` characters."""
+    r = repr(text)
+    return r if len(r) <= limit else r[: limit - 4] + "...'"
+
+
+def describe(value: Any) -> str:
+    """A short, one-line description of a (wrong) value for error messages, in the words of
+    TOML and JSON (``boolean true``, ``number 3.0``, ``string '3'``)."""
+    if isinstance(value, bool | np.bool_):
+        return f"boolean {str(bool(value)).lower()}"
+    if isinstance(value, str):
+        return f"string {short(value)}"
+    if isinstance(value, numbers.Integral):
+        digits = str(int(value))
+        return f"integer {digits if len(digits) <= 30 else digits[:27] + '...'}"
+    if isinstance(value, numbers.Real):
+        return f"number {float(value)!r}"
+    if isinstance(value, Mapping):
+        return "a table"
+    if isinstance(value, list | tuple):
+        return f"an array of {len(value)}"
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {value.shape}"
+    if value is None:
+        return "nothing (None)"
+    return f"{type(value).__name__} {short(str(value))}"
+
+
+def require_integer(
+    key: str,
+    value: Any,
+    minimum: int | None = 1,
+    maximum: int | None = None,
+    *,
+    error: type[Exception] = SettingsError,
+) -> int:
+    """``value`` as an ``int``; else raise ``error`` with a one-line message naming ``key``.
+
+    The package's one check of a count or an index. An integer is an ``int`` or a NumPy integer
+    (a TOML or JSON integer is an ``int``); a boolean, a float (even ``3.0``) or a string is
+    refused, and so is a value below ``minimum`` or above ``maximum`` (either may be None).
+    ``error`` is the exception class (default :class:`SettingsError`)."""
+    bound = "" if minimum is None else f" >= {minimum}"
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
+        raise error(f"{key}: expected an integer{bound}, got {describe(value)}")
+    n = int(value)
+    digits = describe(n).removeprefix("integer ")  # a huge one cut short
+    if minimum is not None and n < minimum:
+        raise error(f"{key}: must be an integer{bound}, got {digits}")
+    if maximum is not None and n > maximum:
+        raise error(f"{key}: must be at most {maximum}, got {digits}")
+    return n

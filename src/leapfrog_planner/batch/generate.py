@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import write_atomic
-from ..errors import SettingsError
+from ..errors import SettingsError, require_integer
 from ..planning.scenario import Scenario
 
 __all__ = [
@@ -90,11 +90,6 @@ class GeneratorSpec:
     max_attempts: int = 1000
 
     def __post_init__(self):
-        def integer(name, v, lo):
-            if isinstance(v, bool) or int(v) != v or v < lo:
-                raise SettingsError(f"{name} must be an integer >= {lo}, got {v!r}")
-            return int(v)
-
         def real(name, v, lo=None, strict=False):
             if isinstance(v, bool) or not math.isfinite(float(v)):
                 raise SettingsError(f"{name} must be a finite number, got {v!r}")
@@ -103,11 +98,11 @@ class GeneratorSpec:
             return float(v)
 
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
-        set_("n", integer("n", self.n, 0))
-        set_("seed", integer("seed", self.seed, 0))
+        set_("n", require_integer("n", self.n, 0))
+        set_("seed", require_integer("seed", self.seed, 0))
         if len(self.obstacles) != 2:
             raise SettingsError(f"obstacles must be (min, max), got {self.obstacles!r}")
-        lo, hi = (integer("obstacles", v, 0) for v in self.obstacles)
+        lo, hi = (require_integer("obstacles", v, 0) for v in self.obstacles)
         if lo > hi:
             raise SettingsError(f"obstacles: min {lo} > max {hi}")
         set_("obstacles", (lo, hi))
@@ -150,7 +145,7 @@ class GeneratorSpec:
             raise SettingsError(
                 f"prefix must be letters, digits, '_', '-' or '.', got {self.prefix!r}"
             )
-        set_("max_attempts", integer("max_attempts", self.max_attempts, 1))
+        set_("max_attempts", require_integer("max_attempts", self.max_attempts))
 
     def name(self, i: int) -> str:
         return f"{self.prefix}-s{self.seed}-{i:05d}"

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..bvp.shooting import ShootingSettings, solve_shooting
-from ..errors import LeapfrogError, SettingsError
-from ..experiments.direct import solve_direct
+from ..errors import LeapfrogError, SettingsError, require_integer
 from ..model.kernels import model_info
+from ..planning.direct import solve_direct
 from ..planning.planner import Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate
 from ..planning.runs import END_STATE_TOLERANCE
@@ -101,12 +101,9 @@ class SweepSettings:
             v = getattr(self, name)
             if isinstance(v, bool) or not (isinstance(v, int | float) and v > 0 and v < math.inf):
                 raise SettingsError(f"{name} must be a positive number of seconds, got {v!r}")
-        if isinstance(self.workers, bool) or int(self.workers) != self.workers or self.workers < 1:
-            raise SettingsError(f"workers must be a positive integer, got {self.workers!r}")
-        if self.chunk_size is not None and (
-            int(self.chunk_size) != self.chunk_size or self.chunk_size < 1
-        ):
-            raise SettingsError(f"chunk_size must be a positive integer, got {self.chunk_size!r}")
+        object.__setattr__(self, "workers", require_integer("workers", self.workers))
+        if self.chunk_size is not None:
+            object.__setattr__(self, "chunk_size", require_integer("chunk_size", self.chunk_size))
 
     @property
     def method_names(self) -> tuple[str, ...]:

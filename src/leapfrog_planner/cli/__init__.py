@@ -1,49 +1,23 @@
-"""The ``leapfrog`` command: :mod:`.main` (the group, ``solve``, ``shoot``, ``derive``,
-``scenarios`` and the error handling), :mod:`.experiments` (``paper``, ``bench``) and
-:mod:`.batch` (``generate``, ``sweep``, ``report``).
+"""The ``leapfrog`` command: :mod:`.main` (the group and the error handling), :mod:`.solve`
+(``solve``, ``shoot``, ``derive``, ``scenarios``), :mod:`.results` (``plot``, ``export``),
+:mod:`.experiments` (``paper``, ``bench``), :mod:`.batch` (``generate``, ``sweep``, ``report``),
+:mod:`.serve` and :mod:`.warmup`.
 
 This module stays light: :func:`run` imports the command (numba, SciPy, click: most of a
-second) inside its own handler, so that a Ctrl-C during the start ends with one line too.
+second) inside its own handler, so that a Ctrl-C during the start ends with one line too. The
+Ctrl-C state lives in :mod:`.ctrl_c`, which the commands read: they never import this module.
 """
 
-import os
 import signal
-import sys
+
+from .ctrl_c import exit_interrupted, interrupted, on_ctrl_c
 
 __all__ = ["run"]  # the command itself: :func:`.main.main`
-
-_interrupted = False
-
-
-def remember_ctrl_c(signum, frame):
-    """Ctrl-C, remembered only: raised later, where :func:`interrupted` is checked (a safe point
-    between steps)."""
-    global _interrupted
-    _interrupted = True
-
-
-def _on_ctrl_c(signum, frame):
-    """Ctrl-C: remembered, then raised as usual. CPython can swallow the KeyboardInterrupt: it
-    is raised wherever Python code runs next, and C code that calls a ``__hash__`` or a property
-    may discard the error (measured: Ctrl-C 0.15 s into ``leapfrog solve``, during numba's
-    import, was lost in about 1 run of 10, and the command ended with exit 0)."""
-    remember_ctrl_c(signum, frame)
-    raise KeyboardInterrupt
-
-
-def interrupted() -> bool:
-    """Whether Ctrl-C was pressed, even where its KeyboardInterrupt was swallowed."""
-    return _interrupted
-
-
-def exit_interrupted() -> None:
-    print("interrupted", file=sys.stderr, flush=True)
-    os._exit(130)
 
 
 def run() -> None:
     """Console entry point: the command, started under a Ctrl-C handler."""
-    signal.signal(signal.SIGINT, _on_ctrl_c)
+    signal.signal(signal.SIGINT, on_ctrl_c)
     try:
         from .main import run as run_command
     except KeyboardInterrupt:

@@ -53,21 +53,34 @@ def _run_with_bar(title: str, run, quiet: bool):
             return run(on_event)
 
 
+def _shared_options(out: str, repeat: int, repeat_help: str, case_help: str):
+    """``--out``, ``--repeat`` and ``--case``, the first options of ``paper`` and ``bench``."""
+    options = [
+        click.option("--out", "out", default=out, show_default=True, help="output folder"),
+        click.option(
+            "--repeat",
+            type=click.IntRange(min=1),
+            default=repeat,
+            show_default=True,
+            help=repeat_help,
+        ),
+        click.option("--case", "cases", type=click.IntRange(1, 4), multiple=True, help=case_help),
+    ]
+
+    def apply(command):
+        for option in reversed(options):  # the first listed comes first in --help
+            command = option(command)
+        return command
+
+    return apply
+
+
 @click.command()
-@click.option("--out", "out", default="paper-out", show_default=True, help="output folder")
-@click.option(
-    "--repeat",
-    type=click.IntRange(min=1),
-    default=5,
-    show_default=True,
-    help="timed repetitions per case and method (the median is reported)",
-)
-@click.option(
-    "--case",
-    "cases",
-    type=click.IntRange(1, 4),
-    multiple=True,
-    help="run only this paper case (repeatable)  [default: all four]",
+@_shared_options(
+    "paper-out",
+    5,
+    "timed repetitions per case and method (the median is reported)",
+    "run only this paper case (repeatable)  [default: all four]",
 )
 @click.option("--quiet", is_flag=True, help="no progress bar and no table")
 def paper(out, repeat, cases, quiet):
@@ -86,20 +99,11 @@ def paper(out, repeat, cases, quiet):
 
 
 @click.command()
-@click.option("--out", "out", default="bench-out", show_default=True, help="output folder")
-@click.option(
-    "--repeat",
-    type=click.IntRange(min=1),
-    default=3,
-    show_default=True,
-    help="timed solves after a warm-up (the median is reported)",
-)
-@click.option(
-    "--case",
-    "cases",
-    type=click.IntRange(1, 4),
-    multiple=True,
-    help="paper case to include (repeatable)  [default: all four]",
+@_shared_options(
+    "bench-out",
+    3,
+    "timed solves after a warm-up (the median is reported)",
+    "paper case to include (repeatable)  [default: all four]",
 )
 @click.option(
     "--random", "random_", type=click.IntRange(min=0), default=5, show_default=True,

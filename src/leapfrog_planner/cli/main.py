@@ -10,9 +10,9 @@ import sys
 import click
 
 from ..errors import LeapfrogError
-from . import interrupted
 from .batch import generate, report, sweep
 from .common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, err
+from .ctrl_c import interrupted
 from .experiments import bench, paper
 from .results import export, plot
 from .serve import serve

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import click
 
-from . import interrupted, remember_ctrl_c
 from .common import EXIT_OK, console, err
+from .ctrl_c import interrupted, remember_ctrl_c
 
 #: Loading cached kernels takes about 0.3 s; a warm-up still running after this is compiling.
 COMPILING_AFTER_S = 1.5

@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import write_atomic
-from ..errors import SettingsError
+from ..errors import SettingsError, require_integer
 from ..planning.scenario import Scenario, load_scenario
 from . import peers
-from .paper import PAPER_TABLE1, ExperimentEvent, machine_info, warm_up
+from .paper import ExperimentEvent, machine_info, paper_cases, warm_up
 from .peers import PeerOutcome
 from .profiling import PARTS, ProfileSplit, profile_split
 
@@ -65,25 +65,18 @@ class BenchSettings:
     profile: bool = True
 
     def __post_init__(self):
-        def integer(name, value, low):
-            if isinstance(value, bool) or int(value) != value or value < low:
-                raise SettingsError(f"{name} must be an integer >= {low}, got {value!r}")
-            return int(value)
-
-        cases = tuple(self.cases)
-        if any(c not in PAPER_TABLE1 for c in cases) or len(set(cases)) != len(cases):
-            raise SettingsError(f"cases must be distinct numbers among 1-4, got {cases!r}")
-        object.__setattr__(self, "cases", tuple(sorted(int(c) for c in cases)))
-        object.__setattr__(self, "random", integer("random", self.random, 0))
-        object.__setattr__(self, "seed", integer("seed", self.seed, 0))
-        object.__setattr__(self, "repeat", integer("repeat", self.repeat, 1))
+        cases = paper_cases(self.cases, allow_none=True)
+        object.__setattr__(self, "cases", cases)
+        object.__setattr__(self, "random", require_integer("random", self.random, 0))
+        object.__setattr__(self, "seed", require_integer("seed", self.seed, 0))
+        object.__setattr__(self, "repeat", require_integer("repeat", self.repeat, 1))
         unknown = sorted(set(self.solvers) - set(SOLVERS))
         if unknown or not self.solvers:
             raise SettingsError(
                 f"unknown solver {unknown[0] if unknown else None!r} (known: {', '.join(SOLVERS)})"
             )
         object.__setattr__(self, "solvers", tuple(s for s in SOLVERS if s in self.solvers))
-        meshes = tuple(integer("mesh", m, 2) for m in self.meshes)
+        meshes = tuple(require_integer("meshes", m, 2) for m in self.meshes)
         if not meshes:
             raise SettingsError("meshes: at least one mesh size is needed")
         object.__setattr__(self, "meshes", meshes)

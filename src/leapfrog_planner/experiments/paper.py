@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .._atomic import write_atomic
-from ..errors import SettingsError
+from ..errors import SettingsError, require_integer
 from ..planning.planner import Planner
 from ..planning.results import PlanResult
 
@@ -35,6 +35,7 @@ __all__ = [
     "PaperResult",
     "PaperSettings",
     "machine_info",
+    "paper_cases",
     "run_paper",
     "write_paper",
 ]
@@ -72,13 +73,21 @@ class PaperSettings:
     cases: tuple[int, ...] = (1, 2, 3, 4)
 
     def __post_init__(self):
-        if isinstance(self.repeat, bool) or int(self.repeat) != self.repeat or self.repeat < 1:
-            raise SettingsError(f"repeat must be a positive integer, got {self.repeat!r}")
-        cases = tuple(self.cases)
-        if not cases or any(c not in PAPER_TABLE1 for c in cases) or len(set(cases)) != len(cases):
-            raise SettingsError(f"cases must be distinct numbers among 1-4, got {cases!r}")
-        object.__setattr__(self, "cases", tuple(sorted(int(c) for c in cases)))
-        object.__setattr__(self, "repeat", int(self.repeat))
+        object.__setattr__(self, "repeat", require_integer("repeat", self.repeat))
+        object.__setattr__(self, "cases", paper_cases(self.cases))
+
+
+def paper_cases(cases, *, allow_none: bool = False) -> tuple[int, ...]:
+    """``cases`` as sorted numbers of Table 1's cases: distinct integers among 1-4, at least
+    one unless ``allow_none``."""
+    cases = tuple(cases)
+    try:
+        found = tuple(require_integer("cases", c, 1, max(PAPER_TABLE1)) for c in cases)
+    except SettingsError:
+        found = ()
+    if len(set(found)) != len(cases) or not (cases or allow_none):
+        raise SettingsError(f"cases must be distinct numbers among 1-4, got {cases!r}")
+    return tuple(sorted(found))
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ propagating its piecewise-constant controls along exact unicycle arcs.
   (the library's compiled right-hand side), from the straight line with zero costates, or from
   the first initial path of the planner with the costates that reproduce its controls.
 - ``direct-N<n>-line`` / ``-path`` / ``-paths``: CasADi/IPOPT, RK4 multiple shooting, the NLP
-  of :class:`~leapfrog_planner.experiments.direct.DirectTranscription` (built once per obstacle
+  of :class:`~leapfrog_planner.planning.direct.DirectTranscription` (built once per obstacle
   count and mesh, reused across scenarios), from the straight line, from the first initial path (the
   start of ``leapfrog-mnm-1path``), or from each of the planner's initial paths (the search of
   ``leapfrog-mnm``: one IPOPT solve per path, in one thread per path as the planner runs its
@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from ..planning.direct import cached_transcription
 from ..planning.results import validate
 from ..planning.scenario import Scenario
 
@@ -295,13 +296,6 @@ def casadi_available() -> bool:
     return True
 
 
-def _transcription(n_obstacles: int, intervals: int, slot: int = 0):
-    """Built once per (obstacle count, mesh, slot) and process: only warm solves are timed."""
-    from .direct import cached_transcription
-
-    return cached_transcription(n_obstacles, intervals, slot=slot)
-
-
 def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
     """IPOPT from the straight line (``"line"``), from the planner's first initial path
     (``"path"``), or from each of its initial paths (``"paths"``, one thread per path; the
@@ -310,7 +304,7 @@ def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
     nodes = np.linspace(0.0, sc.horizon, intervals + 1)
 
     def solve_from(states, slot=0):
-        return _transcription(n_obstacles, intervals, slot).solve(
+        return cached_transcription(n_obstacles, intervals, slot=slot).solve(
             sc.start,
             sc.goal,
             sc.horizon,
@@ -333,7 +327,7 @@ def direct_peer(sc: Scenario, intervals: int, start_from: str) -> Peer:
             states = [g[:, :3] for g in path_guesses(nodes)]
             slots = range(len(states))
             for k in slots:  # built here, not in the threads: building is not thread-safe
-                _transcription(n_obstacles, intervals, k)
+                cached_transcription(n_obstacles, intervals, slot=k)
             if len(states) == 1:
                 results = [solve_from(states[0])]
             else:
@@ -354,7 +348,7 @@ def run_direct(sc: Scenario, intervals: int, start_from: str, repeat: int) -> Pe
 
 
 def _cheapest(results: list):
-    """The cheapest successful :class:`~leapfrog_planner.experiments.direct.DirectResult` (else
+    """The cheapest successful :class:`~leapfrog_planner.planning.direct.DirectResult` (else
     the first), its message saying which path it came from and what the others did."""
     ok = [k for k, r in enumerate(results) if r.success]
     k = min(ok, key=lambda j: results[j].cost) if ok else 0

@@ -28,15 +28,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import SettingsError
+from ..errors import SettingsError, require_integer
 from ..integrate.flow import IntegratorSettings
+from ..planning.direct import cached_transcription, clear_transcriptions, richardson
 from ..planning.leapfrog import LeapfrogSettings
 from ..planning.planner import Planner
 from ..planning.results import validate
 from ..planning.scenario import Scenario, load_scenario
 from . import peers
-from .direct import clear_transcriptions, richardson
-from .paper import ExperimentEvent, machine_info, warm_up
+from .paper import ExperimentEvent, machine_info, paper_cases, warm_up
 
 MESHES = (25, 50, 100, 200, 400, 800, 1600, 3200)
 LEAPFROG_TOLS = (1e-4, 1e-6, 1e-8, 1e-10)
@@ -59,14 +59,14 @@ class WorkPrecisionSettings:
     max_solve_s: float = 10.0
 
     def __post_init__(self):
-        if not set(self.cases) <= {1, 2, 3, 4}:
-            raise SettingsError(f"cases must be among 1-4, got {self.cases!r}")
+        object.__setattr__(self, "cases", paper_cases(self.cases, allow_none=True))
         for name in ("general", "seed", "repeat"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or int(v) != v or v < (1 if name == "repeat" else 0):
-                raise SettingsError(f"{name} must be a non-negative integer, got {v!r}")
-        if not (self.meshes and min(self.meshes) >= 2):
-            raise SettingsError(f"meshes must be integers >= 2, got {self.meshes!r}")
+            v = require_integer(name, getattr(self, name), 1 if name == "repeat" else 0)
+            object.__setattr__(self, name, v)
+        meshes = tuple(require_integer("meshes", m, 2) for m in self.meshes)
+        if not meshes:
+            raise SettingsError("meshes: at least one mesh size is needed")
+        object.__setattr__(self, "meshes", meshes)
         if not self.max_solve_s > 0:
             raise SettingsError(f"max_solve_s must be > 0, got {self.max_solve_s!r}")
 
@@ -137,7 +137,7 @@ def reference(sc: Scenario) -> tuple[Reference, object]:
     for n in REFERENCE_MESHES:
         t = np.linspace(0.0, sc.horizon, n + 1)
         guess = np.column_stack([np.interp(t, tr.t, tr.x[:, i]) for i in range(3)])
-        r = peers._transcription(sc.obstacles.shape[0], n).solve(
+        r = cached_transcription(sc.obstacles.shape[0], n).solve(
             sc.start, sc.goal, sc.horizon, sc.footprint_obstacles,
             weight=sc.weight, exponent=sc.exponent,
             guess_states=guess,

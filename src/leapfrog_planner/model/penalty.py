@@ -11,23 +11,33 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
+from .grid import cell_lists, grid_layout
 
-@njit(cache=True)
-def penalty_terms(x, y, obs, weight, exponent, want_hessian):
-    """Return ``(P, Px, Py, Pxx, Pxy, Pyy)`` at ``(x, y)``; the Hessian is 0 unless asked for."""
-    P = 0.0
-    Px = 0.0
-    Py = 0.0
-    Pxx = 0.0
-    Pxy = 0.0
-    Pyy = 0.0
-    n = exponent
-    # An obstacle with s^n > 60 + ln W adds at most e^-60 = 1e-26 to P, and (s^(n-1) and 1/r
-    # factors included) below 1e-17 to its derivatives even for small discs: far below the
-    # rounding of the other terms of the canonical system. Near the paths of the paper cases,
-    # most obstacles within exp's underflow range (s^n < 746) are that far.
-    far = 60.0 + (math.log(weight) if weight > 1.0 else 0.0)
-    for j in range(obs.shape[0]):
+
+@njit(cache=True, inline="always")
+def far_bound(weight):
+    """The ``s^n`` beyond which an obstacle's term of :func:`penalty_terms` is skipped.
+
+    An obstacle with ``s^n > 60 + ln W`` adds at most ``e^-60 = 1e-26`` to P, and (``s^(n-1)``
+    and ``1/r`` factors included) below 1e-17 to its derivatives even for small discs: far below
+    the rounding of the other terms of the canonical system. Near the paths of the paper cases,
+    most obstacles within exp's underflow range (``s^n < 746``) are that far."""
+    return 60.0 + (math.log(weight) if weight > 1.0 else 0.0)
+
+
+#: The plain loop's ``items``: none, so obstacle ``k`` is the ``k``-th (a global array is a
+#: constant of the compiled code).
+_ALL = np.zeros(0, np.int64)
+
+
+@njit(cache=True, inline="always")
+def _summed_terms(x, y, obs, items, lo, hi, weight, n, want_hessian):
+    """The loop of :func:`penalty_terms` and :func:`grid_penalty_terms`: the terms of the
+    obstacles ``items[lo:hi]`` (of ``lo`` to ``hi - 1`` when ``items`` is empty), in order."""
+    P = Px = Py = Pxx = Pxy = Pyy = 0.0
+    far = far_bound(weight)
+    for k in range(lo, hi):
+        j = items[k] if items.size else k
         inv_r2 = 1.0 / (obs[j, 2] * obs[j, 2])
         dx = x - obs[j, 0]
         dy = y - obs[j, 1]
@@ -65,6 +75,12 @@ def penalty_terms(x, y, obs, weight, exponent, want_hessian):
     return P, Px, Py, Pxx, Pxy, Pyy
 
 
+@njit(cache=True)
+def penalty_terms(x, y, obs, weight, exponent, want_hessian):
+    """Return ``(P, Px, Py, Pxx, Pxy, Pyy)`` at ``(x, y)``; the Hessian is 0 unless asked for."""
+    return _summed_terms(x, y, obs, _ALL, 0, obs.shape[0], weight, exponent, want_hessian)
+
+
 class ObstacleGrid(NamedTuple):
     """The obstacles and a uniform grid over them, as the compiled kernels read them.
 
@@ -86,63 +102,20 @@ class ObstacleGrid(NamedTuple):
     exponent: int
 
 
-#: Cells per obstacle, at most.
-_CELLS_PER_OBSTACLE = 4.0
-
-
 def obstacle_grid(obstacles, weight: float, exponent: int) -> ObstacleGrid:
     """The grid of ``obstacles`` for the penalty with ``weight`` and ``exponent`` (valid for
     any weight up to ``weight``: the influence discs only shrink with the weight)."""
     obs = as_obstacle_array(obstacles).view()
     obs.setflags(write=False)  # one compiled type, whatever the caller's array
-    m = obs.shape[0]
-    far = _far(float(weight))
+    far = far_bound(float(weight))
     # s^n <= far where |p - c| <= r far^(1/2n); a little more, so that rounding loses nothing.
-    reach = obs[:, 2] * far ** (0.5 / exponent) * (1.0 + 1e-9) if m else np.zeros(0)
-    if m:
-        lo = np.min(obs[:, :2] - reach[:, None], axis=0)
-        hi = np.max(obs[:, :2] + reach[:, None], axis=0)
-    else:
-        lo, hi = np.zeros(2), np.ones(2)
-    span = np.maximum(hi - lo, 1e-12 * max(1.0, float(np.max(np.abs(hi)))))
-    typical = float(np.median(reach)) if m else 1.0
-    h = max(typical, math.sqrt(float(span[0] * span[1]) / (_CELLS_PER_OBSTACLE * max(m, 1))))
-    nx, ny = (int(min(max(math.ceil(v / h), 1), 1 << 15)) for v in span)
-    h = max(h, float(span[0]) / nx, float(span[1]) / ny)
-    reach = reach + 1e-9 * h
-    cells = []
-    for k, n in ((0, nx), (1, ny)):
-        a = np.clip(np.floor((obs[:, k] - reach - lo[k]) / h), 0, n - 1).astype(np.int64)
-        b = np.clip(np.floor((obs[:, k] + reach - lo[k]) / h), 0, n - 1).astype(np.int64)
-        cells += [a, b]
-    starts, items = _grid_lists(*cells, nx, ny)
+    reach = obs[:, 2] * far ** (0.5 / exponent) * (1.0 + 1e-9) if obs.shape[0] else np.zeros(0)
+    typical = float(np.median(reach)) if reach.size else 1.0
+    lo, h, nx, ny = grid_layout(obs[:, :2], reach, typical)
+    starts, items = cell_lists(obs[:, :2], reach + 1e-9 * h, lo, h, nx, ny)
     return ObstacleGrid(
         obs, starts, items, float(lo[0]), float(lo[1]), h, nx, ny, float(weight), int(exponent)
     )
-
-
-def _far(weight: float) -> float:
-    """The ``far`` bound of :func:`penalty_terms`."""
-    return 60.0 + (math.log(weight) if weight > 1.0 else 0.0)
-
-
-@njit(cache=True)
-def _grid_lists(ix0, ix1, iy0, iy1, nx, ny):
-    count = np.zeros(nx * ny + 1, np.int64)
-    for j in range(ix0.size):
-        for iy in range(iy0[j], iy1[j] + 1):
-            for ix in range(ix0[j], ix1[j] + 1):
-                count[iy * nx + ix + 1] += 1
-    starts = np.cumsum(count)
-    items = np.empty(starts[-1], np.int64)
-    fill = starts[:-1].copy()
-    for j in range(ix0.size):  # increasing j: each cell's list is sorted
-        for iy in range(iy0[j], iy1[j] + 1):
-            for ix in range(ix0[j], ix1[j] + 1):
-                c = iy * nx + ix
-                items[fill[c]] = j
-                fill[c] += 1
-    return starts, items
 
 
 @njit(cache=True)
@@ -155,52 +128,12 @@ def grid_penalty_terms(x, y, grid, weight, exponent, want_hessian):
     if fx != fx or fy != fy or weight > grid.weight or exponent != grid.exponent:
         # A nan point, or a grid built for another penalty: the plain loop.
         return penalty_terms(x, y, obs, weight, exponent, want_hessian)
-    P = 0.0
-    Px = 0.0
-    Py = 0.0
-    Pxx = 0.0
-    Pxy = 0.0
-    Pyy = 0.0
+    P = Px = Py = Pxx = Pxy = Pyy = 0.0
     if not (0.0 <= fx < grid.nx and 0.0 <= fy < grid.ny):
         return P, Px, Py, Pxx, Pxy, Pyy
     c = min(int(fy), grid.ny - 1) * grid.nx + min(int(fx), grid.nx - 1)
-    n = exponent
-    far = 60.0 + (math.log(weight) if weight > 1.0 else 0.0)
-    for k in range(grid.starts[c], grid.starts[c + 1]):
-        j = grid.items[k]
-        # The body of penalty_terms' loop, unchanged.
-        inv_r2 = 1.0 / (obs[j, 2] * obs[j, 2])
-        dx = x - obs[j, 0]
-        dy = y - obs[j, 1]
-        s = (dx * dx + dy * dy) * inv_r2
-        if n == 2:
-            sn1 = s
-        else:
-            sn1 = 1.0
-            for _ in range(n - 1):
-                sn1 *= s
-        if sn1 * s > far:
-            continue
-        e = weight * math.exp(-(sn1 * s))
-        if e == 0.0:
-            continue
-        P += e
-        dP_ds = -n * sn1 * e
-        sx = 2.0 * dx * inv_r2
-        sy = 2.0 * dy * inv_r2
-        Px += dP_ds * sx
-        Py += dP_ds * sy
-        if want_hessian:
-            d2 = n * n * sn1 * sn1 * e
-            if n > 1:
-                sn2 = 1.0
-                for _ in range(n - 2):
-                    sn2 *= s
-                d2 -= n * (n - 1) * sn2 * e
-            Pxx += d2 * sx * sx + dP_ds * 2.0 * inv_r2
-            Pxy += d2 * sx * sy
-            Pyy += d2 * sy * sy + dP_ds * 2.0 * inv_r2
-    return P, Px, Py, Pxx, Pxy, Pyy
+    lo, hi = grid.starts[c], grid.starts[c + 1]
+    return _summed_terms(x, y, obs, grid.items, lo, hi, weight, exponent, want_hessian)
 
 
 def penalty_at(x, y, obs, weight, exponent, want_hessian):

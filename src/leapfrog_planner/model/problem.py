@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import checks
-from ..errors import ScenarioError
+from ..errors import ScenarioError, require_integer
 from .kernels import ModelInfo, model_info
 from .penalty import ObstacleGrid, clearance, obstacle_grid
 
@@ -32,9 +32,8 @@ class ObstaclePenalty:
         obs.setflags(write=False)
         object.__setattr__(self, "obstacles", obs)
         object.__setattr__(self, "weight", checks.real(self.weight, "penalty.weight", ge=0))
-        object.__setattr__(
-            self, "exponent", checks.integer(self.exponent, "penalty.exponent", minimum=1)
-        )
+        exponent = require_integer("penalty.exponent", self.exponent, 1, error=ScenarioError)
+        object.__setattr__(self, "exponent", exponent)
 
     @property
     def grid(self) -> ObstacleGrid:

@@ -21,7 +21,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from .. import checks
-from ..errors import ScenarioError
+from ..errors import ScenarioError, describe, require_integer, short
 from ..model import MODELS
 from ..model.kernels import model_info
 from ..model.problem import OptimalControlProblem
@@ -78,7 +78,7 @@ _BUILTIN_PREFIX = "builtin:"
 
 def _key_path(prefix: str, key: Any) -> str:
     key = str(key)
-    name = key if BARE_KEY.fullmatch(key) else checks.short(key)
+    name = key if BARE_KEY.fullmatch(key) else short(key)
     return f"{prefix}.{name}" if prefix else name
 
 
@@ -103,7 +103,7 @@ class _Check:
         return self._named(checks.real, value, key, gt=gt, ge=ge)
 
     def integer(self, value: Any, key: str, *, minimum: int | None = None, maximum=None) -> int:
-        return self._named(checks.integer, value, key, minimum=minimum, maximum=maximum)
+        return self._named(require_integer, key, value, minimum, maximum, error=ScenarioError)
 
     def in_range(self, x: float, key: str, bounds: tuple[float, float]) -> float:
         return self._named(checks.in_range, x, key, *bounds)
@@ -124,19 +124,19 @@ class _Check:
 
     def string(self, value: Any, key: str) -> str:
         if not isinstance(value, str):
-            self.fail(key, f"expected a string, got {checks.describe(value)}")
+            self.fail(key, f"expected a string, got {describe(value)}")
         try:
             value.encode("utf-8")
         except UnicodeEncodeError:
-            self.fail(key, f"not valid Unicode text: {checks.short(value)}")
+            self.fail(key, f"not valid Unicode text: {short(value)}")
         return str(value)
 
     def table(self, value: Any, key: str) -> Mapping:
         if not isinstance(value, Mapping):
-            self.fail(key, f"expected a table, got {checks.describe(value)}")
+            self.fail(key, f"expected a table, got {describe(value)}")
         for k in value:
             if not isinstance(k, str):
-                self.fail(key, f"keys must be strings, got {checks.describe(k)}")
+                self.fail(key, f"keys must be strings, got {describe(k)}")
         return value
 
     def known_keys(self, table: Mapping, allowed, prefix: str, what: str = "") -> None:
@@ -310,7 +310,7 @@ class Scenario:
             expected = SOLVER_KEYS[k]
             if expected is bool:
                 if not isinstance(v, bool | np.bool_):
-                    c.fail(key, f"expected a boolean, got {checks.describe(v)}")
+                    c.fail(key, f"expected a boolean, got {describe(v)}")
                 out[k] = bool(v)
             elif expected is int:
                 out[k] = c.integer(v, key)
@@ -432,7 +432,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
     source = str(source)
     c = _Check(source)
     if not isinstance(data, Mapping):
-        c.fail("", f"expected a table of scenario keys, got {checks.describe(data)}")
+        c.fail("", f"expected a table of scenario keys, got {describe(data)}")
     c.table(data, "(top level)")
     c.known_keys(data, TOP_LEVEL_KEYS, "")
     for key in REQUIRED_KEYS:
@@ -450,16 +450,14 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
 
     raw = data.get("obstacles", [])
     if not isinstance(raw, list | tuple):
-        c.fail(
-            "obstacles", f"expected an array of tables ([[obstacles]]), got {checks.describe(raw)}"
-        )
+        c.fail("obstacles", f"expected an array of tables ([[obstacles]]), got {describe(raw)}")
     if len(raw) > checks.OBSTACLES_MAX:
         c.fail("obstacles", f"at most {checks.OBSTACLES_MAX} obstacles, got {len(raw)}")
     obstacles = np.zeros((len(raw), 3))
     for j, ob in enumerate(raw):
         key = f"obstacles[{j}]"
         if not isinstance(ob, Mapping):
-            c.fail(key, f"expected a table with center and radius, got {checks.describe(ob)}")
+            c.fail(key, f"expected a table with center and radius, got {describe(ob)}")
         c.table(ob, key)
         c.known_keys(ob, OBSTACLE_KEYS, key)
         for k in OBSTACLE_KEYS:
@@ -582,6 +580,6 @@ def load_scenario(path_or_name: str | Path) -> Scenario:
         source = _BUILTIN_PREFIX + path_or_name
         return load_scenario_text(_decode(raw, source), source)
     raise ScenarioError(
-        f"no scenario file or built-in named {checks.short(text_name, 80)}"
+        f"no scenario file or built-in named {short(text_name, 80)}"
         f" (built-ins: {', '.join(names) or 'none'})"
     )

@@ -25,6 +25,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from .._atomic import write_atomic as _write_atomic
+from ..errors import require_integer
 from ..planning.results import PlanResult
 from ..planning.scenario import Scenario
 from ..planning.status import listed_alternatives
@@ -93,9 +94,7 @@ def plot_path(
     and the junctions after the last sweep; the title says the status. ``scenario`` is a
     :class:`~leapfrog_planner.planning.scenario.Scenario` or a name/file for ``load_scenario``.
     """
-    if isinstance(arrows, bool) or int(arrows) != arrows or arrows < 0:
-        raise ValueError(f"arrows: expected an integer >= 0, got {arrows!r}")
-    arrows = int(arrows)
+    arrows = require_integer("arrows", arrows, 0, error=ValueError)
     sc = as_scenario(scenario)
     own = ax is None
     if own:

@@ -10,8 +10,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from .. import checks
-from ..errors import ScenarioError
+from ..errors import ScenarioError, describe, require_integer, short
 from ..planning.scenario import Scenario, load_scenario_text, scenario_from_dict
 
 #: The planner options the page sets, and their bounds (those of ``leapfrog solve``).
@@ -73,7 +72,7 @@ def parse_json(body: bytes) -> Any:
 
 def _object(value: Any, key: str) -> Mapping:
     if not isinstance(value, Mapping):
-        raise RequestError(f"{key}: expected a JSON object, got {checks.describe(value)}")
+        raise RequestError(f"{key}: expected a JSON object, got {describe(value)}")
     return value
 
 
@@ -81,7 +80,7 @@ def _known(table: Mapping, allowed, key: str) -> None:
     for k in table:
         if k not in allowed:
             raise RequestError(
-                f"{key}: unknown key {checks.short(str(k))} (allowed: {', '.join(allowed)})"
+                f"{key}: unknown key {short(str(k))} (allowed: {', '.join(allowed)})"
             )
 
 
@@ -91,23 +90,16 @@ def parse_options(value: Any) -> dict[str, Any]:
     options = _object({} if value is None else value, "options")
     _known(options, OPTION_KEYS, "options")
     out: dict[str, Any] = {}
-    try:
-        if "method" in options:
-            method = options["method"]
-            if method not in METHODS:
-                raise RequestError(
-                    f"options.method: unknown method {checks.describe(method)}"
-                    f" (known: {', '.join(METHODS)})"
-                )
-            out["method"] = method
-        for key, (lo, hi) in (
-            ("initial_paths", INITIAL_PATHS_RANGE),
-            ("partitions", PARTITIONS_RANGE),
-        ):
-            if key in options:
-                out[key] = checks.integer(options[key], f"options.{key}", minimum=lo, maximum=hi)
-    except ScenarioError as e:
-        raise RequestError(str(e)) from None
+    if "method" in options:
+        method = options["method"]
+        if method not in METHODS:
+            raise RequestError(
+                f"options.method: unknown method {describe(method)} (known: {', '.join(METHODS)})"
+            )
+        out["method"] = method
+    for key, (lo, hi) in (("initial_paths", INITIAL_PATHS_RANGE), ("partitions", PARTITIONS_RANGE)):
+        if key in options:
+            out[key] = require_integer(f"options.{key}", options[key], lo, hi, error=RequestError)
     return out
 
 
@@ -131,13 +123,8 @@ def parse_plan(data: Any) -> PlanRequest:
     options = parse_options(data.get("options"))
     session = data.get("session")
     if session is not None and not (isinstance(session, str) and 0 < len(session) <= MAX_SESSION):
-        raise RequestError(
-            f"request: session: expected a short string, got {checks.describe(session)}"
-        )
-    try:
-        seq = checks.integer(data.get("seq", 0), "request: seq", minimum=0, maximum=2**53)
-    except ScenarioError as e:
-        raise RequestError(str(e)) from None
+        raise RequestError(f"request: session: expected a short string, got {describe(session)}")
+    seq = require_integer("request: seq", data.get("seq", 0), 0, 2**53, error=RequestError)
     return PlanRequest(scenario, options, session, seq)
 
 
@@ -157,9 +144,9 @@ def parse_toml(data: Any) -> Scenario:
     _known(data, ("toml", "name"), "request")
     text, name = data.get("toml"), data.get("name", "scenario.toml")
     if not isinstance(text, str):
-        raise RequestError(f"request: toml: expected a string, got {checks.describe(text)}")
+        raise RequestError(f"request: toml: expected a string, got {describe(text)}")
     if not isinstance(name, str) or not name.strip():
-        raise RequestError(f"request: name: expected a file name, got {checks.describe(name)}")
+        raise RequestError(f"request: name: expected a file name, got {describe(name)}")
     try:
         return load_scenario_text(text, name.strip()[:200])
     except ScenarioError as e:

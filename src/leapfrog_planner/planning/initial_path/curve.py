@@ -4,11 +4,12 @@ parametrised by normalised arclength (compiled loops for its tables and evaluati
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-_TWO_PI = 2.0 * math.pi
+TWO_PI = 2.0 * math.pi
 #: Target number of grid intervals of the arclength table (more for long polylines).
 _GRID_INTERVALS = 512
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(3)
@@ -23,11 +24,22 @@ _NO_LEGS = np.zeros(0, dtype=np.int64)
 # products with the Gauss-Legendre weights (BLAS) stay NumPy's.
 
 
+class Hermite(NamedTuple):
+    """The legs of a cubic Hermite spline, as the compiled loops read them: leg ``i`` runs over
+    ``[knots[i], knots[i + 1]]``, ``width[i]`` long, with coefficients ``coef[i, :, d]`` of
+    ``p_d(t) = c0 + c1 t + c2 t^2 + c3 t^3`` in ``t`` from 0 to 1."""
+
+    knots: np.ndarray  # (n + 1,)
+    width: np.ndarray  # (n,)
+    coef: np.ndarray  # (n, 4, 2)
+
+
 @njit(cache=True)
-def _hermite_at(knots, width, coef, i, u, deriv, out, r):
+def _hermite_at(spline, i, u, deriv, out, r):
     """Point (``deriv = 0``) or ``dp/du`` (1) of leg ``i`` at parameter ``u``, into ``out[r]``."""
-    h = width[i]
-    t = (u - knots[i]) / h
+    coef = spline.coef
+    h = spline.width[i]
+    t = (u - spline.knots[i]) / h
     for d in range(2):
         c0, c1, c2, c3 = coef[i, 0, d], coef[i, 1, d], coef[i, 2, d], coef[i, 3, d]
         if deriv == 0:
@@ -43,17 +55,17 @@ def _interval_of(grid, u):
 
 
 @njit(cache=True)
-def _hermite_eval(knots, width, coef, u, legs, xy, d):
+def _hermite_eval(spline, u, legs, xy, d):
     """Points and ``dp/du`` at parameters ``u`` in legs ``legs`` (empty: found by bisection)."""
     for r in range(u.size):
-        i = legs[r] if legs.size else _interval_of(knots, u[r])
-        _hermite_at(knots, width, coef, i, u[r], 0, xy, r)
-        _hermite_at(knots, width, coef, i, u[r], 1, d, r)
+        i = legs[r] if legs.size else _interval_of(spline.knots, u[r])
+        _hermite_at(spline, i, u[r], 0, xy, r)
+        _hermite_at(spline, i, u[r], 1, d, r)
 
 
 @njit(cache=True)
 def _spline(pts, m_first, m_last, intervals, gl_x):
-    """Hermite legs through ``pts`` and the arclength grid of :class:`_SmoothCurve`.
+    """Hermite legs through ``pts`` and the arclength grid of :class:`SmoothCurve`.
 
     Returns the leg lengths, the knots (cumulative chord length), the coefficients, the grid
     parameters (about ``intervals`` in all, at least two per leg), their legs, the half widths
@@ -105,11 +117,12 @@ def _spline(pts, m_first, m_last, intervals, gl_x):
     half = np.empty(total)
     speed = np.empty((total, gl_x.size))
     d = np.empty((1, 2))
+    spline = Hermite(x, legs, coef)
     for r in range(total):
         half[r] = 0.5 * (u[r + 1] - u[r])
         mid = 0.5 * (u[r + 1] + u[r])
         for q in range(gl_x.size):
-            _hermite_at(x, legs, coef, leg[r], mid + half[r] * gl_x[q], 1, d, 0)
+            _hermite_at(spline, leg[r], mid + half[r] * gl_x[q], 1, d, 0)
             speed[r, q] = math.hypot(d[0, 0], d[0, 1])
     return legs, x, coef, u, leg, half, speed
 
@@ -136,8 +149,8 @@ def _unwrap(p):
 
 
 @njit(cache=True)
-def _newton_nodes(knots, width, coef, u_grid, cum, target, u, gl_x):
-    """For :meth:`_SmoothCurve.parameter`: per parameter ``u`` (an estimate of the arclength
+def _newton_nodes(spline, u_grid, cum, target, u, gl_x):
+    """For :meth:`SmoothCurve.parameter`: per parameter ``u`` (an estimate of the arclength
     ``target``), its grid interval, the speed ``|dp/du|`` there, and the half width and the
     speeds at the Gauss-Legendre nodes of the part of the interval below ``u``."""
     n = u.size
@@ -148,21 +161,21 @@ def _newton_nodes(knots, width, coef, u_grid, cum, target, u, gl_x):
     d = np.empty((1, 2))
     for r in range(n):
         i[r] = _interval_of(cum, target[r])
-        _hermite_at(knots, width, coef, _interval_of(knots, u[r]), u[r], 1, d, 0)
+        _hermite_at(spline, _interval_of(spline.knots, u[r]), u[r], 1, d, 0)
         speed[r] = math.hypot(d[0, 0], d[0, 1])
         a = u_grid[i[r]]
         half[r] = 0.5 * (u[r] - a)
         mid = 0.5 * (u[r] + a)
         for q in range(gl_x.size):
             v = mid + half[r] * gl_x[q]
-            _hermite_at(knots, width, coef, _interval_of(knots, v), v, 1, d, 0)
+            _hermite_at(spline, _interval_of(spline.knots, v), v, 1, d, 0)
             node_speed[r, q] = math.hypot(d[0, 0], d[0, 1])
     return i, speed, half, node_speed
 
 
 @njit(cache=True)
 def _newton_step(u_grid, cum, target, u, i, speed, half, weighted):
-    """The Newton step of :meth:`_SmoothCurve.parameter` (none where the speed is 0), clipped
+    """The Newton step of :meth:`SmoothCurve.parameter` (none where the speed is 0), clipped
     to the grid interval like ``np.clip``."""
     out = np.empty(u.size)
     for r in range(u.size):
@@ -176,7 +189,7 @@ def _newton_step(u_grid, cum, target, u, i, speed, half, weighted):
     return out
 
 
-class _SmoothCurve:
+class SmoothCurve:
     """A C1 cubic Hermite curve through a polyline, parametrised by normalised arclength.
 
     The spline parameter ``u`` is cumulative chord length along the polyline; ``dp/du`` is the
@@ -184,10 +197,8 @@ class _SmoothCurve:
     """
 
     __slots__ = (
-        "knots",
+        "spline",
         "points",
-        "coef",
-        "width",
         "u_grid",
         "cum",
         "phi",
@@ -215,12 +226,12 @@ class _SmoothCurve:
             )
             degenerate = not x[-1] > 0.0
         if degenerate:  # start and goal at the same place
-            self.knots = None
+            self.spline = None
             self.length = 0.0
             self.delta = self.theta1 - self.theta0
             self.samples = pts[:1].copy()
             return
-        self.knots, self.width, self.coef = x, legs, coef
+        self.spline = Hermite(x, legs, coef)
 
         # Arclength table on a grid that is dense in every polyline leg (Gauss-Legendre).
         self.cum = np.concatenate(([0.0], np.cumsum((speed @ _GL_W) * half)))
@@ -230,7 +241,7 @@ class _SmoothCurve:
 
         # Tangent angle, unwrapped along the grid and starting on the branch of theta0.
         phi = _unwrap(np.arctan2(d[:, 1], d[:, 0]))
-        phi += _TWO_PI * np.round((self.theta0 - phi[0]) / _TWO_PI)
+        phi += TWO_PI * np.round((self.theta0 - phi[0]) / TWO_PI)
         self.phi = phi
         # theta1 - phi[-1] is a multiple of 2 pi (up to rounding): the number of extra turns the
         # goal heading asks for beyond the curve's own turning. It is spread linearly over s.
@@ -242,7 +253,7 @@ class _SmoothCurve:
         """Points and ``dp/du`` at parameters ``u`` in legs ``i`` (default: found by bisection)."""
         xy = np.empty((u.size, 2))
         d = np.empty((u.size, 2))
-        _hermite_eval(self.knots, self.width, self.coef, u, _NO_LEGS if i is None else i, xy, d)
+        _hermite_eval(self.spline, u, _NO_LEGS if i is None else i, xy, d)
         return xy, d
 
     def parameter(self, s: np.ndarray) -> np.ndarray:
@@ -250,7 +261,7 @@ class _SmoothCurve:
         target = s * self.length
         u = np.interp(target, self.cum, self.u_grid)
         i, speed, half, node_speed = _newton_nodes(
-            self.knots, self.width, self.coef, self.u_grid, self.cum, target, u, _GL_X
+            self.spline, self.u_grid, self.cum, target, u, _GL_X
         )
         # The weighted sums (a BLAS product, which may depend on the rows it gets) of exactly
         # the rows that need them.
@@ -263,12 +274,12 @@ class _SmoothCurve:
         return _newton_step(self.u_grid, self.cum, target, u, i, speed, half, weighted)
 
     def evaluate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self.knots is None:
+        if self.spline is None:
             xy = np.repeat(self.points[:1], s.size, axis=0)
             return xy, self.theta0 + s * self.delta
         u = self.parameter(s)
         xy, d = self._eval(u)
         raw = np.arctan2(d[:, 1], d[:, 0])
         near = np.interp(u, self.u_grid, self.phi)
-        phi = raw + _TWO_PI * np.round((near - raw) / _TWO_PI)
+        phi = raw + TWO_PI * np.round((near - raw) / TWO_PI)
         return xy, phi + s * self.delta

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .curve import _TWO_PI, _SmoothCurve
-from .geometry import _cross, _signature
+from .curve import TWO_PI, SmoothCurve
+from .geometry import cross, homotopy_signature
 
 #: A start (goal) heading more than 90 degrees off the first (last) leg's direction gets a
 #: turning arc (cosine of that angle), sampled every 30 degrees at most.
@@ -51,13 +51,13 @@ class EndModes:
 FORWARD = EndModes()
 
 
-class _Drive:
+class Drive:
     """A smooth curve driven at constant speed: heading = tangent direction minus ``offset``
     (pi when reversing)."""
 
     __slots__ = ("curve", "offset")
 
-    def __init__(self, curve: _SmoothCurve, offset: float = 0.0):
+    def __init__(self, curve: SmoothCurve, offset: float = 0.0):
         self.curve, self.offset = curve, float(offset)
 
     @property
@@ -73,7 +73,7 @@ class _Drive:
         return xy, (th - self.offset if self.offset else th)
 
 
-class _Turn:
+class Turn:
     """A turn in place at ``xy`` from heading ``theta0`` to ``theta1``."""
 
     __slots__ = ("xy", "theta0", "theta1")
@@ -95,9 +95,9 @@ class _Turn:
         ) * u
 
 
-class _PoseCurve:
+class PoseCurve:
     """Poses ``(x, y, heading)`` at normalised time ``s`` along a sequence of pieces, each a
-    drive along a smooth curve (:class:`_Drive`) or a turn in place (:class:`_Turn`).
+    drive along a smooth curve (:class:`Drive`) or a turn in place (:class:`Turn`).
 
     Time is shared in proportion to the unicycle's own metric (its cost is ``1/2 (v^2 +
     omega^2)``): a turn of ``rho`` radians takes the time of ``rho`` units of path. A single
@@ -107,7 +107,7 @@ class _PoseCurve:
     __slots__ = ("pieces", "shares", "length", "samples")
 
     def __init__(self, pieces: list):
-        pieces = [p for p in pieces if not (isinstance(p, _Turn) and p.metric == 0.0)]
+        pieces = [p for p in pieces if not (isinstance(p, Turn) and p.metric == 0.0)]
         self.pieces = pieces
         metric = np.array([p.metric for p in pieces])
         total = metric.sum()
@@ -116,7 +116,7 @@ class _PoseCurve:
             cum = np.linspace(0.0, 1.0, len(pieces) + 1)
         cum[-1] = 1.0
         self.shares = cum
-        self.length = float(sum(p.metric for p in pieces if isinstance(p, _Drive)))
+        self.length = float(sum(p.metric for p in pieces if isinstance(p, Drive)))
         self.samples = np.vstack([p.samples for p in pieces])
 
     def evaluate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -151,12 +151,12 @@ def _turn_options(poly: np.ndarray, theta: float, frac: float) -> list[np.ndarra
     n = np.array([-e[1], e[0]])
     rho = frac * ell
     out = []
-    for side in (1.0, -1.0) if _cross(e, leg) >= 0.0 else (-1.0, 1.0):
+    for side in (1.0, -1.0) if cross(e, leg) >= 0.0 else (-1.0, 1.0):
         centre = poly[0] + side * rho * n
         w = poly[1] - centre
         tangent = math.atan2(w[1], w[0]) - side * math.acos(rho / math.hypot(*w))
         phi0 = math.atan2(-side * n[1], -side * n[0])
-        span = (side * (tangent - phi0)) % _TWO_PI
+        span = (side * (tangent - phi0)) % TWO_PI
         pieces = max(2, math.ceil(span / _TURN_STEP))
         phi = phi0 + side * span * np.arange(1, pieces + 1) / pieces
         arc = centre + rho * np.column_stack([np.cos(phi), np.sin(phi)])
@@ -164,7 +164,7 @@ def _turn_options(poly: np.ndarray, theta: float, frac: float) -> list[np.ndarra
     return out
 
 
-def _with_turns(poly, h0, h1, obs, tol, signature) -> tuple[np.ndarray, tuple[int, ...] | None]:
+def with_turns(poly, h0, h1, obs, tol, signature) -> tuple[np.ndarray, tuple[int, ...] | None]:
     """``poly`` with the turning arcs that the end tangent directions ``h0``, ``h1`` need, in the
     homotopy class ``signature`` (when given: smaller arcs are tried when the larger ones would
     change it, and none are added when no choice of sides and sizes keeps it), and its signature
@@ -176,7 +176,7 @@ def _with_turns(poly, h0, h1, obs, tol, signature) -> tuple[np.ndarray, tuple[in
             for last in _turn_options(first[::-1], h1 + math.pi, frac):
                 if signature is None:
                     return np.ascontiguousarray(last[::-1]), None
-                if _signature(last[::-1], obs, tol) == signature:
+                if homotopy_signature(last[::-1], obs, tol) == signature:
                     return np.ascontiguousarray(last[::-1]), signature
     return poly, None
 
@@ -187,9 +187,9 @@ def _points_away(leg: np.ndarray, theta: float) -> bool:
     return ell > 0.0 and math.cos(theta) * leg[0] + math.sin(theta) * leg[1] < _TURN_COS * ell
 
 
-def _near_branch(angle: float, target: float) -> float:
+def near_branch(angle: float, target: float) -> float:
     """``angle`` plus the whole turns that bring it within pi of ``target``."""
-    return angle + _TWO_PI * round((target - angle) / _TWO_PI)
+    return angle + TWO_PI * round((target - angle) / TWO_PI)
 
 
 def end_modes(poly: np.ndarray, start, goal) -> list[EndModes]:
@@ -221,5 +221,5 @@ def points_away(start, goal) -> bool:
     return len(end_modes(chord, start, goal)) > 1
 
 
-def _direction(v: np.ndarray) -> float:
+def angle_of(v: np.ndarray) -> float:
     return math.atan2(v[1], v[0])

@@ -1,5 +1,5 @@
-"""Input checks and the geometry of polylines and discs: distances, clearance, homotopy
-signatures."""
+"""The geometry of polylines and discs: distances, clearance, homotopy signatures; and the end
+states and the length tolerance of a path's input."""
 
 from __future__ import annotations
 
@@ -10,37 +10,18 @@ import numpy as np
 from numba import njit
 
 from ... import checks
-from ...errors import ScenarioError
-from .curve import _TWO_PI
+from .curve import TWO_PI
 
 # --------------------------------------------------------------------------- validation
 
 
-def _fmt(p) -> str:
-    return "[" + ", ".join(repr(float(v)) for v in p) + "]"
-
-
-def _real(value, key: str, error=ScenarioError) -> float:
-    return checks.real(value, key, error=error)
-
-
-def _state(value, key: str) -> np.ndarray:
+def end_state(value, key: str) -> np.ndarray:
+    """A start or goal ``[x, y, heading]``, checked."""
     return checks.vector(value, 3, key, " [x, y, heading]")
 
 
-def _rows(value, n: int, key: str, what: str) -> np.ndarray:
-    return checks.rows(value, n, key, what)
-
-
-def _obstacles(value) -> np.ndarray:
-    return checks.obstacles(value)
-
-
-def _check_outside(p: np.ndarray, key: str, obs: np.ndarray) -> None:
-    checks.outside(p, key, obs)
-
-
-def _tolerance(S: np.ndarray, G: np.ndarray, obs: np.ndarray) -> float:
+def tolerance(S: np.ndarray, G: np.ndarray, obs: np.ndarray) -> float:
+    """The length below which two points of a path count as one: 1e-9 of the problem's scale."""
     scale = max(1.0, float(np.max(np.abs(S[:2]))), float(np.max(np.abs(G[:2]))))
     if obs.shape[0]:
         scale = max(scale, float(np.max(np.abs(obs))))
@@ -50,16 +31,16 @@ def _tolerance(S: np.ndarray, G: np.ndarray, obs: np.ndarray) -> float:
 # --------------------------------------------------------------------------- geometry helpers
 
 
-def _rot(u: np.ndarray, angle: np.ndarray) -> np.ndarray:
+def rotate(u: np.ndarray, angle: np.ndarray) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     return np.stack([u[..., 0] * c - u[..., 1] * s, u[..., 0] * s + u[..., 1] * c], axis=-1)
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
-def _segment_distance(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+def segment_distance(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Distances ``(E, M)`` from points ``c`` ``(M, 2)`` to segments ``a -> b`` ``(E, 2)``."""
     out = np.empty((a.shape[0], c.shape[0]))
     _segment_distance_loops(a, b, c, out)
@@ -84,7 +65,7 @@ def _segment_distance_loops(a, b, c, out):
             out[e, j] = math.hypot(acx - t * abx, acy - t * aby)
 
 
-def _clean(poly: np.ndarray, S2: np.ndarray, G2: np.ndarray, tol: float) -> np.ndarray:
+def clean_polyline(poly: np.ndarray, S2: np.ndarray, G2: np.ndarray, tol: float) -> np.ndarray:
     """Drop repeated vertices; make the ends exactly the start and goal positions."""
     keep = np.ones(poly.shape[0], bool)
     keep[1:] = np.hypot(*np.diff(poly, axis=0).T) > tol
@@ -98,23 +79,23 @@ def _clean(poly: np.ndarray, S2: np.ndarray, G2: np.ndarray, tol: float) -> np.n
     return out
 
 
-def _midpoints(poly: np.ndarray) -> np.ndarray:
+def midpoints(poly: np.ndarray) -> np.ndarray:
     out = np.empty((2 * poly.shape[0] - 1, 2))
     out[0::2] = poly
     out[1::2] = 0.5 * (poly[:-1] + poly[1:])
     return out
 
 
-def _signature(poly: np.ndarray, obs: np.ndarray, tol: float) -> tuple[int, ...]:
+def homotopy_signature(poly: np.ndarray, obs: np.ndarray, tol: float) -> tuple[int, ...]:
     """Winding numbers of (polyline + reversed chord) round each obstacle centre."""
     if obs.shape[0] == 0:
         return ()
     cr, dt = _turn_terms(np.ascontiguousarray(poly), obs)  # one compiled variant
     turn = np.arctan2(cr, dt).sum(axis=1)
-    return tuple(_close_and_round(turn, poly[0], poly[-1], obs, tol).tolist())
+    return tuple(close_and_round(turn, poly[0], poly[-1], obs, tol).tolist())
 
 
-def _close_and_round(turn: np.ndarray, S2, G2, C: np.ndarray, tol: float) -> np.ndarray:
+def close_and_round(turn: np.ndarray, S2, G2, C: np.ndarray, tol: float) -> np.ndarray:
     """Winding numbers round the centres ``C[:, :2]`` of paths that turn by ``turn`` (shape
     ``(..., m)``) seen from them, closed by the straight chord back from goal to start.
 
@@ -147,13 +128,13 @@ def _turn_terms(poly, C):
 
 @njit(cache=True)
 def _round_winding(turn, cr, dt, closing, bound):
-    # The end of _close_and_round: per centre, on the chord (cross product within ``bound``
+    # The end of close_and_round: per centre, on the chord (cross product within ``bound``
     # and behind) or not; then sign(w) floor(|w| + 1/2, or 3/4 on the chord).
     out = np.empty(turn.shape, np.int64)
     for j in range(turn.shape[1]):
         on = abs(cr[j]) <= bound and dt[j] < 0.0
         for p in range(turn.shape[0]):
-            w = (turn[p, j] + (0.0 if on else closing[j])) / _TWO_PI
+            w = (turn[p, j] + (0.0 if on else closing[j])) / TWO_PI
             out[p, j] = np.int64(np.sign(w) * np.floor(abs(w) + (0.75 if on else 0.5)))
     return out
 
@@ -162,7 +143,7 @@ def _round_winding(turn, cr, dt, closing, bound):
 _CLEARANCE_CHUNK = 256
 
 
-def _clearance(xy: np.ndarray, obs: np.ndarray) -> float:
+def smallest_clearance(xy: np.ndarray, obs: np.ndarray) -> float:
     """The smallest distance of the points ``xy`` to an obstacle edge (nan if any is nan):
     the minimum of the same terms as the plain loop, taken over the obstacles whose centres
     are near enough to matter (found with a k-d tree)."""

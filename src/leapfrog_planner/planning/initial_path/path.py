@@ -4,33 +4,29 @@ signature and clearance."""
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ...errors import ScenarioError, SettingsError
-from .curve import _SmoothCurve
+from ... import checks
+from ...errors import ScenarioError, SettingsError, require_integer
+from .curve import SmoothCurve
 from .ends import (
     FORWARD,
+    Drive,
     EndModes,
-    _direction,
-    _Drive,
-    _near_branch,
-    _PoseCurve,
-    _Turn,
-    _with_turns,
+    PoseCurve,
+    Turn,
+    angle_of,
+    near_branch,
+    with_turns,
 )
 from .geometry import (
-    _clean,
-    _clearance,
-    _fmt,
-    _obstacles,
-    _real,
-    _rows,
-    _signature,
-    _state,
-    _tolerance,
+    clean_polyline,
+    end_state,
+    homotopy_signature,
+    smallest_clearance,
+    tolerance,
 )
 
 
@@ -54,7 +50,7 @@ class InitialPath:
     label: str
     start: np.ndarray = field(repr=False)
     goal: np.ndarray = field(repr=False)
-    _curve: _PoseCurve = field(repr=False)
+    _curve: PoseCurve = field(repr=False)
     modes: EndModes = FORWARD
 
     @classmethod
@@ -67,20 +63,21 @@ class InitialPath:
         The first and last vertex must be the start and goal positions (they are set to exactly
         those). ``signature`` and ``min_clearance`` refer to ``obstacles`` (rows ``[cx, cy, r]``).
         """
-        S = _state(start, "start")
-        G = _state(goal, "goal")
-        obs = _obstacles(obstacles)
-        poly = _rows(polyline, 2, "polyline", "x, y")
+        S = end_state(start, "start")
+        G = end_state(goal, "goal")
+        obs = checks.obstacles(obstacles)
+        poly = checks.rows(polyline, 2, "polyline", "x, y")
         if poly.shape[0] < 2:
             raise ScenarioError(f"polyline: expected at least 2 vertices, got {poly.shape[0]}")
-        tol = _tolerance(S, G, obs)
+        tol = tolerance(S, G, obs)
         for key, p, end in (("first", poly[0], S), ("last", poly[-1], G)):
             if math.hypot(*(p - end[:2])) > tol:
                 what = "start" if key == "first" else "goal"
+                at, want = checks.fmt_point(p), checks.fmt_point(end[:2])
                 raise ScenarioError(
-                    f"polyline: {key} vertex {_fmt(p)} is not the {what} position {_fmt(end[:2])}"
+                    f"polyline: {key} vertex {at} is not the {what} position {want}"
                 )
-        return _make_path(_clean(poly, S[:2], G[:2], tol), S, G, obs, label, tol)
+        return smooth_path(clean_polyline(poly, S[:2], G[:2], tol), S, G, obs, label, tol)
 
     def curve(self, s) -> tuple[np.ndarray, np.ndarray]:
         """Points ``(n, 2)`` and headings ``(n,)`` of the path at normalised time ``s``.
@@ -105,13 +102,11 @@ class InitialPath:
         The times are uniform on ``[t0, t0 + horizon]`` and the junctions uniform in arclength.
         ``X[0]`` and ``X[-1]`` are exactly the start and goal states.
         """
-        if isinstance(q, bool) or not isinstance(q, numbers.Integral) or q < 1:
-            raise SettingsError(f"q: expected an integer >= 1, got {q!r}")
-        horizon = _real(horizon, "horizon", SettingsError)
-        t0 = _real(t0, "t0", SettingsError)
+        q = require_integer("q", q)
+        horizon = checks.real(horizon, "horizon", error=SettingsError)
+        t0 = checks.real(t0, "t0", error=SettingsError)
         if not horizon > 0.0:
             raise SettingsError(f"horizon: must be > 0, got {horizon!r}")
-        q = int(q)
         frac = np.arange(q + 1, dtype=np.float64) / q
         frac[-1] = 1.0
         t = t0 + horizon * frac
@@ -144,30 +139,30 @@ class _Retimed:
         return self.base.evaluate(np.interp(s, self.grid, self.sigma))
 
 
-def _make_path(poly, S, G, obs, label, tol, signature=None, modes=FORWARD) -> InitialPath:
+def smooth_path(poly, S, G, obs, label, tol, signature=None, modes=FORWARD) -> InitialPath:
     """Smooth ``poly`` for ``modes`` (adding turning arcs where the curve's end directions point
     away from it)."""
     offset = math.pi if modes.reverse else 0.0
     h0, h1 = S[2] + offset, G[2] + offset  # the curve's tangent direction at its ends
     if modes.turn_start and poly.shape[0] >= 2:
-        h0 = _near_branch(_direction(poly[1] - poly[0]), h0)
+        h0 = near_branch(angle_of(poly[1] - poly[0]), h0)
     if modes.turn_goal and poly.shape[0] >= 2:
-        h1 = _near_branch(_direction(poly[-1] - poly[-2]), h1)
-    poly, sig = _with_turns(poly, h0, h1, obs, tol, signature)
-    pieces = [_Turn(S, S[2], h0 - offset), _Drive(_SmoothCurve(poly, h0, h1), offset)]
-    pieces.append(_Turn(G, h1 - offset, G[2]))
-    return _path(poly, _PoseCurve(pieces), S, G, obs, label, tol, sig, modes)
+        h1 = near_branch(angle_of(poly[-1] - poly[-2]), h1)
+    poly, sig = with_turns(poly, h0, h1, obs, tol, signature)
+    pieces = [Turn(S, S[2], h0 - offset), Drive(SmoothCurve(poly, h0, h1), offset)]
+    pieces.append(Turn(G, h1 - offset, G[2]))
+    return path_from_curve(poly, PoseCurve(pieces), S, G, obs, label, tol, sig, modes)
 
 
-def _path(poly, curve, S, G, obs, label, tol, signature, modes) -> InitialPath:
+def path_from_curve(poly, curve, S, G, obs, label, tol, signature, modes) -> InitialPath:
     poly = poly.copy()
     for arr in (poly, S, G):
         arr.setflags(write=False)
     return InitialPath(
         polyline=poly,
         length=curve.length,
-        signature=_signature(poly, obs, tol) if signature is None else signature,
-        min_clearance=_clearance(curve.samples, obs),
+        signature=homotopy_signature(poly, obs, tol) if signature is None else signature,
+        min_clearance=smallest_clearance(curve.samples, obs),
         label=label,
         start=S,
         goal=G,

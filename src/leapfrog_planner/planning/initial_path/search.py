@@ -4,39 +4,34 @@ ways of meeting the end poses, three-point turns and waypoint paths."""
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ...errors import ScenarioError
-from .curve import _SmoothCurve
+from ... import checks
+from ...errors import ScenarioError, require_integer
+from .curve import SmoothCurve
 from .ends import (
     FORWARD,
+    Drive,
     EndModes,
-    _direction,
-    _Drive,
-    _near_branch,
-    _PoseCurve,
-    _Turn,
-    _with_turns,
+    PoseCurve,
+    Turn,
+    angle_of,
     end_modes,
+    near_branch,
     points_away,
+    with_turns,
 )
 from .geometry import (
-    _check_outside,
-    _clean,
-    _fmt,
-    _midpoints,
-    _obstacles,
-    _real,
-    _rows,
-    _segment_distance,
-    _state,
-    _tolerance,
+    clean_polyline,
+    end_state,
+    midpoints,
+    segment_distance,
+    tolerance,
 )
-from .path import InitialPath, _make_path, _path
-from .tangent_graph import _TangentGraph
+from .path import InitialPath, path_from_curve, smooth_path
+from .tangent_graph import TangentGraph
 
 #: At most this many obstacles get barrier rays (``2**MAX_RELEVANT`` Dijkstra runs).
 MAX_RELEVANT = 6
@@ -104,17 +99,17 @@ def _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse) -> InitialPath:
     (heading = tangent - ``off1``) to the goal."""
     first, second = _route(S[:2], C, obs, margin, tol), _route(C, G[:2], obs, margin, tol)
     h0 = S[2] + off0
-    first, _ = _with_turns(first, h0, _direction(first[-1] - first[-2]), obs, tol, None)
-    one = _SmoothCurve(first, h0, _direction(first[-1] - first[-2]), free_end=True)
+    first, _ = with_turns(first, h0, angle_of(first[-1] - first[-2]), obs, tol, None)
+    one = SmoothCurve(first, h0, angle_of(first[-1] - first[-2]), free_end=True)
     at_cusp = one.theta1 - off0  # the heading on arriving at the cusp
-    h2 = _near_branch(_direction(second[1] - second[0]), at_cusp + off1)
+    h2 = near_branch(angle_of(second[1] - second[0]), at_cusp + off1)
     h3 = G[2] + off1
-    second, _ = _with_turns(second, h2, h3, obs, tol, None)
-    two = _SmoothCurve(second, h2, h3)
-    pieces = [_Drive(one, off0), _Turn(C, at_cusp, h2 - off1), _Drive(two, off1)]
+    second, _ = with_turns(second, h2, h3, obs, tol, None)
+    two = SmoothCurve(second, h2, h3)
+    pieces = [Drive(one, off0), Turn(C, at_cusp, h2 - off1), Drive(two, off1)]
     poly = np.vstack([first, second[1:]])
     modes = EndModes(reverse=reverse, cusp=True)
-    return _path(poly, _PoseCurve(pieces), S, G, obs, "", tol, None, modes)
+    return path_from_curve(poly, PoseCurve(pieces), S, G, obs, "", tol, None, modes)
 
 
 # --------------------------------------------------------------------------- planning
@@ -126,7 +121,7 @@ class _Candidate:
     graph_length: float
     nodes: np.ndarray
     order: int
-    graph: _TangentGraph = field(repr=False)
+    graph: TangentGraph = field(repr=False)
 
     @property
     def polyline(self) -> np.ndarray:
@@ -189,8 +184,8 @@ def _barriers(S2, G2, C, R, shortest_path, shortest, index, tol) -> np.ndarray:
     chord = G2 - S2
     e = chord / math.hypot(*chord)
     proj = (C - S2) @ e
-    to_chord = _segment_distance(S2[None, :], G2[None, :], C)[0]
-    to_path = _segment_distance(shortest_path[:-1], shortest_path[1:], C).min(axis=0)
+    to_chord = segment_distance(S2[None, :], G2[None, :], C)[0]
+    to_path = segment_distance(shortest_path[:-1], shortest_path[1:], C).min(axis=0)
     relevance = np.minimum(to_chord, to_path) - R
     L = math.hypot(*chord)
     pick = np.flatnonzero((proj > tol) & (proj < L - tol) & (relevance < shortest))
@@ -213,7 +208,7 @@ def _plan_among(
     S2, G2 = S[:2], G[:2]
     C = obs[:, :2]
     R = _inflated(obs, S2, G2, margin)[0]
-    graph = _TangentGraph(S2, G2, C, R, tol)
+    graph = TangentGraph(S2, G2, C, R, tol)
     lengths, paths, plen = graph.search(np.zeros(graph.src.size, np.int64), np.zeros(1, np.int64))
     if not np.isfinite(lengths[0]):
         return None
@@ -280,12 +275,12 @@ def _smooth_best(poly: np.ndarray, S, G, obs, tol, signature=None, modes=FORWARD
     """The first smoothing with non-negative clearance, else the one with the best clearance."""
     best = None
     for _ in range(_MIDPOINT_ROUNDS + 1):
-        path = _make_path(poly, S, G, obs, "", tol, signature, modes)
+        path = smooth_path(poly, S, G, obs, "", tol, signature, modes)
         if path.min_clearance >= 0.0:
             return path
         if best is None or path.min_clearance > best.min_clearance:
             best = path
-        poly = _midpoints(poly)
+        poly = midpoints(poly)
     return best
 
 
@@ -313,24 +308,24 @@ def initial_paths(
     :class:`ScenarioError` for invalid input, an end (or waypoint) inside an obstacle, or when
     no collision-free path exists (even with margin 0).
     """
-    S = _state(start, "start")
-    G = _state(goal, "goal")
-    obs = _obstacles(obstacles)
-    if isinstance(k, bool | np.bool_) or not isinstance(k, numbers.Integral) or k < 1:
-        raise ScenarioError(f"k: expected an integer >= 1, got {k!r}")
-    margin = _real(margin, "margin")
+    S = end_state(start, "start")
+    G = end_state(goal, "goal")
+    obs = checks.obstacles(obstacles)
+    k = require_integer("k", k, error=ScenarioError)
+    margin = checks.real(margin, "margin")
     if margin < 0.0:
         raise ScenarioError(f"margin: must be >= 0, got {margin!r}")
-    wps = None if waypoints is None else _rows(waypoints, 2, "waypoints", "x, y")
-    _check_outside(S, "start", obs)
-    _check_outside(G, "goal", obs)
+    wps = None if waypoints is None else checks.rows(waypoints, 2, "waypoints", "x, y")
+    checks.outside(S, "start", obs)
+    checks.outside(G, "goal", obs)
     if wps is not None:
         for i, w in enumerate(wps):
-            _check_outside(w, f"waypoints[{i}]", obs)
-    tol = _tolerance(S, G, obs)
+            checks.outside(w, f"waypoints[{i}]", obs)
+    tol = tolerance(S, G, obs)
 
     if wps is not None and wps.shape[0]:
-        poly = _clean(_through(np.vstack([S[:2], wps, G[:2]]), obs, margin, tol), S[:2], G[:2], tol)
+        poly = _through(np.vstack([S[:2], wps, G[:2]]), obs, margin, tol)
+        poly = clean_polyline(poly, S[:2], G[:2], tol)
         variants = [_smooth_best(poly, S, G, obs, tol, None, m) for m in end_modes(poly, S, G)]
         return [
             _relabel(p, ", ".join(filter(None, ("waypoints", p.modes.describe()))))
@@ -339,22 +334,23 @@ def initial_paths(
 
     used = None
     for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
-        cands = _plan(S, G, obs, m, int(k), tol)
+        cands = _plan(S, G, obs, m, k, tol)
         if cands is not None:
             used = m
             break
     else:
         raise ScenarioError(
-            f"no collision-free initial path from start {_fmt(S[:2])} to goal {_fmt(G[:2])}"
+            f"no collision-free initial path from start {checks.fmt_point(S[:2])}"
+            f" to goal {checks.fmt_point(G[:2])}"
             f" round the {obs.shape[0]} obstacles (even with margin 0)"
         )
-    cands = cands[: int(k)]
+    cands = cands[:k]
 
     retry: dict[tuple[int, float], np.ndarray | None] = {}
     classes = []
     for cand in cands:
         variants = [
-            _smoothed_in_class(cand, S, G, obs, tol, used, int(k), retry, modes)
+            _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes)
             for modes in end_modes(cand.polyline, S, G)
         ]
         classes.append((variants, cand))
@@ -398,7 +394,7 @@ def _shortest_leg(a, b, obs, margin: float, tol: float) -> np.ndarray | None:
     None when there is none: the straight segment when no inflated disc cuts it, else
     :func:`_plan`'s shortest path."""
     R = _inflated(obs, a, b, margin)[0]  # as _plan inflates them
-    if not np.any(_segment_distance(a[None, :], b[None, :], obs[:, :2])[0] < R - tol):
+    if not np.any(segment_distance(a[None, :], b[None, :], obs[:, :2])[0] < R - tol):
         return np.vstack([a, b])  # (as the graph's direct edge is kept)
     cands = _plan(np.append(a, 0.0), np.append(b, 0.0), obs, margin, 1, tol)
     return None if cands is None else cands[0].polyline
@@ -427,7 +423,7 @@ def _replan_class(cand, S, G, obs, margin, k, tol) -> np.ndarray | None:
     (planned among those near the class's path, :data:`_RETRY_BAND`), or None when the
     class is not found at that margin."""
     poly = cand.polyline
-    gap = _segment_distance(poly[:-1], poly[1:], obs[:, :2]).min(axis=0) - obs[:, 2]
+    gap = segment_distance(poly[:-1], poly[1:], obs[:, :2]).min(axis=0) - obs[:, 2]
     near = np.flatnonzero(gap < _RETRY_BAND * margin)
     want = tuple(np.asarray(cand.signature)[near].tolist())
     same = [c for c in _plan_among(S, G, obs[near], margin, k, tol) or () if c.signature == want]
@@ -446,7 +442,7 @@ def plot_initial_paths(ax, paths, obstacles=None):
     """Draw obstacles, the smoothed curves (solid) and their polylines (dotted) on ``ax``."""
     from matplotlib.patches import Circle
 
-    for cx, cy, r in _obstacles(obstacles).tolist():
+    for cx, cy, r in checks.obstacles(obstacles).tolist():
         ax.add_patch(Circle((cx, cy), r, facecolor="0.75", edgecolor="0.4"))
     s = np.linspace(0.0, 1.0, 400)
     for path in paths:

@@ -7,74 +7,42 @@ answers are the same."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-#: Cells per disc, at most (a disc much larger than the others covers several).
-_CELLS_PER_DISC = 4.0
+from ...model.grid import cell_lists, grid_layout
 
 
-class DiscGrid:
-    """Discs ``(C, R)`` in a uniform grid of ``nx * ny`` cells of size ``h`` from ``origin``;
-    the discs of cell ``c`` are ``items[starts[c]:starts[c + 1]]``."""
+class DiscGrid(NamedTuple):
+    """Discs ``(C, R)`` in a uniform grid of ``nx * ny`` cells of size ``h`` from ``(ox, oy)``;
+    the discs of cell ``c`` are ``items[starts[c]:starts[c + 1]]``. The record the compiled
+    loops below read (build it with :func:`disc_grid`)."""
 
-    def __init__(self, C: np.ndarray, R: np.ndarray, pad: float = 0.0):
-        C = np.ascontiguousarray(C, dtype=np.float64).reshape(-1, 2)
-        R = np.ascontiguousarray(R, dtype=np.float64).reshape(-1)
-        self.C, self.R = C, R
-        m = R.size
-        if m == 0:
-            lo, hi = np.zeros(2), np.ones(2)
-        else:
-            lo = np.min(C - (R + pad)[:, None], axis=0)
-            hi = np.max(C + (R + pad)[:, None], axis=0)
-        span = np.maximum(hi - lo, 1e-12 * max(1.0, float(np.max(np.abs(hi)))))
-        area = float(span[0] * span[1])
-        # Cells about the size of a typical disc, but no more than a few per disc.
-        typical = 2.0 * float(np.median(R + pad)) if m else 1.0
-        h = max(typical, math.sqrt(area / (_CELLS_PER_DISC * max(m, 1))), 1e-300)
-        nx, ny = (int(min(max(math.ceil(s / h), 1), 1 << 15)) for s in span)
-        h = max(h, float(span[0]) / nx, float(span[1]) / ny)
-        self.origin, self.h, self.nx, self.ny = lo.astype(np.float64), h, nx, ny
-        # Registered a little beyond the box, so that rounding never loses a disc.
-        reach = (R + pad) * (1.0 + 1e-12) + 1e-9 * h
-        self.starts, self.items = _fill(C, reach, self.origin, h, nx, ny)
-
-    def arrays(self):
-        """The grid as positional arguments of the compiled loops."""
-        return self.starts, self.items, self.origin[0], self.origin[1], self.h, self.nx, self.ny
+    C: np.ndarray  # (m, 2) centres, C-contiguous
+    R: np.ndarray  # (m,) radii
+    starts: np.ndarray  # (nx * ny + 1,) int64
+    items: np.ndarray  # int64 indices into C and R
+    ox: float
+    oy: float
+    h: float
+    nx: int
+    ny: int
 
 
-def _fill(C, reach, origin, h, nx, ny):
-    """CSR lists of the discs per cell (row-major cells, discs in increasing index)."""
-    m = reach.size
-    if m == 0:
-        return np.zeros(nx * ny + 1, np.int64), np.zeros(0, np.int64)
-    ix0 = np.clip(np.floor((C[:, 0] - reach - origin[0]) / h), 0, nx - 1).astype(np.int64)
-    ix1 = np.clip(np.floor((C[:, 0] + reach - origin[0]) / h), 0, nx - 1).astype(np.int64)
-    iy0 = np.clip(np.floor((C[:, 1] - reach - origin[1]) / h), 0, ny - 1).astype(np.int64)
-    iy1 = np.clip(np.floor((C[:, 1] + reach - origin[1]) / h), 0, ny - 1).astype(np.int64)
-    return _fill_loops(ix0, ix1, iy0, iy1, nx, ny)
-
-
-@njit(cache=True, error_model="numpy")
-def _fill_loops(ix0, ix1, iy0, iy1, nx, ny):
-    count = np.zeros(nx * ny + 1, np.int64)
-    for j in range(ix0.size):
-        for iy in range(iy0[j], iy1[j] + 1):
-            for ix in range(ix0[j], ix1[j] + 1):
-                count[iy * nx + ix + 1] += 1
-    starts = np.cumsum(count)
-    items = np.empty(starts[-1], np.int64)
-    fill = starts[:-1].copy()
-    for j in range(ix0.size):  # increasing j: each cell's list is sorted
-        for iy in range(iy0[j], iy1[j] + 1):
-            for ix in range(ix0[j], ix1[j] + 1):
-                c = iy * nx + ix
-                items[fill[c]] = j
-                fill[c] += 1
-    return starts, items
+def disc_grid(C: np.ndarray, R: np.ndarray, pad: float = 0.0) -> DiscGrid:
+    """The grid of the discs ``(C, R)``, each registered in the cells its box grown by ``pad``
+    touches."""
+    C = np.ascontiguousarray(C, dtype=np.float64).reshape(-1, 2)
+    R = np.ascontiguousarray(R, dtype=np.float64).reshape(-1)
+    # Cells about the size of a typical disc, but no more than a few per disc.
+    typical = 2.0 * float(np.median(R + pad)) if R.size else 1.0
+    lo, h, nx, ny = grid_layout(C, R + pad, typical)
+    # Registered a little beyond the box, so that rounding never loses a disc.
+    reach = (R + pad) * (1.0 + 1e-12) + 1e-9 * h
+    starts, items = cell_lists(C, reach, lo, h, nx, ny)
+    return DiscGrid(C, R, starts, items, float(lo[0]), float(lo[1]), h, nx, ny)
 
 
 @njit(cache=True, error_model="numpy")
@@ -89,9 +57,11 @@ def _cell(v, o, h, n):
 
 
 @njit(cache=True, error_model="numpy")
-def disc_pairs(C, R, pad, starts, items, ox, oy, h, nx, ny):
+def disc_pairs(grid, pad):
     """Pairs ``(i, j)``, ``i != j``, of discs whose boxes (grown by ``pad``) may overlap: a
     superset of the pairs at centre distance ``< R_i + R_j + 2 pad``, each ordered pair once."""
+    C, R, starts, items = grid.C, grid.R, grid.starts, grid.items
+    ox, oy, h, nx, ny = grid.ox, grid.oy, grid.h, grid.nx, grid.ny
     m = R.size
     stamp = np.full(m, -1, np.int64)
     cap = 16 * m + 16
@@ -126,50 +96,50 @@ def _closer(dx, dy, r):
     return r > 0.0 and dx * dx + dy * dy < r * r
 
 
-@njit(cache=True, error_model="numpy")
-def _point_inside(x, y, C, R, tol, starts, items, ox, oy, h, nx, ny):
+@njit(cache=True, error_model="numpy", inline="always")
+def _point_inside(x, y, grid, tol):
     """Whether ``(x, y)`` lies deeper than ``tol`` inside some disc of its cell."""
-    fx, fy = (x - ox) / h, (y - oy) / h
-    if not (0.0 <= fx < nx and 0.0 <= fy < ny):
+    fx, fy = (x - grid.ox) / grid.h, (y - grid.oy) / grid.h
+    if not (0.0 <= fx < grid.nx and 0.0 <= fy < grid.ny):
         return False  # outside every disc's box (nan too)
-    c = min(int(fy), ny - 1) * nx + min(int(fx), nx - 1)
-    for k in range(starts[c], starts[c + 1]):
-        j = items[k]
+    c = min(int(fy), grid.ny - 1) * grid.nx + min(int(fx), grid.nx - 1)
+    C, R = grid.C, grid.R
+    for k in range(grid.starts[c], grid.starts[c + 1]):
+        j = grid.items[k]
         if _closer(x - C[j, 0], y - C[j, 1], R[j] - tol):
             return True
     return False
 
 
 @njit(cache=True, error_model="numpy")
-def points_inside(xy, C, R, tol, starts, items, ox, oy, h, nx, ny):
+def points_inside(xy, grid, tol):
     """Per point, whether it lies deeper than ``tol`` inside some disc
     (``hypot(p - c) < R - tol``)."""
     out = np.zeros(xy.shape[0], np.bool_)
     for p in range(xy.shape[0]):
-        out[p] = _point_inside(xy[p, 0], xy[p, 1], C, R, tol, starts, items, ox, oy, h, nx, ny)
+        out[p] = _point_inside(xy[p, 0], xy[p, 1], grid, tol)
     return out
 
 
 @njit(cache=True, error_model="numpy")
-def segments_cut(a, b, C, R, tol, starts, items, ox, oy, h, nx, ny):
+def segments_cut(a, b, grid, tol):
     """Per segment ``a[e] -> b[e]``, whether some disc comes closer to it than ``R - tol`` (the
     distance formula of ``_segment_distance_loops``), testing only the discs of the cells that
     the segment crosses."""
     E = a.shape[0]
     out = np.zeros(E, np.bool_)
-    stamp = np.full(R.size, -1, np.int64)
+    stamp = np.full(grid.R.size, -1, np.int64)
     for e in range(E):
-        out[e] = _segment_cut(
-            a[e, 0], a[e, 1], b[e, 0], b[e, 1], e, stamp, C, R, tol,
-            starts, items, ox, oy, h, nx, ny,
-        )  # fmt: skip
+        out[e] = _segment_cut(a[e, 0], a[e, 1], b[e, 0], b[e, 1], e, stamp, grid, tol)
     return out
 
 
 @njit(cache=True, error_model="numpy")
-def _segment_cut(ax, ay, bx, by, e, stamp, C, R, tol, starts, items, ox, oy, h, nx, ny):
+def _segment_cut(ax, ay, bx, by, e, stamp, grid, tol):
     """Whether some disc comes closer than ``R - tol`` to the segment ``a -> b``; ``stamp``
     (one entry per disc, never ``e`` before) marks the discs tested, each once."""
+    C, R, starts, items = grid.C, grid.R, grid.starts, grid.items
+    ox, oy, h, nx, ny = grid.ox, grid.oy, grid.h, grid.nx, grid.ny
     abx, aby = bx - ax, by - ay
     den = abx * abx + aby * aby
     x_lo, x_hi = min(ax, bx), max(ax, bx)
@@ -212,12 +182,13 @@ def _segment_cut(ax, ay, bx, by, e, stamp, C, R, tol, starts, items, ox, oy, h, 
 
 
 @njit(cache=True, error_model="numpy", nogil=True)
-def common_tangents(C, R, act, sigma, sgn, prune, tol, starts, items, ox, oy, h, nx, ny):
+def common_tangents(grid, act, sigma, sgn, prune, tol):
     """One family of common tangents of the pairs ``act[a] < act[b]`` of discs, in
     ``np.triu_indices`` order: outer (``sigma = 1``) or inner (``sigma = -1``), on the side
     ``sgn``. Returns the tangent points ``Ti, Tj`` and the discs ``ci, cj``. With ``prune``,
     only the tangents whose ends lie in no disc and that no disc cuts (the grid's discs,
     deeper than ``tol``), so that memory grows with the free tangents, not with the pairs."""
+    C, R = grid.C, grid.R
     k = act.size
     cap = 4 * k + 16
     T = np.empty((cap, 4))
@@ -241,14 +212,10 @@ def common_tangents(C, R, act, sigma, sgn, prune, tol, starts, items, ox, oy, h,
             tix, tiy = C[i, 0] + R[i] * vx, C[i, 1] + R[i] * vy
             tjx, tjy = C[j, 0] + sigma * R[j] * vx, C[j, 1] + sigma * R[j] * vy
             if prune:
-                if _point_inside(tix, tiy, C, R, tol, starts, items, ox, oy, h, nx, ny):
-                    continue
-                if _point_inside(tjx, tjy, C, R, tol, starts, items, ox, oy, h, nx, ny):
+                if _point_inside(tix, tiy, grid, tol) or _point_inside(tjx, tjy, grid, tol):
                     continue
                 tested += 1
-                if _segment_cut(
-                    tix, tiy, tjx, tjy, tested, stamp, C, R, tol, starts, items, ox, oy, h, nx, ny
-                ):
+                if _segment_cut(tix, tiy, tjx, tjy, tested, stamp, grid, tol):
                     continue
             if n == cap:
                 cap *= 2

@@ -10,12 +10,12 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numba import njit
 
-from .curve import _TWO_PI
-from .geometry import _clean, _close_and_round, _cross, _rot
-from .spatial import DiscGrid, common_tangents, disc_pairs, points_inside, segments_cut
+from .curve import TWO_PI
+from .geometry import clean_polyline, close_and_round, cross, rotate
+from .spatial import DiscGrid, common_tangents, disc_grid, disc_pairs, points_inside, segments_cut
 
 #: Arcs of the tangent graph are sampled with at most this angle between polyline vertices.
-ARC_STEP = _TWO_PI / 36
+ARC_STEP = TWO_PI / 36
 
 
 #: Above this many active circles, the common tangents are kept only when usable and free.
@@ -31,8 +31,7 @@ def _active_circles(C: np.ndarray, R: np.ndarray, tol: float) -> np.ndarray:
     out = np.ones(m, bool)
     if m < 2:
         return out
-    grid = DiscGrid(C, R, abs(tol))
-    i, j = disc_pairs(C, R, abs(tol), *grid.arrays())
+    i, j = disc_pairs(disc_grid(C, R, abs(tol)), abs(tol))
     D = np.hypot(C[i, 0] - C[j, 0], C[i, 1] - C[j, 1])
     inside = D + R[i] <= R[j] + tol  # disc i within disc j
     D_t = np.hypot(C[j, 0] - C[i, 0], C[j, 1] - C[i, 1])
@@ -61,7 +60,7 @@ class _Points:
         return np.concatenate(self.xy), np.concatenate(self.circ)
 
 
-class _TangentGraph:
+class TangentGraph:
     """Directed tangent graph of the inflated discs ``(C, R)``; node 0 is the start, 1 the goal.
 
     Tangent point ``p >= 2`` on circle ``circ[p]`` is node ``2 + 2 (p - 2)`` when travelled
@@ -89,7 +88,7 @@ class _TangentGraph:
 
     def _orient(self, p: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
         """+1 where direction ``d`` at point ``p`` of circle ``c`` turns counter-clockwise."""
-        return np.where(_cross(p - self.C[c], d) >= 0.0, 1, -1)
+        return np.where(cross(p - self.C[c], d) >= 0.0, 1, -1)
 
     def _end_tangents(self, points: _Points) -> tuple[list, int]:
         """Tangents from the start (travelled towards the circle) and to the goal (away from
@@ -104,7 +103,7 @@ class _TangentGraph:
             out = d > R[act] + tol
             co, Ro, uo = act[out], R[act][out], u[out]
             gamma = np.arccos(np.clip(Ro / d[out], -1.0, 1.0))
-            T = np.concatenate([C[co] + Ro[:, None] * _rot(uo, g) for g in (gamma, -gamma)])
+            T = np.concatenate([C[co] + Ro[:, None] * rotate(uo, g) for g in (gamma, -gamma)])
             cT = np.concatenate([co, co])
             idx = points.add(T, cT)
             o = self._orient(T, cT, T - P if end == 0 else P - T)
@@ -131,10 +130,10 @@ class _TangentGraph:
         if act.size < 2:
             return segs
         prune = act.size > PRUNE_ABOVE
-        grid = self._grid().arrays()
+        grid = self._grid()
 
         def family(signs):
-            return common_tangents(self.C, self.R, act, *signs, prune, self.tol, *grid)
+            return common_tangents(grid, act, *signs, prune, self.tol)
 
         families = [(sigma, sgn) for sigma in (1.0, -1.0) for sgn in (1.0, -1.0)]
         workers = min(len(families), os.cpu_count() or 1) if prune else 1
@@ -153,7 +152,7 @@ class _TangentGraph:
         """Tangent points inside another inflated disc are no use; the ends always are."""
         keep = np.ones(self.xy.shape[0], bool)
         if self.active.size:
-            keep = ~points_inside(self.xy, self.C, self.R, self.tol, *self._grid().arrays())
+            keep = ~points_inside(self.xy, self._grid(), self.tol)
             keep[:2] = True
         return keep
 
@@ -161,10 +160,10 @@ class _TangentGraph:
         """The grid of the active discs (built once)."""
         if self._active_grid is None:
             act = self.active
-            grid = DiscGrid(self.C[act], self.R[act])
-            # Indices into the full disc arrays, so the loops read C and R directly.
-            grid.items = act[grid.items]
-            self._active_grid = grid
+            grid = disc_grid(self.C[act], self.R[act])
+            # Indices into the full disc arrays, which the loops read.
+            C, R = np.ascontiguousarray(self.C), np.ascontiguousarray(self.R)
+            self._active_grid = grid._replace(C=C, R=R, items=act[grid.items])
         return self._active_grid
 
     def _segment_edges(self, segs: list, one_way: int, keep: np.ndarray) -> tuple[list, ...]:
@@ -177,7 +176,7 @@ class _TangentGraph:
         ok = keep[pa] & keep[pb]
         if self.active.size:
             a, b = self.xy[pa[ok]], self.xy[pb[ok]]
-            ok[ok] = ~segments_cut(a, b, self.C, self.R, self.tol, *self._grid().arrays())
+            ok[ok] = ~segments_cut(a, b, self._grid(), self.tol)
         pa, oa, pb, ob, both = pa[ok], oa[ok], pb[ok], ob[ok], both[ok]
         A, B = self.xy[pa], self.xy[pb]
         seg_geo = np.column_stack([A, B])
@@ -206,8 +205,8 @@ class _TangentGraph:
         wrap = nxt[valid] < idx[valid]
         span = np.where(
             wrap,
-            self.angle[b_pts] + _TWO_PI - self.angle[a_pts],
-            np.mod(self.angle[b_pts] - self.angle[a_pts], _TWO_PI),
+            self.angle[b_pts] + TWO_PI - self.angle[a_pts],
+            np.mod(self.angle[b_pts] - self.angle[a_pts], TWO_PI),
         )
         ca = self.circ[a_pts]
         if act.size >= 2:
@@ -225,8 +224,7 @@ class _TangentGraph:
         whether no other active circle that meets circle ``ca`` lies in its direction: only the
         pairs of circles near each other are compared."""
         C, R = self.C, self.R
-        grid = self._grid()
-        i, j = disc_pairs(C, R, 0.0, *grid.arrays())  # i, j: indices of active discs
+        i, j = disc_pairs(self._grid(), 0.0)  # i, j: indices of active discs
         D = np.hypot(C[i, 0] - C[j, 0], C[i, 1] - C[j, 1])
         meet = (np.abs(R[i] - R[j]) < D) & (D < R[i] + R[j])
         i, j = i[meet], j[meet]
@@ -239,7 +237,7 @@ class _TangentGraph:
         nb = j[first + np.arange(arc.size)]
         c = ca[arc]
         alpha = np.arctan2(C[nb, 1] - C[c, 1], C[nb, 0] - C[c, 0])
-        into = np.mod(alpha - self.angle[a_pts][arc], _TWO_PI) < span[arc]
+        into = np.mod(alpha - self.angle[a_pts][arc], TWO_PI) < span[arc]
         return np.bincount(arc[into], minlength=ca.size) == 0
 
     def _index(self, src, dst, wgt, geo) -> None:
@@ -307,7 +305,7 @@ class _TangentGraph:
         inside = np.hypot(*(C[None, :, :] - self.C[circles][:, None, :]).transpose(2, 0, 1))
         inside = inside < self.R[circles][:, None]
         total = _step_turns(sub, plen[found], angle, circ, self.node_orient[nodes], inside)
-        out[found] = _close_and_round(total, self.S2, self.G2, obs, self.tol)
+        out[found] = close_and_round(total, self.S2, self.G2, obs, self.tol)
         return out
 
     def polyline(self, nodes) -> np.ndarray:
@@ -343,7 +341,7 @@ class _TangentGraph:
                 o = 1 if (v0 - 2) % 2 == 0 else -1
                 span = 0.0
                 for t in range(i, j):
-                    span += ((angle[t + 1] - angle[t]) * o) % _TWO_PI
+                    span += ((angle[t + 1] - angle[t]) * o) % TWO_PI
                 n = math.ceil(span / ARC_STEP)
                 if n > 1:
                     parts.append((c, len(angles), n - 1))
@@ -372,7 +370,7 @@ class _TangentGraph:
         if len(keep) > 1 and math.hypot(out[-1][0] - keep[-1][0], out[-1][1] - keep[-1][1]) <= gap:
             keep.pop()
         keep.append(out[-1])
-        return _clean(np.array(keep), self.S2, self.G2, self.tol)
+        return clean_polyline(np.array(keep), self.S2, self.G2, self.tol)
 
     def crossings(self, origins: np.ndarray, dirs: np.ndarray, reach: float) -> np.ndarray:
         """Per edge, bit ``b`` set when it crosses the ray ``origins[b] + t dirs[b]``, t in
@@ -418,7 +416,7 @@ def _crossings(is_arc, geo, C, R, origins, dirs, reach):
 
 @njit(cache=True)
 def _step_turns(paths, plen, angle, node_circ, node_orient, inside):
-    """For :meth:`_TangentGraph.signatures`: the total turn ``(P, m)`` of each path seen from
+    """For :meth:`TangentGraph.signatures`: the total turn ``(P, m)`` of each path seen from
     each centre (``angle``: directions of the nodes from the centres), summed over its steps in
     order. A loop over the steps of a few dozen paths, where NumPy's gathers and masks cost
     more; the same operations as those (``np.round`` is ``rint``)."""
@@ -433,9 +431,9 @@ def _step_turns(paths, plen, angle, node_circ, node_orient, inside):
             for j in range(m):
                 x = angle[v, j] - angle[u, j]
                 if arc and inside[cu, j]:
-                    step = o * ((o * x) % _TWO_PI)
+                    step = o * ((o * x) % TWO_PI)
                 else:
-                    step = x - _TWO_PI * np.rint(x / _TWO_PI)
+                    step = x - TWO_PI * np.rint(x / TWO_PI)
                 total[p, j] = step if t == 0 else total[p, j] + step
     return total
 

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from .. import checks
-from ..errors import ModelError, ScenarioError, SettingsError
+from ..errors import ModelError, ScenarioError, SettingsError, require_integer
 
 __all__ = ["DirectResult", "DirectTranscription", "cached_transcription", "multistart_guesses",
            "richardson", "solve_direct", "straight_line_guess"]  # fmt: skip
@@ -94,10 +94,6 @@ def _positive(
 ) -> float:
     bound = {"ge": 0.0} if allow_zero else {"gt": 0.0}
     return checks.real(value, name, error=error, **bound)
-
-
-def _count(value: Any, name: str, minimum: int) -> int:
-    return checks.integer(value, name, minimum=minimum, error=SettingsError)
 
 
 def _guess(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
@@ -206,14 +202,14 @@ class DirectTranscription:
         tol: float = 1e-10,
         max_iter: int = 3000,
     ) -> None:
-        self.n_obstacles = _count(n_obstacles, "n_obstacles", 0)
-        self.intervals = _count(intervals, "intervals", 1)
+        self.n_obstacles = require_integer("n_obstacles", n_obstacles, 0)
+        self.intervals = require_integer("intervals", intervals, 1)
         self.model = _model(model)
-        self.substeps = _count(substeps, "substeps", 1)
+        self.substeps = require_integer("substeps", substeps, 1)
         self.wheel_radius = _positive(wheel_radius, "wheel_radius", error=SettingsError)
         self.axle_length = _positive(axle_length, "axle_length", error=SettingsError)
         self.tol = _positive(tol, "tol", error=SettingsError)
-        self.max_iter = _count(max_iter, "max_iter", 1)
+        self.max_iter = require_integer("max_iter", max_iter, 1)
         self._solver = self._build()
 
     # The symbolic model: state derivative and running cost for one (x, u). Both models spend
@@ -414,7 +410,7 @@ def straight_line_guess(start, goal, horizon, intervals) -> tuple[np.ndarray, np
     start = _state(start, "start")
     goal = _state(goal, "goal")
     horizon = _horizon(horizon)
-    n = _count(intervals, "intervals", 1)
+    n = require_integer("intervals", intervals, 1)
     s = np.linspace(0.0, 1.0, n + 1)[:, None]
     states = start + s * (goal - start)
     return states, _controls_from_states(states, horizon)
@@ -459,7 +455,7 @@ def multistart_guesses(start, goal, intervals) -> list[np.ndarray]:
     """
     start = _state(start, "start")
     goal = _state(goal, "goal")
-    n = _count(intervals, "intervals", 1)
+    n = require_integer("intervals", intervals, 1)
     return [
         _arc(start, goal, n, offset, heading)
         for offset in _OFFSETS
@@ -531,9 +527,9 @@ def solve_direct(
     goal = _state(goal, "goal")
     horizon = _horizon(horizon)
     obstacles = _obstacles(obstacles)
-    n = _count(intervals, "intervals", 1)
+    n = require_integer("intervals", intervals, 1)
     if coarse_intervals is not None:
-        coarse_intervals = _count(coarse_intervals, "coarse_intervals", 1)
+        coarse_intervals = require_integer("coarse_intervals", coarse_intervals, 1)
     user = [] if guesses is None else list(guesses)
 
     def solve_all(transcription, starts):
