@@ -23,9 +23,9 @@ from ..bvp.shooting import ShootingSettings, solve_shooting
 from ..errors import LeapfrogError, SettingsError
 from ..experiments.direct import solve_direct
 from ..model.kernels import model_info
-from ..planning.answer import END_STATE_TOLERANCE
 from ..planning.planner import Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate
+from ..planning.runs import END_STATE_TOLERANCE
 from ..planning.scenario import Scenario
 from .orphans import die_with_parent, expected_parent
 
