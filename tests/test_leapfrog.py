@@ -708,6 +708,10 @@ class _Forgetful(dict):
         _Forgetful.repeats += dict.__contains__(self, key)
         return False
 
+    def get(self, key, default=None):
+        _Forgetful.repeats += dict.__contains__(self, key)
+        return default
+
 
 def test_a_local_problem_that_failed_is_not_solved_again_with_the_same_data(monkeypatch):
     """Random scenario 13 of seed 1: stuck junctions pose the same failing local problems sweep

@@ -17,6 +17,7 @@ import pytest
 
 from leapfrog_planner import plan
 from leapfrog_planner.planning.path_ranking import penalty_margin
+from leapfrog_planner.planning.planner import Planner
 from leapfrog_planner.planning.scenario import load_scenario
 
 DATA = Path(__file__).parent / "data"
@@ -24,15 +25,23 @@ DATA = Path(__file__).parent / "data"
 
 @pytest.mark.parametrize("T", [0.5, 3.0])
 def test_horizon_is_weight_times_T_squared(T):
+    """Time scaled by T is the weight scaled by T^2: the same cost (over T) and the same route.
+    Paper case 1 has two routes of equal cost (one turns up first, one down), so the unit-time
+    plan is made from the initial path the plan at T ended on: round-off may pick either."""
     sc = load_scenario("paper-case-1")
     long = plan(replace(sc, horizon=T))
+    planner = Planner(replace(sc, horizon=1.0, weight=sc.weight * T * T))
+    first, extra = planner.path_selection()
+    path = next(p for p in first + extra if p.label == long.initial_path)
     unit = plan(replace(sc, horizon=1.0, weight=sc.weight * T * T))
-    assert long.success and unit.success
+    run = planner.run_path(path)
+    assert long.success and unit.success and run.clear
     assert long.cost == pytest.approx(unit.cost / T, rel=1e-8)
+    unit = run.validation
     s = np.linspace(0.0, 1.0, 41)
     for k in range(3):
         a = np.interp(s * T, long.trajectory.t, long.trajectory.x[:, k])
-        b = np.interp(s, unit.trajectory.t, unit.trajectory.x[:, k])
+        b = np.interp(s, unit.trajectory.t, unit.trajectory.x[:, k])  # the same path's
         np.testing.assert_allclose(a, b, atol=1e-3)  # linear interpolation of 1001 samples
 
 

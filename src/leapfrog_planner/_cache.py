@@ -60,9 +60,10 @@ def writable_dir(name: str) -> Path:
 
 
 def copy_atomic(source: Path, target: Path) -> None:
-    """Copy ``source`` to ``target`` (folders created); concurrent copies write the same bytes."""
+    """Copy ``source`` to ``target`` (folders created); concurrent copies write the same bytes.
+    The modification time is kept too: numba before 0.68 keys its cache by the source's time."""
     target.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(target, lambda tmp: shutil.copyfile(source, tmp))
+    write_atomic(target, lambda tmp: shutil.copy2(source, tmp))
 
 
 def _writable(folder: Path) -> bool:

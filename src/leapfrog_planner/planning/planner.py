@@ -103,12 +103,14 @@ class Planner:
 
     def run_path(self, path: InitialPath) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) in the plan's
-        first round, continued to the robot's problem and validated."""
+        first round, continued to the robot's problem and validated (BLAS on one thread, as in
+        :meth:`plan`: the same bits)."""
         request = RunRequest(
             path, self.first_round, "paths", "asked for", float(self.scenario.weight),
             label=path.label,
         )  # fmt: skip
-        return self.runner.run(request)
+        with single_threaded_blas():
+            return self.runner.run(request)
 
     def plan(self) -> PlanResult:
         with single_threaded_blas():
