@@ -210,7 +210,7 @@ def test_a_scenario_file_is_opened_with_the_command_lines_messages(client):
         ([1, 2], "request: expected a JSON object, got an array of 2"),
         (
             {"scenario": dict(CASE4, solver={"partitions": 1})},
-            "scenario: solver.partitions: partitions: must be an integer >= 2, got 1",
+            "scenario: solver.partitions: must be an integer >= 2, got 1",
         ),
     ],
 )

@@ -69,9 +69,10 @@ class PlannerSettings:
             if name in from_file:
                 try:
                     cls.from_options(base, **{name: from_file[name]})
-                except SettingsError as e:
+                except SettingsError as e:  # "partitions: must be ..." -> "solver.partitions: ..."
                     source = scenario.source or scenario.name
-                    raise ScenarioError(f"{source}: solver.{key}: {e}") from None
+                    why = str(e).removeprefix(f"{name}: ")
+                    raise ScenarioError(f"{source}: solver.{key}: {why}") from None
         return cls.from_options(base, **{**from_file, **options})
 
 
