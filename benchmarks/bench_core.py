@@ -791,7 +791,7 @@ CHILD = textwrap.dedent(
     t0 = time.perf_counter()
     import json, math
     from leapfrog_planner import OptimalControlProblem
-    from leapfrog_planner.model.codegen import load_kernels
+    from leapfrog_planner.compiled.kernels import load_kernels
     from leapfrog_planner.bvp.shooting import solve_shooting
     t1 = time.perf_counter()
     load_kernels("unicycle")

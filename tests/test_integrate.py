@@ -15,6 +15,7 @@ from scipy.integrate import solve_ivp
 from conftest import CASES, EXTREMAL_COSTATE, fd_jacobian, rel_err
 from leapfrog_planner import Flow, FlowStatus, IntegratorSettings, OptimalControlProblem
 from leapfrog_planner.integrate.tableaux import get_tableau
+from leapfrog_planner.model.penalty import penalty_terms
 
 NON_DEFAULT_DD = {"wheel_radius": 0.7, "axle_length": 1.3}
 
@@ -368,14 +369,14 @@ def test_canonical_jacobian_matches_finite_differences_of_the_rhs(model, z, xy, 
     def G(zz):
         out = np.empty(7)
         K.model_augmented(zz, flow._p, np.zeros(0), 0, out)
-        _, Px, Py, *_ = K.penalty_terms(zz[0], zz[1], pen.obstacles, pen.weight, exponent, False)
+        _, Px, Py, *_ = penalty_terms(zz[0], zz[1], pen.obstacles, pen.weight, exponent, False)
         out[3] -= Px
         out[4] -= Py
         return out[:6]
 
     J = np.empty((6, 6))
     K.canonical_jac(z, flow._p, J)
-    _, _, _, Pxx, Pxy, Pyy = K.penalty_terms(z[0], z[1], pen.obstacles, pen.weight, exponent, True)
+    _, _, _, Pxx, Pxy, Pyy = penalty_terms(z[0], z[1], pen.obstacles, pen.weight, exponent, True)
     J[3:5, 0:2] -= np.array([[Pxx, Pxy], [Pxy, Pyy]])
     J_fd = fd_jacobian(G, z, 1e-5)
     np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-6 * max(1.0, np.max(np.abs(J))))

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..bvp.shooting import ShootingSettings, solve_shooting
+from ..compiled.kernels import model_info
 from ..errors import LeapfrogError, SettingsError
 from ..experiments.direct import solve_direct
-from ..model.kernels import model_info
 from ..planning.answer import END_STATE_TOLERANCE
 from ..planning.planner import Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate

@@ -13,10 +13,11 @@ import numpy as np
 from scipy.linalg import expm, solve
 
 from .._blas import blas_single_threaded
+from ..compiled.abi import Accuracy, Dynamics, NewtonOutcome, RootParams, StepParams, SweepOutcome
 from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
+from ..integrate.problem import OptimalControlProblem
 from ..model.penalty import penalty_terms
-from ..model.problem import OptimalControlProblem
 from ..roots import (
     STRATEGIES,
     ModifiedNewtonStep,
@@ -30,7 +31,6 @@ from ..roots import (
     solve_root,
 )
 from ..roots.steps import vnorm
-from .abi import Accuracy, Dynamics, NewtonOutcome, RootParams, StepParams, SweepOutcome
 
 
 @dataclass(frozen=True)

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled.status import FlowStatus
 from ..errors import SettingsError, require_integer
-from ..model.problem import OptimalControlProblem
-from .status import FlowStatus
+from .problem import OptimalControlProblem
 from .tableaux import TABLEAUX, get_tableau
 
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..integrate.flow import Flow, Trajectory
+from ..integrate.problem import OptimalControlProblem
 from ..model.bounds import SMOOTHING, bound_names
-from ..model.problem import OptimalControlProblem
 from ..roots import RootSettings
 from .bounded import STOPPED
 from .initial_path import InitialPath

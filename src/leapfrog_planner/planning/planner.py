@@ -19,7 +19,7 @@ import numpy as np
 from .._blas import held_by_parent, single_threaded_blas
 from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, IntegratorSettings
-from ..model.problem import OptimalControlProblem
+from ..integrate.problem import OptimalControlProblem
 from .answer import (
     END_STATE_FACTOR,
     Answer,

@@ -6,11 +6,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled.linear import newton_correction
+from ..compiled.linear import solve as linear_solve
+from ..compiled.status import RootStatus
 from ..errors import SettingsError, require_integer
-from .linear import newton_correction
-from .linear import solve as linear_solve
 from .messages import converged, diverged, max_iterations, non_finite, singular, stalled
-from .result import RootResult, RootStatus
+from .result import RootResult
 from .steps import _Evaluator, get_strategy, vnorm
 
 

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled.linear import dot, transpose_times
+from ..compiled.status import RootStatus
 from ..errors import SettingsError
-from .linear import dot, transpose_times
-from .result import RootStatus
 
 
 @dataclass

@@ -23,7 +23,7 @@ import numba
 from .._atomic import write_atomic
 from .._cache import cache_dir, copy_atomic, copy_compiled, numba_cache_of, writable_dir
 from ..errors import ModelError
-from . import MODELS, builtin_source, get_model
+from ..model import MODELS, builtin_source, get_model
 
 log = logging.getLogger(__name__)
 
@@ -31,17 +31,16 @@ _HERE = Path(__file__).parent.parent  # the package
 # Everything compiled into the generated module, callees included: numba's disk cache does not
 # notice a change in a function that a cached function calls, so the key must.
 _GENERATOR_FILES = (
-    "model/codegen.py",
+    "compiled/codegen.py",
     "model/pmp.py",
     "model/bounds.py",
-    "integrate/flow_template.py",
-    "bvp/newton_template.py",
+    "compiled/flow_template.py",
+    "compiled/newton_template.py",
     "model/base.py",
     "model/penalty.py",
-    "roots/linear.py",
-    "bvp/abi.py",
-    "integrate/status.py",
-    "roots/result.py",
+    "compiled/linear.py",
+    "compiled/abi.py",
+    "compiled/status.py",
 )
 
 

@@ -1,9 +1,18 @@
 # The compiled shooting loops: simple and multiple shooting by classical Newton, the paper's
 # modified Newton or NLEQ-ERR, and Leapfrog's warm-started sweep.
 #
-# This file is a template, not an importable module: leapfrog_planner.model.codegen appends it,
-# after the integrator (integrate/flow_template.py), to the code generated for each vehicle
-# model, which defines NX, NZ, the status codes and the records (bvp/abi.py).
+# This file is a template, not an importable module: leapfrog_planner.compiled.codegen appends it,
+# after the integrator (flow_template.py), to the code generated for each vehicle model, which
+# defines NX, NZ and the status codes (compiled/status.py). The records it exchanges with Python
+# and the linear algebra it shares with the Python loop are imported below.
+
+import math
+
+import numpy as np
+from numba import njit
+
+from leapfrog_planner.compiled.abi import NewtonOutcome, SweepOutcome
+from leapfrog_planner.compiled.linear import dot, transpose_times
 
 # Simple shooting with classical Newton, the paper's modified Newton or NLEQ-ERR, fused into
 # one call.

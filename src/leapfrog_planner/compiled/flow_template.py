@@ -1,19 +1,24 @@
 # Explicit Runge-Kutta flow of the canonical system with its variational equations.
 #
-# This file is a template, not an importable module: leapfrog_planner.model.codegen appends it
-# to the code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
-# controls, hamiltonian_model, dH_du and linearize, and imports penalty_at, obstacle_count, dot and
-# transpose_times. Keeping the integrator in the same module as the model lets numba inline and
-# cache everything (functions passed as arguments would not be cached on disk).
+# This file is a template, not an importable module: leapfrog_planner.compiled.codegen appends it
+# to the code generated for each vehicle model, which defines NX, NZ, FASTMATH, INLINE, the status
+# codes (OK, NON_FINITE, ...: compiled/status.py), model_augmented, controls, hamiltonian_model,
+# dH_du and linearize. What it takes from the package it imports below, so that the kernels'
+# cache key (compiled/cache_key.py) finds it. Keeping the integrator in the same module as the
+# model lets numba inline and cache everything (functions passed as arguments would not be cached
+# on disk).
 #
 # The augmented state is Y = [z (NZ), cost (1), S (NZ x k, row-major)], with z = (x, lambda),
 # S = dz/d(seed) and k sensitivity columns (k = 0: flow only). A method is just its tableau
 # (A, b, c, and for embedded pairs the error weights e, e3 over s + 1 stages, the last being
 # f(y_new)); the step-size controller follows Hairer, Norsett and Wanner (and SciPy's solve_ivp).
 
-# The status codes (OK, ..., CONVERGED, ..., SWEEP_DONE, ...) and the records the kernels
-# return (NewtonOutcome, SweepOutcome) come with the generated header, from
-# leapfrog_planner.bvp.abi, where they are declared once.
+import math
+
+import numpy as np
+from numba import njit
+
+from leapfrog_planner.model.penalty import obstacle_count, penalty_at
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)

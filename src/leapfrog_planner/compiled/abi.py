@@ -3,28 +3,14 @@
 The compiled Newton loop (``shoot_newton``) and the warm sweep (``sweep_warm``) of a model's
 kernels take their settings as the records below and return :class:`NewtonOutcome` and
 :class:`SweepOutcome`; numba compiles them as named tuples, so both sides read fields by name.
-Status codes are declared once, in the enums (:class:`.integrate.flow.FlowStatus`,
-:class:`.roots.RootStatus` in its order, :class:`SweepCode`); :func:`kernel_constants` writes
-them into the generated kernel module.
+The status codes are declared in :mod:`.status`.
 """
 
 from __future__ import annotations
 
-from enum import IntEnum
 from typing import NamedTuple
 
 import numpy as np
-
-from ..integrate.status import FlowStatus
-from ..roots.result import RootStatus
-
-
-class SweepCode(IntEnum):
-    """Why the compiled warm sweep stopped."""
-
-    DONE = 0  # every junction up to q - 1 was solved from its warm guess
-    WARM_FAILED = 1  # the warm attempt at the junction failed; its counts are included
-    PYTHON = 2  # the junction needs the Python path; nothing of it is counted
 
 
 class RootParams(NamedTuple):
@@ -99,16 +85,3 @@ class SweepOutcome(NamedTuple):
     steps: int  # accepted integrator steps
     integrations: int
     jacobians: int  # integrations with the variational equations
-
-
-#: RootStatus names that the kernels spell otherwise (NON_FINITE is also a flow status there).
-_ROOT_NAMES = {"NON_FINITE": "NON_FINITE_F"}
-
-
-def kernel_constants() -> list[str]:
-    """The status codes as lines of the generated kernel module."""
-    lines = ["# Status codes, written from the enums that declare them (bvp/abi.py)."]
-    lines += [f"{s.name} = {s.value}" for s in FlowStatus]
-    lines += [f"{_ROOT_NAMES.get(s.name, s.name)} = {i}" for i, s in enumerate(RootStatus)]
-    lines += [f"SWEEP_{c.name} = {c.value}" for c in SweepCode]
-    return lines
