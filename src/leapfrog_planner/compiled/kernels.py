@@ -1,14 +1,13 @@
 """The compiled kernels of a vehicle model: generated once, cached on disk, loaded fast.
 
 The generated module (see :mod:`.codegen`) lives in the user's cache directory; numba caches its
-machine code beside it, so each model compiles once per machine. The cache key of a built-in
-model is the text of its source file and of the generator, so a warm start loads the module
-without importing SymPy at all.
+machine code beside it, so each model compiles once per machine. Its name carries the cache key
+(:mod:`.cache_key`: the model's source and every file that feeds the module), so a warm start
+loads the module without importing SymPy at all.
 """
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 import logging
 import sys
@@ -18,44 +17,19 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-import numba
-
 from .._atomic import write_atomic
 from .._cache import cache_dir, copy_atomic, copy_compiled, numba_cache_of, writable_dir
 from ..errors import ModelError
 from ..model import MODELS, builtin_source, get_model
+from .cache_key import cache_key
 
 log = logging.getLogger(__name__)
 
-_HERE = Path(__file__).parent.parent  # the package
-# Everything compiled into the generated module, callees included: numba's disk cache does not
-# notice a change in a function that a cached function calls, so the key must.
-_GENERATOR_FILES = (
-    "compiled/codegen.py",
-    "model/pmp.py",
-    "model/bounds.py",
-    "compiled/flow_template.py",
-    "compiled/newton_template.py",
-    "model/base.py",
-    "model/penalty.py",
-    "compiled/linear.py",
-    "compiled/abi.py",
-    "compiled/status.py",
-)
-
 
 def _key(model) -> str:
-    """Hash of everything that shapes the generated text: model, generator, derivation, template."""
-    h = hashlib.sha256()
-    model_text = builtin_source(model) if isinstance(model, str) else model.fingerprint()
-    for part in (
-        numba.__version__,
-        model_text,
-        *((_HERE / f).read_text() for f in _GENERATOR_FILES),
-    ):
-        h.update(part.encode())
-        h.update(b"\0")
-    return h.hexdigest()[:16]
+    """The cache key of ``model``'s module (a built-in name or a ``VehicleModel``): see
+    :mod:`.cache_key`."""
+    return cache_key(builtin_source(model) if isinstance(model, str) else model.fingerprint())
 
 
 @cache
