@@ -12,18 +12,22 @@
 # S = dz/d(seed) and k sensitivity columns (k = 0: flow only). A method is just its tableau
 # (A, b, c, and for embedded pairs the error weights e, e3 over s + 1 stages, the last being
 # f(y_new)); the step-size controller follows Hairer, Norsett and Wanner (and SciPy's solve_ivp).
+# The kernels take the records of compiled/abi.py: the equation's data, the method's tableau
+# (together a Dynamics), the controller's tolerances (StepControl) and where to record (Samples).
 
 import math
 
 import numpy as np
 from numba import njit
 
+from leapfrog_planner.compiled.abi import Equation
 from leapfrog_planner.model.penalty import obstacle_count, penalty_at
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
-def aug_rhs(Y, k, p, obs, weight, exponent, out):
+def aug_rhs(Y, k, equation, out):
     """Right-hand side of the augmented system: canonical system, cost rate, sensitivities."""
+    p, obs, weight, exponent = equation
     base = NZ + 1
     model_augmented(Y, p, Y[base:], k, out)
     if obstacle_count(obs) == 0:
@@ -77,8 +81,12 @@ def _finite(x):
 
 # The entry points release the GIL, so that threads (one per initial path) integrate in parallel.
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, nogil=True)
-def erk_fixed(Y0, t0, t1, nsteps, k, A, b, p, obs, weight, exponent, T_out, Z_out):
-    """``nsteps`` equal steps; returns (Y1, status). Records (t, z, cost) if T_out has room."""
+def erk_fixed(Y0, t0, t1, k, dynamics, nsteps, samples):
+    """``nsteps`` equal steps; returns (Y1, status, steps, 0 rejected). Records (t, z, cost) in
+    ``samples`` if they have room."""
+    A, b = dynamics.tableau.A, dynamics.tableau.b
+    equation = dynamics.equation
+    T_out, Z_out = samples
     n = Y0.size
     s = b.size
     K = np.empty((s, n))
@@ -92,23 +100,26 @@ def erk_fixed(Y0, t0, t1, nsteps, k, A, b, p, obs, weight, exponent, T_out, Z_ou
     for step in range(nsteps):
         for i in range(s):
             _stage_states(Y, K, A, i, h, Yt)
-            aug_rhs(Yt, k, p, obs, weight, exponent, K[i])
+            aug_rhs(Yt, k, equation, K[i])
         for i in range(s):
             w = h * b[i]
             if w != 0.0:
                 for m in range(n):
                     Y[m] += w * K[i, m]
         if not _all_finite(Y, n):  # sensitivities too: a NaN Jacobian is a failure
-            return Y, NON_FINITE, step + 1
+            return Y, NON_FINITE, step + 1, 0
         if record:
             T_out[step + 1] = t0 + (step + 1) * h
             Z_out[step + 1, :] = Y[: NZ + 1]
-    return Y, OK, nsteps
+    return Y, OK, nsteps, 0
 
 
 @njit(cache=True, error_model="numpy")
-def _error_norm(K, h, e, e3, Y, Ynew, rtol, atol, n_err):
-    """Hairer's RMS error norm on the first n_err components; DOP853's 5th/3rd order blend if e3."""
+def _error_norm(K, h, tableau, control, Y, Ynew):
+    """Hairer's RMS error norm on (z, cost); DOP853's 5th/3rd order blend if the tableau has e3."""
+    e, e3 = tableau.e, tableau.e3
+    rtol, atol = control.rtol, control.atol
+    n_err = NZ + 1
     s1 = K.shape[0]
     err5 = 0.0
     err3 = 0.0
@@ -131,8 +142,12 @@ def _error_norm(K, h, e, e3, Y, Ynew, rtol, atol, n_err):
 
 
 @njit(cache=True, error_model="numpy")
-def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent, n_err, direction):
+def _initial_step(Y, f0, t0, t1, k, dynamics, control):
     """Hairer's starting step size (as in SciPy's select_initial_step)."""
+    order = dynamics.tableau.error_order
+    rtol, atol = control.rtol, control.atol
+    n_err = NZ + 1
+    direction = 1.0 if t1 >= t0 else -1.0
     n = Y.size
     d0 = 0.0
     d1 = 0.0
@@ -148,7 +163,7 @@ def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent,
     for m in range(n):
         Y1[m] = Y[m] + direction * h0 * f0[m]
     f1 = np.empty(n)
-    aug_rhs(Y1, k, p, obs, weight, exponent, f1)
+    aug_rhs(Y1, k, dynamics.equation, f1)
     d2 = 0.0
     for m in range(n_err):
         scale = atol + abs(Y[m]) * rtol
@@ -162,14 +177,16 @@ def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent,
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
-def _rk_step(Y, K, A, b, hs, k, p, obs, weight, exponent, Yt, Ynew):
+def _rk_step(Y, K, hs, k, dynamics, Yt, Ynew):
     """One explicit Runge-Kutta step of size ``hs`` from ``Y`` (whose derivative is ``K[0]``):
     the stages into ``K[1:s]``, the new state into ``Ynew`` and its derivative into ``K[s]``."""
+    A, b = dynamics.tableau.A, dynamics.tableau.b
+    equation = dynamics.equation
     n = Y.size
     s = b.size
     for i in range(1, s):
         _stage_states(Y, K, A, i, hs, Yt)
-        aug_rhs(Yt, k, p, obs, weight, exponent, K[i])
+        aug_rhs(Yt, k, equation, K[i])
     for m in range(n):
         Ynew[m] = Y[m]
     for i in range(s):
@@ -177,37 +194,19 @@ def _rk_step(Y, K, A, b, hs, k, p, obs, weight, exponent, Yt, Ynew):
         if w != 0.0:
             for m in range(n):
                 Ynew[m] += w * K[i, m]
-    aug_rhs(Ynew, k, p, obs, weight, exponent, K[s])
+    aug_rhs(Ynew, k, equation, K[s])
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, nogil=True)
-def erk_adaptive(
-    Y0,
-    t0,
-    t1,
-    k,
-    A,
-    b,
-    e,
-    e3,
-    error_order,
-    rtol,
-    atol,
-    max_steps,
-    p,
-    obs,
-    weight,
-    exponent,
-    T_out,
-    Z_out,
-):
+def erk_adaptive(Y0, t0, t1, k, dynamics, control, samples):
     """Embedded pair with error control on (z, cost). Returns (Y1, status, accepted, rejected).
 
     The sensitivities ride along on the accepted steps: the Jacobian returned is then the exact
     derivative of the discrete flow for that step sequence ("internal differentiation").
     """
+    T_out, Z_out = samples
     n = Y0.size
-    s = b.size
+    s = dynamics.tableau.b.size
     n_err = NZ + 1
     K = np.empty((s + 1, n))
     Y = Y0.copy()
@@ -217,19 +216,17 @@ def erk_adaptive(
     if record:
         T_out[0] = t0
         Z_out[0, :] = Y[:n_err]
-    aug_rhs(Y, k, p, obs, weight, exponent, K[0])
+    aug_rhs(Y, k, dynamics.equation, K[0])
     if not (_all_finite(Y, n) and _all_finite(K[0], n)):
         return Y, NON_FINITE, 0, 0
     direction = 1.0 if t1 >= t0 else -1.0
-    h = _initial_step(
-        Y, K[0], t0, t1, k, error_order, rtol, atol, p, obs, weight, exponent, n_err, direction
-    )
-    expo = -1.0 / (error_order + 1.0)
+    h = _initial_step(Y, K[0], t0, t1, k, dynamics, control)
+    expo = -1.0 / (dynamics.tableau.error_order + 1.0)
     t = t0
     accepted = 0
     rejected = 0
     while direction * (t1 - t) > 0.0:
-        if accepted >= max_steps or (record and accepted + 1 >= T_out.size):
+        if accepted >= control.max_steps or (record and accepted + 1 >= T_out.size):
             return Y, MAX_STEPS, accepted, rejected
         min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
         h = min(h, abs(t1 - t))
@@ -238,8 +235,8 @@ def erk_adaptive(
             if h < min_step:
                 return Y, STEP_TOO_SMALL, accepted, rejected
             hs = h * direction
-            _rk_step(Y, K, A, b, hs, k, p, obs, weight, exponent, Yt, Ynew)
-            err = _error_norm(K, hs, e, e3, Y, Ynew, rtol, atol, n_err)
+            _rk_step(Y, K, hs, k, dynamics, Yt, Ynew)
+            err = _error_norm(K, hs, dynamics.tableau, control, Y, Ynew)
             if not _finite(err):
                 # A blow-up inside the step: shrink hard and retry, as for a large error.
                 h *= 0.2
@@ -275,8 +272,9 @@ def erk_adaptive(
 
 
 @njit(cache=True, error_model="numpy")
-def along_path(Z, p, obs, weight, exponent, U, H, dHdu):
+def along_path(Z, equation, U, H, dHdu):
     """Controls, Hamiltonian and dH/du (at the computed controls) at each row of Z = (x, lambda)."""
+    p, obs, weight, exponent = equation
     for r in range(Z.shape[0]):
         z = Z[r, :NZ]
         controls(z, p, U[r])
@@ -295,9 +293,12 @@ def linearize_rows(X, u, p, f, A, B, R):
 
 @njit(cache=True, error_model="numpy")
 def rhs_along(Z, p, obs, weight, exponent, dZ):
-    """Time derivative of (z, cost) at each row of Z, for Hermite interpolation between steps."""
+    """Time derivative of (z, cost) at each row of Z, for Hermite interpolation between steps.
+    The equation's data come as plain arguments: SciPy's solvers call it as their right-hand
+    side (experiments/peers.py), where typing a record would cost more than the call."""
+    equation = Equation(p, obs, weight, exponent)
     for r in range(Z.shape[0]):
-        aug_rhs(Z[r], 0, p, obs, weight, exponent, dZ[r])
+        aug_rhs(Z[r], 0, equation, dZ[r])
 
 
 @njit(cache=True, error_model="numpy")
