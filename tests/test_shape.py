@@ -12,6 +12,23 @@ PACKAGE = Path(leapfrog_planner.__file__).parent
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 100
 MAX_ROOT_MODULES = 8
+#: The layers, in the order of the data (docs/architecture.md states the same order): each
+#: subpackage imports only from its own layer and the layers before it. The modules at the root
+#: (errors, checks, the private helpers) come first: every layer may use them. experiments and
+#: batch share a layer: each uses the other.
+LAYERS = (
+    ("",),  # the root modules
+    ("model",),  # the symbolic model
+    ("compiled",),
+    ("integrate",),
+    ("roots",),
+    ("bvp",),
+    ("planning",),
+    ("viz",),
+    ("experiments", "batch"),
+    ("web",),
+    ("cli",),
+)
 
 
 def _modules() -> dict[str, tuple[Path, bool]]:
@@ -25,21 +42,33 @@ def _modules() -> dict[str, tuple[Path, bool]]:
 
 
 def _imports(modules) -> dict[str, set[str]]:
-    """Each module's imports of other modules of the package, at the top or inside functions.
-    Parents are left out: Python imports a package before its modules anyway."""
+    """Each module's imports of other modules of the package, at the top or inside functions,
+    relative or absolute (the kernel templates import the package by its name). Parents are
+    left out: Python imports a package before its modules anyway."""
     edges: dict[str, set[str]] = {m: set() for m in modules}
     for mod, (path, is_pkg) in modules.items():
         base = mod.split(".") if is_pkg else mod.split(".")[:-1]
         for node in ast.walk(ast.parse(path.read_text())):
-            if not isinstance(node, ast.ImportFrom) or not node.level:
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and (node.level or node.module in modules):
+                up = base[: len(base) - (node.level - 1)] if node.level else []
+                target = ".".join(up + ([node.module] if node.module else []))
+                subs = [f"{target}.{a.name}" for a in node.names]
+                targets = [s for s in subs if s in modules] or [target]
+            else:
                 continue
-            up = base[: len(base) - (node.level - 1)]
-            target = ".".join(up + ([node.module] if node.module else []))
-            subs = [f"{target}.{a.name}" for a in node.names if f"{target}.{a.name}" in modules]
-            for t in subs or [target]:
+            for t in targets:
                 if t in modules and t != mod and not mod.startswith(t + "."):
                     edges[mod].add(t)
     return edges
+
+
+def _layer(module: str) -> str:
+    """The subpackage a module belongs to; "" for the root modules and the package itself."""
+    parts = module.split(".")[1:]
+    is_subpackage = (PACKAGE / "/".join(parts[:1])).is_dir() if parts else False
+    return parts[0] if is_subpackage else ""
 
 
 def _cycle(edges) -> list[str] | None:
@@ -90,7 +119,30 @@ def test_few_modules_at_the_package_root():
     root = sorted(p.name for p in PACKAGE.glob("*.py"))
     assert len(root) <= MAX_ROOT_MODULES, root
     packages = {p.parent.name for p in PACKAGE.glob("*/__init__.py")}
-    assert {"model", "integrate", "roots", "bvp", "planning", "cli"} <= packages
+    assert {"model", "compiled", "integrate", "roots", "bvp", "planning", "cli"} <= packages
+
+
+def test_each_layer_imports_only_from_the_layers_before_it():
+    """symbolic model -> compiled core -> integrate -> roots -> bvp -> planning -> ...: the
+    order of LAYERS, imports inside functions included."""
+    rank = {name: i for i, layer in enumerate(LAYERS) for name in layer}
+    modules = _modules()
+    assert {_layer(m) for m in modules} == set(rank)  # every subpackage has its place
+    wrong = [
+        f"{mod} imports {dep}"
+        for mod, deps in _imports(modules).items()
+        for dep in deps
+        if rank[_layer(dep)] > rank[_layer(mod)]
+    ]
+    assert not wrong, wrong
+
+
+def test_the_layer_check_sees_absolute_imports():
+    """The kernel templates import the package by name: those imports are edges too."""
+    edges = _imports(_modules())
+    template = "leapfrog_planner.compiled.newton_template"
+    assert "leapfrog_planner.compiled.abi" in edges[template]
+    assert "leapfrog_planner.model.penalty" in edges["leapfrog_planner.compiled.flow_template"]
 
 
 def test_cycles_are_found():
