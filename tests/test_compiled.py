@@ -1,5 +1,5 @@
-"""The compiled core's cache key: found from the files that feed the generated module, never a
-hand-kept list, and computed without SymPy."""
+"""The compiled core: its cache key, found from the files that feed the generated module (never a
+hand-kept list) and computed without SymPy; its kernels called through their entry points."""
 
 from __future__ import annotations
 
@@ -9,8 +9,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+
+from conftest import CASES, EXTREMAL_COSTATE
+from leapfrog_planner import Flow
 from leapfrog_planner.compiled.cache_key import PACKAGE, cache_key, generator_sources
-from leapfrog_planner.compiled.kernels import load_kernels
+from leapfrog_planner.compiled.kernels import entry_point, load_kernels
 from leapfrog_planner.model import builtin_source
 
 #: Files that must feed the key whatever else does: the generator and what it pastes in, what
@@ -88,3 +92,23 @@ def test_a_warm_start_computes_the_key_and_loads_the_kernels_without_sympy():
     env = {**os.environ, "PYTHONPATH": str(PACKAGE.parent)}
     r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
+
+
+def test_a_kernel_called_through_its_entry_point_gives_the_dispatchers_bits():
+    """Flow calls its integrator through the compiled entry point (no per-call typing of the
+    records): the same bits as numba's dispatcher, and the same machine code for the same
+    types."""
+    c = CASES[4]
+    flow = Flow(c.problem())
+    Y0 = np.concatenate([c.start, EXTREMAL_COSTATE[4], [0.0], np.eye(6)[:, 3:].ravel()])
+    args = (Y0, 0.0, 1.0, 3, flow.dynamics, flow.control, flow.dynamics.no_samples)
+    kernel = flow.kernels.erk_adaptive
+    direct = kernel(*args)
+    entry = entry_point(kernel, args)
+    assert entry is entry_point(kernel, args)
+    through = entry(*args)
+    np.testing.assert_array_equal(direct[0], through[0])
+    assert direct[1:] == through[1:]
+    r = flow(0.0, Y0[:6], 1.0, sensitivity="costate")
+    np.testing.assert_array_equal(r.z, direct[0][:6])
+    assert entry_point(len, ()) is len  # not a numba kernel (or the JIT disabled): itself
