@@ -13,8 +13,9 @@ just its tableau) and the step-size controller (:class:`StepControl`) are apart:
   :class:`Solver` and :class:`History`; they return :class:`NewtonOutcome` and
   :class:`SweepOutcome`.
 
-:class:`Residual` and :class:`Iterate` are built and read inside the Newton loop only. The
-status codes are declared in :mod:`.status`.
+:class:`Residual` and :class:`Iterate` are built and read inside the Newton loop only. A
+kernel unpacks its records once: the functions it calls per step or per stage of the integrator
+take the fields (see flow_template.py). The status codes are declared in :mod:`.status`.
 """
 
 from __future__ import annotations
