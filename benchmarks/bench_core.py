@@ -172,8 +172,7 @@ def bench_flow(args) -> None:
     )
 
     number, rounds = (300, 9) if args.quick else (1000, 21)
-    seed = getattr(flow, "_seed", {}).get("costate", np.eye(6)[:, 3:])
-    T_out, Z_out = np.zeros(0), np.zeros((0, 7))
+    seed = np.eye(6)[:, 3:]
     cands = {
         "Flow.__call__(sensitivity='costate')": lambda: flow(0.0, z0, 1.0, sensitivity="costate"),
         "Flow.__call__(sensitivity=None)": lambda: flow(0.0, z0, 1.0),
@@ -181,28 +180,16 @@ def bench_flow(args) -> None:
     # The compiled part alone, to separate the Python overhead of Flow.__call__.
     if hasattr(flow, "_run"):
         cands["Flow._run (array setup + kernel)"] = lambda: flow._run(
-            0.0, z0, 1.0, seed, T_out, Z_out
+            0.0, z0, 1.0, seed, flow.dynamics.no_samples
         )
-    try:
-        K, tab = flow.kernels, flow.tableau
+    try:  # through its entry point, as Flow calls it: numba's dispatch is Python overhead too
+        from leapfrog_planner.compiled.kernels import entry_point
+
         Y0 = np.concatenate([z0, [0.0], seed.ravel()])
-        kargs = (
-            Y0,
-            0.0,
-            1.0,
-            200,
-            seed.shape[1],
-            tab.A,
-            tab.b,
-            flow._p,
-            flow._obs,
-            flow._w,
-            flow._n,
-            T_out,
-            Z_out,
-        )
-        cands["kernels.erk_fixed (compiled only)"] = lambda: K.erk_fixed(*kargs)
-    except AttributeError as exc:
+        kargs = (Y0, 0.0, 1.0, seed.shape[1], flow.dynamics, 200, flow.dynamics.no_samples)
+        erk_fixed = entry_point(flow.kernels.erk_fixed, kargs)
+        cands["kernels.erk_fixed (compiled only)"] = lambda: erk_fixed(*kargs)
+    except (AttributeError, ImportError) as exc:
         print(f"kernels.erk_fixed: not measurable ({exc})")
     for name in list(cands):
         try:
@@ -791,7 +778,7 @@ CHILD = textwrap.dedent(
     t0 = time.perf_counter()
     import json, math
     from leapfrog_planner import OptimalControlProblem
-    from leapfrog_planner.model.codegen import load_kernels
+    from leapfrog_planner.compiled.kernels import load_kernels
     from leapfrog_planner.bvp.shooting import solve_shooting
     t1 = time.perf_counter()
     load_kernels("unicycle")

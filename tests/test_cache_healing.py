@@ -16,7 +16,7 @@ from tests.test_cli import cli_env
 
 import leapfrog_planner
 from leapfrog_planner._cache import cache_dir
-from leapfrog_planner.model.kernels import load_kernels
+from leapfrog_planner.compiled.kernels import load_kernels
 
 CASE1 = 10.323202  # paper case 1's optimum
 

@@ -14,7 +14,9 @@ from scipy.integrate import solve_ivp
 
 from conftest import CASES, EXTREMAL_COSTATE, fd_jacobian, rel_err
 from leapfrog_planner import Flow, FlowStatus, IntegratorSettings, OptimalControlProblem
+from leapfrog_planner.compiled.abi import StepControl
 from leapfrog_planner.integrate.tableaux import get_tableau
+from leapfrog_planner.model.penalty import penalty_terms
 
 NON_DEFAULT_DD = {"wheel_radius": 0.7, "axle_length": 1.3}
 
@@ -30,13 +32,12 @@ def fixed_kernel_run(flow: Flow, method: str, z0, t0, t1, steps: int) -> np.ndar
     ignores ``steps``), so the fixed-step order of the embedded pairs is measured on the
     kernel ``erk_fixed`` directly, with the tableau's propagating weights ``b``.
     """
-    tab = get_tableau(method)
+    dynamics = flow.dynamics._replace(tableau=get_tableau(method).record())
     Y0 = np.concatenate([np.asarray(z0, float), [0.0]])
-    Y, status, acc = flow.kernels.erk_fixed(
-        Y0, float(t0), float(t1), steps, 0, tab.A, tab.b, flow._p, flow._obs, flow._w, flow._n,
-        np.zeros(0), np.zeros((0, flow.nz + 1)),
-    )  # fmt: skip
-    assert status == FlowStatus.OK and acc == steps
+    Y, status, acc, rejected = flow.kernels.erk_fixed(
+        Y0, float(t0), float(t1), 0, dynamics, steps, dynamics.no_samples
+    )
+    assert status == FlowStatus.OK and acc == steps and rejected == 0
     return Y
 
 
@@ -111,7 +112,7 @@ def scipy_rhs(flow):
 
     def rhs(t, Y):
         out = np.empty((1, Y.size))
-        K.rhs_along(np.ascontiguousarray(Y[None, :]), flow._p, flow._obs, flow._w, flow._n, out)
+        K.rhs_along(np.ascontiguousarray(Y[None, :]), *flow.dynamics.equation, out)
         return out[0]
 
     return rhs
@@ -186,23 +187,10 @@ def hairer_initial_step(rhs, t0, y0, t1, f0, order, rtol, atol):
 
 def kernel_initial_step(flow, Y, t0, t1, order, tol):
     rhs = scipy_rhs(flow)
-    direction = 1.0 if t1 >= t0 else -1.0
-    return flow.kernels._initial_step(
-        Y,
-        rhs(t0, Y),
-        t0,
-        t1,
-        0,
-        order,
-        tol,
-        tol,
-        flow._p,
-        flow._obs,
-        flow._w,
-        flow._n,
-        Y.size,
-        direction,
-    )
+    tableau = flow.dynamics.tableau._replace(error_order=order)
+    dynamics = flow.dynamics._replace(tableau=tableau)
+    control = StepControl(tol, tol, 1)
+    return flow.kernels._initial_step(Y, rhs(t0, Y), t0, t1, 0, dynamics, control)
 
 
 def test_initial_step_forward_is_hairers(case4_flow_reference):
@@ -268,7 +256,7 @@ def test_dense_output_is_the_cubic_hermite_interpolant(case4_flow_reference, bac
     steps = tr.at_step
     Zs = np.column_stack([tr.x, tr.lam, tr.cost])
     dZ = np.empty_like(Zs[steps])
-    flow.kernels.rhs_along(Zs[steps], flow._p, flow._obs, flow._w, flow._n, dZ)
+    flow.kernels.rhs_along(Zs[steps], *flow.dynamics.equation, dZ)
     spline = CubicHermiteSpline(
         tr.t[steps][:: -1 if backward else 1],
         Zs[steps][:: -1 if backward else 1],
@@ -362,29 +350,30 @@ def test_canonical_jacobian_matches_finite_differences_of_the_rhs(model, z, xy, 
     flow = Flow(prob)
     K = flow.kernels
     pen = prob.penalty
+    p = flow.dynamics.equation.parameters
     z = z.copy()
     z[:2] = xy  # positions among the obstacles, where the penalty terms matter
 
     def G(zz):
         out = np.empty(7)
-        K.model_augmented(zz, flow._p, np.zeros(0), 0, out)
-        _, Px, Py, *_ = K.penalty_terms(zz[0], zz[1], pen.obstacles, pen.weight, exponent, False)
+        K.model_augmented(zz, p, np.zeros(0), 0, out)
+        _, Px, Py, *_ = penalty_terms(zz[0], zz[1], pen.obstacles, pen.weight, exponent, False)
         out[3] -= Px
         out[4] -= Py
         return out[:6]
 
     J = np.empty((6, 6))
-    K.canonical_jac(z, flow._p, J)
-    _, _, _, Pxx, Pxy, Pyy = K.penalty_terms(z[0], z[1], pen.obstacles, pen.weight, exponent, True)
+    K.canonical_jac(z, p, J)
+    _, _, _, Pxx, Pxy, Pyy = penalty_terms(z[0], z[1], pen.obstacles, pen.weight, exponent, True)
     J[3:5, 0:2] -= np.array([[Pxx, Pxy], [Pxy, Pyy]])
     J_fd = fd_jacobian(G, z, 1e-5)
     np.testing.assert_allclose(J, J_fd, rtol=0, atol=1e-6 * max(1.0, np.max(np.abs(J))))
     # model_augmented's sensitivity block is the model Jacobian times the seed (row-major S).
     S = np.random.default_rng(0).normal(size=(6, 3))
     out = np.empty(7 + 18)
-    K.model_augmented(z, flow._p, S.ravel(), 3, out)
+    K.model_augmented(z, p, S.ravel(), 3, out)
     Jm = np.empty((6, 6))
-    K.canonical_jac(z, flow._p, Jm)
+    K.canonical_jac(z, p, Jm)
     np.testing.assert_allclose(out[7:].reshape(6, 3), Jm @ S, rtol=1e-12, atol=1e-12)
 
 

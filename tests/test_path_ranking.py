@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import CASES
-from leapfrog_planner.model.problem import OptimalControlProblem
+from leapfrog_planner.integrate.problem import OptimalControlProblem
 from leapfrog_planner.planning.initial_path import EndModes, InitialPath, initial_paths
 from leapfrog_planner.planning.path_ranking import PathGuide, estimated_cost, rank_paths
 from leapfrog_planner.planning.planner import Planner

@@ -450,9 +450,16 @@ def test_saved_files_get_the_usual_permissions(planned, tmp_path):
 
 @pytest.fixture(scope="module")
 def failed():
-    """A fast deterministic failure: q = 2 from the start, no multiple-shooting fallback, and
-    no second try with more partitions."""
-    r = plan(CASES[4].name, partitions=2, final="shooting", initial_paths=1, finer_doublings=0)
+    """A fast deterministic failure: q = 2 from the start, no multiple-shooting fallback, one
+    path and no second try with more partitions."""
+    r = plan(
+        CASES[4].name,
+        partitions=2,
+        final="shooting",
+        initial_paths=1,
+        extra_paths=0,
+        finer_doublings=0,
+    )
     assert r.status is PlanStatus.FAILED
     return r
 

@@ -231,21 +231,3 @@ def test_structural_refusals():
         _model(states=(x, y), dynamics=(V, W))
     with pytest.raises(ModelError, match="2 dynamics for 3 states"):
         _model(dynamics=(V, W))
-
-
-def test_the_kernel_cache_key_covers_every_file_compiled_into_the_kernels():
-    """numba's disk cache does not notice a change in a function that a cached function calls:
-    every project module the generated code imports must be part of the cache key."""
-    import re
-    from pathlib import Path
-
-    from leapfrog_planner.model import codegen, kernels
-
-    package = Path(kernels.__file__).parent.parent
-    header = Path(codegen.__file__).read_text()
-    imported = set(re.findall(r"from leapfrog_planner\.([\w.]+) import", header))
-    assert imported, "the generated code imports project modules"
-    for module in imported:
-        path = module.replace(".", "/") + ".py"
-        assert (package / path).exists()
-        assert path in kernels._GENERATOR_FILES, f"{path} is compiled into the kernels"

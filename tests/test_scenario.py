@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from conftest import CASES
 from leapfrog_planner import checks
 from leapfrog_planner.errors import ScenarioError, SettingsError, require_integer
-from leapfrog_planner.model.problem import OptimalControlProblem
+from leapfrog_planner.integrate.problem import OptimalControlProblem
 from leapfrog_planner.planning.scenario import (
     SOLVER_KEYS,
     Scenario,

@@ -18,8 +18,10 @@ from leapfrog_planner.planning.status import PlanStatus
 
 def test_every_run_is_recorded_with_the_stage_that_asked_and_why(tmp_path):
     r = plan("paper-case-4")
-    assert r.success and len(r.search) == 3
-    assert {rec.stage for rec in r.search} == {"paths"}
+    assert r.success
+    # one round: the first paths, one per family, then the others estimated close to them
+    assert {rec.stage for rec in r.search} <= {"paths", "more paths"}
+    assert r.search[0].stage == "paths"
     assert all(rec.reason and rec.partitions == 8 and rec.weight == 100.0 for rec in r.search)
     answer = [rec for rec in r.search if rec.label == r.initial_path]
     assert len(answer) == 1 and answer[0].cost == r.cost

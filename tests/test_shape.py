@@ -13,6 +13,24 @@ PACKAGE = Path(leapfrog_planner.__file__).parent
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 100
 MAX_ROOT_MODULES = 8
+#: The layers, in the order of the data (docs/architecture.md states the same order): each
+#: subpackage imports only from its own layer and the layers before it. The modules at the root
+#: (errors, checks, the private helpers) come first: every layer may use them. experiments and
+#: batch share a layer: each uses the other.
+LAYERS = (
+    ("",),  # the root modules
+    ("model",),  # the symbolic model
+    ("compiled",),
+    ("integrate",),
+    ("roots",),
+    ("bvp",),
+    ("planning",),
+    ("viz",),
+    ("batch",),
+    ("experiments",),
+    ("web",),
+    ("cli",),
+)
 
 
 def _modules() -> dict[str, tuple[Path, bool]]:
@@ -26,35 +44,41 @@ def _modules() -> dict[str, tuple[Path, bool]]:
 
 
 def _imports(modules, parents: bool = False) -> dict[str, set[str]]:
-    """Each module's imports of other modules of the package, at the top or inside functions.
-    Parents are left out (Python imports a package before its modules anyway), unless
-    ``parents``: then a name taken from a parent package's ``__init__`` is an import of it."""
+    """Each module's imports of other modules of the package, at the top or inside functions,
+    relative or absolute (the kernel templates import the package by its name). Parents are left
+    out (Python imports a package before its modules anyway), unless ``parents``: then a name
+    taken from a parent package's ``__init__`` is an import of it."""
     edges: dict[str, set[str]] = {m: set() for m in modules}
     for mod, (path, is_pkg) in modules.items():
         base = mod.split(".") if is_pkg else mod.split(".")[:-1]
         for node in ast.walk(ast.parse(path.read_text())):
-            if not isinstance(node, ast.ImportFrom) or not node.level:
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and (node.level or node.module in modules):
+                up = base[: len(base) - (node.level - 1)] if node.level else []
+                target = ".".join(up + ([node.module] if node.module else []))
+                subs = [f"{target}.{a.name}" for a in node.names if f"{target}.{a.name}" in modules]
+                if parents and subs and len(subs) < len(node.names):
+                    subs.append(target)  # submodules and names of the package itself
+                targets = subs or [target]
+            else:
                 continue
-            up = base[: len(base) - (node.level - 1)]
-            target = ".".join(up + ([node.module] if node.module else []))
-            subs = [f"{target}.{a.name}" for a in node.names if f"{target}.{a.name}" in modules]
-            if parents and len(subs) < len(node.names) and subs:
-                subs.append(target)  # submodules and names of the package itself
-            for t in subs or [target]:
+            for t in targets:
                 if t in modules and t != mod and (parents or not mod.startswith(t + ".")):
                     edges[mod].add(t)
     return edges
 
 
+def _layer(module: str) -> str:
+    """The subpackage a module belongs to; "" for the root modules and the package itself."""
+    parts = module.split(".")[1:]
+    is_subpackage = (PACKAGE / "/".join(parts[:1])).is_dir() if parts else False
+    return parts[0] if is_subpackage else ""
+
+
 def _subpackage(module: str) -> str:
     """The subpackage (or root module) a module belongs to: ``leapfrog_planner.<name>``."""
     return ".".join(module.split(".")[:2])
-
-
-#: Imports between subpackages that other changes of issue 34 remove, each (module, imported
-#: module), left out of the subpackage check until then. model/codegen.py and bvp/abi.py are
-#: being rewritten in parallel: the generated kernels take their constants from bvp.abi.
-PENDING_SUBPACKAGE_IMPORTS = {("leapfrog_planner.model.codegen", "leapfrog_planner.bvp.abi")}
 
 
 def _cycle(edges) -> list[str] | None:
@@ -93,14 +117,13 @@ def test_subpackages_import_one_way():
     graph: dict[str, set[str]] = {_subpackage(m): set() for m in edges}
     for mod, targets in edges.items():
         for t in targets:
-            if _subpackage(t) != _subpackage(mod) and (mod, t) not in PENDING_SUBPACKAGE_IMPORTS:
+            if _subpackage(t) != _subpackage(mod):
                 graph[_subpackage(mod)].add(_subpackage(t))
     assert "leapfrog_planner.batch" in graph["leapfrog_planner.experiments"]  # sees them
     mutual = sorted(f"{a} <-> {b}" for a in graph for b in graph[a] if a < b and a in graph[b])
     assert not mutual, mutual
     cycle = _cycle(graph)
     assert cycle is None, " -> ".join(cycle)
-    assert all(t in edges[m] for m, t in PENDING_SUBPACKAGE_IMPORTS), "pending: done, remove it"
 
 
 def test_no_package_and_its_modules_import_each_other():
@@ -108,12 +131,6 @@ def test_no_package_and_its_modules_import_each_other():
     from its package's ``__init__`` (``from . import name``) is not imported by it."""
     cycle = _cycle(_imports(_modules(), parents=True))
     assert cycle is None, " -> ".join(cycle)
-
-
-#: Modules that still take a private name of another module, each left out of the check below
-#: until the change of issue 34 that rewrites it removes the import: roots/ is being changed in
-#: parallel (roots/loop.py: ``from .steps import _Evaluator``).
-PENDING_PRIVATE_IMPORTS = {"leapfrog_planner.roots.loop"}
 
 
 def _private(name: str) -> bool:
@@ -159,8 +176,7 @@ def test_no_module_takes_another_modules_private_name():
     found = {
         mod: _private_uses(mod, path, is_pkg, modules) for mod, (path, is_pkg) in modules.items()
     }
-    assert not [f for mod, fs in found.items() if mod not in PENDING_PRIVATE_IMPORTS for f in fs]
-    assert all(found[mod] for mod in PENDING_PRIVATE_IMPORTS), "pending: done, remove it"
+    assert not [f for fs in found.values() for f in fs]
 
 
 def test_private_names_are_found():
@@ -203,7 +219,30 @@ def test_few_modules_at_the_package_root():
     root = sorted(p.name for p in PACKAGE.glob("*.py"))
     assert len(root) <= MAX_ROOT_MODULES, root
     packages = {p.parent.name for p in PACKAGE.glob("*/__init__.py")}
-    assert {"model", "integrate", "roots", "bvp", "planning", "cli"} <= packages
+    assert {"model", "compiled", "integrate", "roots", "bvp", "planning", "cli"} <= packages
+
+
+def test_each_layer_imports_only_from_the_layers_before_it():
+    """symbolic model -> compiled core -> integrate -> roots -> bvp -> planning -> ...: the
+    order of LAYERS, imports inside functions included."""
+    rank = {name: i for i, layer in enumerate(LAYERS) for name in layer}
+    modules = _modules()
+    assert {_layer(m) for m in modules} == set(rank)  # every subpackage has its place
+    wrong = [
+        f"{mod} imports {dep}"
+        for mod, deps in _imports(modules).items()
+        for dep in deps
+        if rank[_layer(dep)] > rank[_layer(mod)]
+    ]
+    assert not wrong, wrong
+
+
+def test_the_layer_check_sees_absolute_imports():
+    """The kernel templates import the package by name: those imports are edges too."""
+    edges = _imports(_modules())
+    template = "leapfrog_planner.compiled.newton_template"
+    assert "leapfrog_planner.compiled.abi" in edges[template]
+    assert "leapfrog_planner.model.penalty" in edges["leapfrog_planner.compiled.flow_template"]
 
 
 def test_cycles_are_found():

@@ -540,7 +540,8 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
     """With ``predict`` the compiled loop evaluates F alone where Newton's quadratic convergence
     predicts the iterate to converge: the same iterates, statuses and costs, bit for bit, and
     here the same number of evaluations, the last of them without the variational equations."""
-    from leapfrog_planner.bvp.shooting import _loop_arguments
+    from leapfrog_planner.bvp.shooting import compiled_solver
+    from leapfrog_planner.compiled.abi import Ends, History
 
     c = CASES[case]
     prob = c.problem("unicycle")
@@ -553,11 +554,12 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
         # predicted below 1e-6 / 10, 6.8e-6^3 / 1.7e-3^2 = 1.1e-10 is. Case 3 ends 8.1e-4,
         # 1.5e-8: predicted 5e-18 <= 1e-10 / 10.
         root = RootSettings(tol=tol)
-        args = _loop_arguments(flow, get_strategy(method), root, True, predict)
+        solver = compiled_solver(flow, get_strategy(method), root, True, predict)
         m = root.max_iterations
         out[predict] = flow.kernels.shoot_newton(
-            (start, goal, np.array([0.0, 1.0])), s0, *args, np.empty(m + 1), np.empty(m)
-        )
+            Ends(start, goal, np.array([0.0, 1.0])), s0, solver, flow.dynamics,
+            History(np.empty(m + 1), np.empty(m)),
+        )  # fmt: skip
     code0, x0, F0, it0, ev0, *_, last0, _, jac0 = out[False]
     code1, x1, F1, it1, ev1, *_, last1, _, jac1 = out[True]
     assert code0 == code1 == 0 and it0 == it1 >= 2 and ev0 == ev1

@@ -18,10 +18,10 @@ import warnings
 MOVED = {
     "models": "model",
     "pmp": "model.pmp",
-    "codegen": "model.codegen",
-    "kernels": "model.kernels",
+    "codegen": "compiled.codegen",
+    "kernels": "compiled.kernels",
     "penalty": "model.penalty",
-    "problem": "model.problem",
+    "problem": "integrate.problem",
     "shooting": "bvp.shooting",
     "multiple_shooting": "bvp.multiple_shooting",
     "scenario": "planning.scenario",

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..bvp.shooting import ShootingSettings, solve_shooting
+from ..compiled.kernels import model_info
 from ..errors import LeapfrogError, SettingsError, require_integer
-from ..model.kernels import model_info
 from ..planning.direct import solve_direct
 from ..planning.planner import Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate

@@ -13,10 +13,22 @@ import numpy as np
 from scipy.linalg import expm, solve
 
 from .._blas import blas_single_threaded
+from ..compiled.abi import (
+    Accuracy,
+    Arcs,
+    Ends,
+    History,
+    NewtonOutcome,
+    RootParams,
+    Solver,
+    StepParams,
+    SweepOutcome,
+)
+from ..compiled.kernels import entry_point
 from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
+from ..integrate.problem import OptimalControlProblem
 from ..model.penalty import penalty_terms
-from ..model.problem import OptimalControlProblem
 from ..roots import (
     STRATEGIES,
     ModifiedNewtonStep,
@@ -30,7 +42,6 @@ from ..roots import (
     solve_root,
 )
 from ..roots.steps import vnorm
-from .abi import Accuracy, Dynamics, NewtonOutcome, RootParams, StepParams, SweepOutcome
 
 
 @dataclass(frozen=True)
@@ -99,7 +110,7 @@ class ShootingSystem:
         self._z0[: self.nx] = self.x0
         self.last = None  # (s, FlowResult) of the latest evaluation, reused for the result
         # The compiled loop's view of the problem: end states and junction times.
-        self.ends = (self.x0, self.x1, np.array([self.t0, self.t1]))
+        self.ends = Ends(self.x0, self.x1, np.array([self.t0, self.t1]))
 
     def evaluate(self, s, jacobian):
         self._z0[self.nx :] = s
@@ -266,30 +277,23 @@ _FUSED = (NewtonStep, ModifiedNewtonStep, NleqErrStep)  # codes 0, 1, 2 of shoot
 _CODES = tuple(RootStatus)  # the compiled loop's status codes, in RootStatus order
 
 
-def _loop_arguments(
+def compiled_solver(
     flow: Flow, strategy, settings: RootSettings, inexact: bool, predict: bool = False
-) -> tuple[int, RootParams, StepParams, Accuracy, Dynamics]:
-    """``shoot_newton``'s arguments after the ends and the guess: the method's code and the
-    records (:mod:`.abi`), which depend only on the flow, the strategy and the settings.
-    ``predict``: skip the Jacobian where convergence is predicted (see the loop)."""
-    tab, fs = flow.tableau, flow.settings
-    return (
-        _FUSED.index(type(strategy)),
-        RootParams(
-            settings.tol, settings.max_iterations, settings.max_cond, settings.divergence,
-            settings.stall_window, settings.stall_factor, predict,
-        ),
-        StepParams(
-            getattr(strategy, "max_halvings", 0), getattr(strategy, "initial_damping", 1.0),
-            getattr(strategy, "min_damping", 0.0), getattr(strategy, "xtol", 0.0),
-            getattr(strategy, "max_trials", 0),
-        ),
-        Accuracy(fs.rtol, fs.atol, fs.max_steps, inexact and tab.adaptive, flow.nx),
-        Dynamics(
-            tab.A, tab.b, tab.e, flow._e3, tab.error_order, flow._p, flow._obs, flow._w,
-            flow._n, flow._no_T, flow._no_Z,
-        ),
+) -> Solver:
+    """How ``shoot_newton`` solves (its :class:`~..compiled.abi.Solver` record): the method's
+    code, the root settings, the step's fields and the flow's accuracy. ``predict``: skip the
+    Jacobian where convergence is predicted (see the loop)."""
+    root = RootParams(
+        settings.tol, settings.max_iterations, settings.max_cond, settings.divergence,
+        settings.stall_window, settings.stall_factor, predict,
     )  # fmt: skip
+    step = StepParams(
+        getattr(strategy, "max_halvings", 0), getattr(strategy, "initial_damping", 1.0),
+        getattr(strategy, "min_damping", 0.0), getattr(strategy, "xtol", 0.0),
+        getattr(strategy, "max_trials", 0),
+    )  # fmt: skip
+    accuracy = Accuracy(flow.control, bool(inexact and flow.tableau.adaptive), flow.nx)
+    return Solver(_FUSED.index(type(strategy)), root, step, accuracy)
 
 
 @dataclass(frozen=True, slots=True)
@@ -340,10 +344,11 @@ class LocalShooter:
         self._plain = replace(settings, samples=0)  # for solve_shooting (methods not fused)
         if self._fused:
             m = settings.root.max_iterations
-            self._args = _loop_arguments(
+            self._solver = compiled_solver(
                 flow, self.strategy, settings.root, settings.inexact, predict=True
             )
-            self._norms, self._lams = np.empty(m + 1), np.empty(m)
+            self._history = History(np.empty(m + 1), np.empty(m))
+        self._newton = None  # shoot_newton's entry point, bound on the first call
         self._nx = problem.model.nx
 
     def __call__(self, t0: float, x0, t1: float, x1, guess=None) -> LocalSolution:
@@ -351,12 +356,11 @@ class LocalShooter:
         from the affine guess when it is None. A converged iterate whose end cannot be
         integrated again (never seen: the loop's last evaluation is at that iterate) counts as
         a failure."""
-        x0 = np.ascontiguousarray(x0, dtype=float)
-        x1 = np.ascontiguousarray(x1, dtype=float)
+        x0 = np.ascontiguousarray(x0, dtype=float).reshape(-1)
+        x1 = np.ascontiguousarray(x1, dtype=float).reshape(-1)
         if guess is None:
-            s0 = affine_costate_guess(self.problem, t0, x0, t1, x1, flow=self.flow)
-        else:
-            s0 = np.array(guess, dtype=float).reshape(-1)
+            guess = affine_costate_guess(self.problem, t0, x0, t1, x1, flow=self.flow)
+        s0 = np.array(guess, dtype=float).reshape(-1)
         if not self._fused:
             r = solve_shooting(
                 self.problem, t0, x0, t1, x1, method=self.strategy, guess=s0,
@@ -368,7 +372,7 @@ class LocalShooter:
             return LocalSolution(
                 r.status, r.costate0, r.costate1, r.cost, r.root.iterations, r.root.f_evals
             )
-        out = self._loop((x0, x1, np.array([t0, t1], dtype=float)), s0)
+        out = self._loop(Ends(x0, x1, np.array([t0, t1], dtype=float)), s0)
         x, its, evals, (last_s, Y, last_ok) = out.x, out.iterations, out.f_evals, out.last
         nx = self._nx
         if out.code != _CONVERGED:
@@ -390,14 +394,19 @@ class LocalShooter:
         """Leapfrog's sweep from junction ``i`` over the arcs ``(T, X, L0, L1, C)`` (in place),
         as long as each local problem converges from its warm guess: the model kernels'
         ``sweep_warm``."""
+        arcs = Arcs(T, X, L0, L1, C)
         return self.flow.kernels.sweep_warm(
-            T, X, L0, L1, C, i, *self._args, self._norms, self._lams
+            arcs, i, self._solver, self.flow.dynamics, self._history
         )
 
-    def _loop(self, ends, s0) -> NewtonOutcome:
+    def _loop(self, ends: Ends, s0) -> NewtonOutcome:
         """The compiled loop (a method of its own so that the profiler can time it: see
-        :mod:`.profiling`)."""
-        return self.flow.kernels.shoot_newton(ends, s0, *self._args, self._norms, self._lams)
+        :mod:`.profiling`). ``__call__`` builds its arguments with the same types every time,
+        so it is called through its entry point."""
+        args = (ends, s0, self._solver, self.flow.dynamics, self._history)
+        if self._newton is None:
+            self._newton = entry_point(self.flow.kernels.shoot_newton, args)
+        return self._newton(*args)
 
 
 _CONVERGED = _CODES.index(RootStatus.CONVERGED)
@@ -423,9 +432,8 @@ def compiled_newton(
     m = settings.max_iterations
     norms, lams = np.empty(m + 1), np.empty(m)
     s0 = np.array(s0, dtype=float).reshape(-1)
-    out = flow.kernels.shoot_newton(
-        system.ends, s0, *_loop_arguments(flow, strategy, settings, system.inexact), norms, lams
-    )
+    solver = compiled_solver(flow, strategy, settings, system.inexact)
+    out = flow.kernels.shoot_newton(system.ends, s0, solver, flow.dynamics, History(norms, lams))
     x, F, its, evals, n, cond = out.x, out.F, out.iterations, out.f_evals, out.n_norms, out.cond
     last_s, last_Y, last_ok = out.last
     status = _CODES[out.code]
@@ -452,7 +460,7 @@ def compiled_newton(
     last = None
     if last_ok:
         nz = 2 * system.nx
-        times = system.ends[2]
+        times = system.ends.times
         r = FlowResult(
             status=FlowStatus.OK, t0=float(times[-2]), t1=float(times[-1]), z=last_Y[:nz],
             cost=float(last_Y[nz]),

@@ -12,9 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled.abi import Dynamics, Equation, Samples, StepControl
+from ..compiled.kernels import entry_point
+from ..compiled.status import FlowStatus
 from ..errors import SettingsError, require_integer
-from ..model.problem import OptimalControlProblem
-from .status import FlowStatus
+from .problem import OptimalControlProblem
 from .tableaux import TABLEAUX, get_tableau
 
 
@@ -86,22 +88,29 @@ _STATUS = tuple(FlowStatus)  # kernel status code -> enum, without the enum call
 
 
 class Flow:
-    """Compiled flow of one problem; cheap to call many times (obstacles are arrays, not code)."""
+    """Compiled flow of one problem; cheap to call many times (obstacles are arrays, not code).
+
+    ``dynamics`` (the equation's data and the method's tableau) and ``control`` (the settings'
+    tolerances) are the records of the compiled calls (:mod:`..compiled.abi`), the flow's own
+    and the compiled Newton loop's."""
 
     def __init__(self, problem: OptimalControlProblem, settings: IntegratorSettings | None = None):
         self.problem = problem
-        self.settings = settings or IntegratorSettings()
-        self.tableau = get_tableau(self.settings.method)
+        self.settings = s = settings or IntegratorSettings()
+        self.tableau = get_tableau(s.method)
         self.kernels = problem.model.kernels
         self.nx = problem.model.nx
         self.nz = 2 * self.nx
-        self._p = np.asarray(problem.parameters, dtype=np.float64)
-        self._obs = problem.penalty.grid  # obstacles and their grid (model/penalty.py)
-        self._w = float(problem.penalty.weight)
-        self._n = int(problem.penalty.exponent)
-        self._e3 = self.tableau.e3 if self.tableau.e3 is not None else np.zeros(0)
-        self._no_T = np.zeros(0)
-        self._no_Z = np.zeros((0, self.nz + 1))
+        penalty = problem.penalty
+        equation = Equation(
+            np.asarray(problem.parameters, dtype=np.float64),
+            penalty.grid,  # obstacles and their grid (model/penalty.py)
+            float(penalty.weight),
+            int(penalty.exponent),
+        )
+        no_samples = Samples(np.zeros(0), np.zeros((0, self.nz + 1)))
+        self.dynamics = Dynamics(equation, self.tableau.record(), no_samples)
+        self.control = StepControl(float(s.rtol), float(s.atol), int(s.max_steps))
         eye = np.eye(self.nz)
         self._seed = {None: eye[:, :0], "costate": eye[:, self.nx :], "full": eye}
         # Initial augmented states [z, cost, seed] per named seed: a call copies one and writes z.
@@ -109,11 +118,15 @@ class Flow:
             key: np.concatenate([np.zeros(self.nz + 1), seed.ravel()])
             for key, seed in self._seed.items()
         }
+        self._integrate = None  # the integrator's entry point, bound on the first call
 
     def with_settings(self, settings: IntegratorSettings) -> Flow:
         return Flow(self.problem, settings)
 
-    def _run(self, t0, z0, t1, seed, T_out, Z_out, rtol=None, atol=None, Y0=None):
+    def _run(self, t0, z0, t1, seed, samples, rtol=None, atol=None, Y0=None):
+        """The integrator's kernel from ``(t0, z0)`` to ``t1`` with the sensitivity ``seed``:
+        ``(Y, status, accepted steps, rejected steps)``. Every argument is built here with the
+        same types on every call, so the kernel is called through its entry point."""
         nz = self.nz
         k = seed.shape[1]
         if Y0 is None:
@@ -121,36 +134,20 @@ class Flow:
             Y0[nz] = 0.0
             Y0[nz + 1 :] = seed.ravel()
         Y0[:nz] = z0
-        K = self.kernels
-        tab = self.tableau
-        if tab.adaptive:
-            s = self.settings
-            Y, status, acc, rej = K.erk_adaptive(
-                Y0,
-                t0,
-                t1,
-                k,
-                tab.A,
-                tab.b,
-                tab.e,
-                self._e3,
-                tab.error_order,
-                rtol or s.rtol,
-                atol or s.atol,
-                s.max_steps,
-                self._p,
-                self._obs,
-                self._w,
-                self._n,
-                T_out,
-                Z_out,
-            )
+        if not self.tableau.adaptive:
+            budget = int(self.settings.steps)
+        elif rtol is None and atol is None:
+            budget = self.control
         else:
-            n = self.settings.steps
-            Y, status, acc = K.erk_fixed(
-                Y0, t0, t1, n, k, tab.A, tab.b, self._p, self._obs, self._w, self._n, T_out, Z_out
+            c = self.control
+            budget = StepControl(float(rtol or c.rtol), float(atol or c.atol), c.max_steps)
+        args = (Y0, float(t0), float(t1), k, self.dynamics, budget, samples)
+        if self._integrate is None:
+            K = self.kernels
+            self._integrate = entry_point(
+                K.erk_adaptive if self.tableau.adaptive else K.erk_fixed, args
             )
-            rej = 0
+        Y, status, acc, rej = self._integrate(*args)
         return Y, _STATUS[status], acc, rej
 
     def __call__(
@@ -187,18 +184,15 @@ class Flow:
             cap = (
                 self.settings.steps if not self.tableau.adaptive else self.settings.max_steps
             ) + 1
-            T_out = np.empty(cap)
-            Z_out = np.empty((cap, self.nz + 1))
+            record = Samples(np.empty(cap), np.empty((cap, self.nz + 1)))
         else:
-            T_out, Z_out = self._no_T, self._no_Z
-        Y, status, acc, rej = self._run(
-            float(t0), z0, float(t1), seed, T_out, Z_out, rtol, atol, Y0
-        )
+            record = self.dynamics.no_samples
+        Y, status, acc, rej = self._run(t0, z0, t1, seed, record, rtol, atol, Y0)
         nz = self.nz
         k = seed.shape[1]
         traj = None
         if samples and status == FlowStatus.OK:
-            traj = self._trajectory(T_out[: acc + 1], Z_out[: acc + 1], samples)
+            traj = self._trajectory(record.T[: acc + 1], record.Z[: acc + 1], samples)
         return FlowResult(
             status=status,
             t0=float(t0),
@@ -215,7 +209,7 @@ class Flow:
     def _trajectory(self, T, Z, samples) -> Trajectory:
         if samples > 1 and T.size > 1:
             dZ = np.empty_like(Z)
-            self.kernels.rhs_along(Z, self._p, self._obs, self._w, self._n, dZ)
+            self.kernels.rhs_along(Z, *self.dynamics.equation, dZ)
             t = np.unique(np.concatenate([np.linspace(T[0], T[-1], samples), T]))
             if T[-1] < T[0]:
                 t = t[::-1]
@@ -236,7 +230,7 @@ class Flow:
         U = np.empty((Z.shape[0], nu))
         H = np.empty(Z.shape[0])
         dHdu = np.empty((Z.shape[0], nu))
-        self.kernels.along_path(Z, self._p, self._obs, self._w, self._n, U, H, dHdu)
+        self.kernels.along_path(Z, self.dynamics.equation, U, H, dHdu)
         return Trajectory(
             t=np.asarray(t, dtype=float),
             x=Z[:, : self.nx].copy(),

@@ -18,6 +18,7 @@ import scipy
 
 from .._atomic import write_atomic
 from .._cache import cache_dir
+from ..compiled.abi import Tableau
 from ..errors import SettingsError
 
 log = logging.getLogger(__name__)
@@ -41,6 +42,12 @@ class ButcherTableau:
     @property
     def stages(self) -> int:
         return self.b.size
+
+    def record(self) -> Tableau:
+        """The tableau as the compiled kernels read it (empty error weights where it has none)."""
+        none = np.zeros(0)
+        e3 = none if self.e3 is None else self.e3
+        return Tableau(self.A, self.b, none if self.e is None else self.e, e3, self.error_order)
 
 
 def _arr(a):

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..integrate.flow import Flow, Trajectory
+from ..integrate.problem import OptimalControlProblem
 from ..model.bounds import SMOOTHING, bound_names
-from ..model.problem import OptimalControlProblem
 from .bounded import STOPPED
 from .leapfrog import LeapfrogSolution, LeapfrogStatus
 from .path_ranking import estimated_costs

@@ -23,8 +23,8 @@ import numpy as np
 from ..bvp.multiple_shooting import MultipleShootingSystem, solve_multiple_shooting
 from ..bvp.shooting import ShootingSettings, solve_shooting
 from ..integrate.flow import Flow
+from ..integrate.problem import OptimalControlProblem
 from ..model.bounds import SMOOTHING, bound_names
-from ..model.problem import OptimalControlProblem
 from .leapfrog import Arcs, LeapfrogSolution, LeapfrogStatus
 from .results import piecewise_trajectory
 

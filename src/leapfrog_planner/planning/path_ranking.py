@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..integrate.flow import Trajectory
-from ..model.problem import OptimalControlProblem
+from ..integrate.problem import OptimalControlProblem
 from .initial_path import InitialPath
 
 if TYPE_CHECKING:

@@ -47,7 +47,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ..integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
-from ..model.problem import OptimalControlProblem
+from ..integrate.problem import OptimalControlProblem
 from .export import interpolate_columns, resample_columns, result_html
 from .leapfrog import Arcs, SweepRecord
 from .result_files import load_result, result_to_dict, save_json, save_npz, trajectory_columns

@@ -15,7 +15,7 @@ import numpy as np
 
 from .._blas import held_by_parent
 from ..integrate.flow import Flow, IntegratorSettings
-from ..model.problem import OptimalControlProblem
+from ..integrate.problem import OptimalControlProblem
 from .bounded import continue_to_bounds, exceeded, schedule
 from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
 from .path_ranking import PathGuide, path_states

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.problem import OptimalControlProblem
+from ..integrate.problem import OptimalControlProblem
 from ..roots import RootSettings
 from .initial_path import InitialPath
 from .leapfrog import LeapfrogSolution

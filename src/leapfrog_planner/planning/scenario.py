@@ -21,10 +21,10 @@ from typing import Any, NoReturn
 import numpy as np
 
 from .. import checks
+from ..compiled.kernels import model_info
 from ..errors import ScenarioError, describe, require_integer, short
+from ..integrate.problem import OptimalControlProblem
 from ..model import MODELS
-from ..model.kernels import model_info
-from ..model.problem import OptimalControlProblem
 from .scenario_toml import BARE_KEY, toml_key, toml_state, toml_value
 
 __all__ = [

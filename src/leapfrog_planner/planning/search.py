@@ -32,8 +32,8 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import ScenarioError
+from ..integrate.problem import OptimalControlProblem
 from ..model.aid import PlanningAid
-from ..model.problem import OptimalControlProblem
 from .answer import Chosen
 from .initial_path import InitialPath
 from .leapfrog.settings import MAX_PARTITIONS

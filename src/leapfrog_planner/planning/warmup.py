@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 
-from ..model.kernels import model_info
+from ..compiled.kernels import model_info
 from .planner import plan
 from .scenario import Scenario
 

@@ -1,7 +1,8 @@
 """Newton-type root solvers: one loop, interchangeable step strategies."""
 
+from ..compiled.status import RootStatus
 from .loop import RootSettings, solve_root
-from .result import RootResult, RootStatus
+from .result import RootResult
 from .steps import STRATEGIES, ModifiedNewtonStep, NewtonStep, NleqErrStep, get_strategy
 from .system import FunctionSystem, RootSystem
 

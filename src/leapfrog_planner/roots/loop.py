@@ -6,12 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled.linear import newton_correction
+from ..compiled.linear import solve as linear_solve
+from ..compiled.status import RootStatus
 from ..errors import SettingsError, require_integer
-from .linear import newton_correction
-from .linear import solve as linear_solve
 from .messages import converged, diverged, max_iterations, non_finite, singular, stalled
-from .result import RootResult, RootStatus
-from .steps import _Evaluator, get_strategy, vnorm
+from .result import RootResult
+from .steps import Evaluator, get_strategy, vnorm
 
 
 @dataclass(frozen=True)
@@ -47,7 +48,7 @@ def solve_root(
     """Find ``x`` with ``F(x) = 0``. ``method``: a name or a step strategy object."""
     settings = settings or RootSettings()
     strategy = get_strategy(method)
-    evaluate = _Evaluator(system)
+    evaluate = Evaluator(system)
     memo = strategy.start()
     x = np.array(x0, dtype=float, copy=True).reshape(-1)
     bound = settings.divergence * (1.0 + vnorm(x))

@@ -1,21 +1,13 @@
-"""Root-finding results: a status enum and a frozen result with the iteration history."""
+"""Root-finding results: a frozen result with the iteration history, and its status (declared
+with the compiled kernels' codes, in :mod:`..compiled.status`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import StrEnum
 
 import numpy as np
 
-
-class RootStatus(StrEnum):
-    CONVERGED = "converged"
-    MAX_ITERATIONS = "max-iterations"
-    SINGULAR_JACOBIAN = "singular-jacobian"
-    LINE_SEARCH_FAILED = "line-search-failed"
-    NON_FINITE = "non-finite"
-    DIVERGED = "diverged"
-    STALLED = "stalled"
+from ..compiled.status import RootStatus
 
 
 @dataclass(frozen=True)

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled.linear import dot, transpose_times
+from ..compiled.status import RootStatus
 from ..errors import SettingsError
-from .linear import dot, transpose_times
-from .result import RootStatus
 
 
 @dataclass
@@ -31,7 +31,7 @@ class Step:
 def vnorm(v) -> float:
     """Euclidean norm of a short vector: ``np.linalg.norm``'s generality costs more than the
     arithmetic at this size, and the loop takes several norms per evaluation. Summed in the
-    same order as the compiled shooting loop (:func:`.linear.dot`)."""
+    same order as the compiled shooting loop (:func:`..compiled.linear.dot`)."""
     return math.sqrt(dot(v, v))
 
 
@@ -40,7 +40,7 @@ def _sumsq(A) -> float:
     return float(a @ a)
 
 
-class _Evaluator:
+class Evaluator:
     """Counts evaluations for the loop; handed to strategies for their trial points."""
 
     def __init__(self, system):

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..._blas import blas_single_threaded
 from ...integrate.flow import Flow
-from ...model.problem import OptimalControlProblem
+from ...integrate.problem import OptimalControlProblem
 from ...roots import RootResult
 from ..path_ranking import PathGuide
 from .arcs import Arcs, Junctions

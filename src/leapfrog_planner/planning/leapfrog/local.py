@@ -19,7 +19,7 @@ import numpy as np
 from ...bvp.multiple_shooting import MultipleShootingSystem, solve_multiple_shooting
 from ...bvp.shooting import LocalShooter, LocalSolution, ShootingResult
 from ...integrate.flow import Flow
-from ...model.problem import OptimalControlProblem
+from ...integrate.problem import OptimalControlProblem
 from ...roots import RootResult, RootStatus
 from ..path_ranking import PathGuide
 from .arcs import Junctions

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...bvp.abi import SweepCode
+from ...compiled.status import SweepCode
 from .arcs import Junctions
 from .local import LocalSolver
 

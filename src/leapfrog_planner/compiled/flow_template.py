@@ -1,19 +1,30 @@
 # Explicit Runge-Kutta flow of the canonical system with its variational equations.
 #
-# This file is a template, not an importable module: leapfrog_planner.model.codegen appends it
-# to the code generated for each vehicle model, which defines NX, NZ, FASTMATH, model_augmented,
-# controls, hamiltonian_model, dH_du and linearize, and imports penalty_at, obstacle_count, dot and
-# transpose_times. Keeping the integrator in the same module as the model lets numba inline and
-# cache everything (functions passed as arguments would not be cached on disk).
+# This file is a template, not an importable module: leapfrog_planner.compiled.codegen appends it
+# to the code generated for each vehicle model, which defines NX, NZ, FASTMATH, INLINE, the status
+# codes (OK, NON_FINITE, ...: compiled/status.py), model_augmented, controls, hamiltonian_model,
+# dH_du and linearize. What it takes from the package it imports below, so that the kernels'
+# cache key (compiled/cache_key.py) finds it. Keeping the integrator in the same module as the
+# model lets numba inline and cache everything (functions passed as arguments would not be cached
+# on disk).
 #
 # The augmented state is Y = [z (NZ), cost (1), S (NZ x k, row-major)], with z = (x, lambda),
 # S = dz/d(seed) and k sensitivity columns (k = 0: flow only). A method is just its tableau
 # (A, b, c, and for embedded pairs the error weights e, e3 over s + 1 stages, the last being
 # f(y_new)); the step-size controller follows Hairer, Norsett and Wanner (and SciPy's solve_ivp).
+# The kernels take the records of compiled/abi.py: the equation's data, the method's tableau
+# (together a Dynamics), the controller's tolerances (StepControl) and where to record (Samples).
+# Each kernel unpacks them once, before its step loop, and hands the fields to the functions
+# called per step or per stage (aug_rhs, _rk_step, _error_norm): numba counts a reference for
+# each array read from a record, and such reads inside the loop made the flow 4 to 10% slower
+# than with the old plain arguments (paper cases 4 and 1, measured), 0 to 2% unpacked once.
 
-# The status codes (OK, ..., CONVERGED, ..., SWEEP_DONE, ...) and the records the kernels
-# return (NewtonOutcome, SweepOutcome) come with the generated header, from
-# leapfrog_planner.bvp.abi, where they are declared once.
+import math
+
+import numpy as np
+from numba import njit
+
+from leapfrog_planner.model.penalty import obstacle_count, penalty_at
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
@@ -72,8 +83,12 @@ def _finite(x):
 
 # The entry points release the GIL, so that threads (one per initial path) integrate in parallel.
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, nogil=True)
-def erk_fixed(Y0, t0, t1, nsteps, k, A, b, p, obs, weight, exponent, T_out, Z_out):
-    """``nsteps`` equal steps; returns (Y1, status). Records (t, z, cost) if T_out has room."""
+def erk_fixed(Y0, t0, t1, k, dynamics, nsteps, samples):
+    """``nsteps`` equal steps; returns (Y1, status, steps, 0 rejected). Records (t, z, cost) in
+    ``samples`` if they have room."""
+    A, b = dynamics.tableau.A, dynamics.tableau.b
+    p, obs, weight, exponent = dynamics.equation
+    T_out, Z_out = samples
     n = Y0.size
     s = b.size
     K = np.empty((s, n))
@@ -94,16 +109,17 @@ def erk_fixed(Y0, t0, t1, nsteps, k, A, b, p, obs, weight, exponent, T_out, Z_ou
                 for m in range(n):
                     Y[m] += w * K[i, m]
         if not _all_finite(Y, n):  # sensitivities too: a NaN Jacobian is a failure
-            return Y, NON_FINITE, step + 1
+            return Y, NON_FINITE, step + 1, 0
         if record:
             T_out[step + 1] = t0 + (step + 1) * h
             Z_out[step + 1, :] = Y[: NZ + 1]
-    return Y, OK, nsteps
+    return Y, OK, nsteps, 0
 
 
 @njit(cache=True, error_model="numpy")
-def _error_norm(K, h, e, e3, Y, Ynew, rtol, atol, n_err):
-    """Hairer's RMS error norm on the first n_err components; DOP853's 5th/3rd order blend if e3."""
+def _error_norm(K, h, e, e3, rtol, atol, Y, Ynew):
+    """Hairer's RMS error norm on (z, cost); DOP853's 5th/3rd order blend if the tableau has e3."""
+    n_err = NZ + 1
     s1 = K.shape[0]
     err5 = 0.0
     err3 = 0.0
@@ -126,8 +142,12 @@ def _error_norm(K, h, e, e3, Y, Ynew, rtol, atol, n_err):
 
 
 @njit(cache=True, error_model="numpy")
-def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent, n_err, direction):
+def _initial_step(Y, f0, t0, t1, k, dynamics, control):
     """Hairer's starting step size (as in SciPy's select_initial_step)."""
+    order = dynamics.tableau.error_order
+    rtol, atol = control.rtol, control.atol
+    n_err = NZ + 1
+    direction = 1.0 if t1 >= t0 else -1.0
     n = Y.size
     d0 = 0.0
     d1 = 0.0
@@ -143,6 +163,7 @@ def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent,
     for m in range(n):
         Y1[m] = Y[m] + direction * h0 * f0[m]
     f1 = np.empty(n)
+    p, obs, weight, exponent = dynamics.equation
     aug_rhs(Y1, k, p, obs, weight, exponent, f1)
     d2 = 0.0
     for m in range(n_err):
@@ -157,7 +178,7 @@ def _initial_step(Y, f0, t0, t1, k, order, rtol, atol, p, obs, weight, exponent,
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
-def _rk_step(Y, K, A, b, hs, k, p, obs, weight, exponent, Yt, Ynew):
+def _rk_step(Y, K, hs, k, A, b, p, obs, weight, exponent, Yt, Ynew):
     """One explicit Runge-Kutta step of size ``hs`` from ``Y`` (whose derivative is ``K[0]``):
     the stages into ``K[1:s]``, the new state into ``Ynew`` and its derivative into ``K[s]``."""
     n = Y.size
@@ -176,31 +197,16 @@ def _rk_step(Y, K, A, b, hs, k, p, obs, weight, exponent, Yt, Ynew):
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, nogil=True)
-def erk_adaptive(
-    Y0,
-    t0,
-    t1,
-    k,
-    A,
-    b,
-    e,
-    e3,
-    error_order,
-    rtol,
-    atol,
-    max_steps,
-    p,
-    obs,
-    weight,
-    exponent,
-    T_out,
-    Z_out,
-):
+def erk_adaptive(Y0, t0, t1, k, dynamics, control, samples):
     """Embedded pair with error control on (z, cost). Returns (Y1, status, accepted, rejected).
 
     The sensitivities ride along on the accepted steps: the Jacobian returned is then the exact
     derivative of the discrete flow for that step sequence ("internal differentiation").
     """
+    A, b, e, e3, error_order = dynamics.tableau
+    p, obs, weight, exponent = dynamics.equation
+    rtol, atol, max_steps = control
+    T_out, Z_out = samples
     n = Y0.size
     s = b.size
     n_err = NZ + 1
@@ -216,9 +222,7 @@ def erk_adaptive(
     if not (_all_finite(Y, n) and _all_finite(K[0], n)):
         return Y, NON_FINITE, 0, 0
     direction = 1.0 if t1 >= t0 else -1.0
-    h = _initial_step(
-        Y, K[0], t0, t1, k, error_order, rtol, atol, p, obs, weight, exponent, n_err, direction
-    )
+    h = _initial_step(Y, K[0], t0, t1, k, dynamics, control)
     expo = -1.0 / (error_order + 1.0)
     t = t0
     accepted = 0
@@ -233,8 +237,8 @@ def erk_adaptive(
             if h < min_step:
                 return Y, STEP_TOO_SMALL, accepted, rejected
             hs = h * direction
-            _rk_step(Y, K, A, b, hs, k, p, obs, weight, exponent, Yt, Ynew)
-            err = _error_norm(K, hs, e, e3, Y, Ynew, rtol, atol, n_err)
+            _rk_step(Y, K, hs, k, A, b, p, obs, weight, exponent, Yt, Ynew)
+            err = _error_norm(K, hs, e, e3, rtol, atol, Y, Ynew)
             if not _finite(err):
                 # A blow-up inside the step: shrink hard and retry, as for a large error.
                 h *= 0.2
@@ -270,8 +274,9 @@ def erk_adaptive(
 
 
 @njit(cache=True, error_model="numpy")
-def along_path(Z, p, obs, weight, exponent, U, H, dHdu):
+def along_path(Z, equation, U, H, dHdu):
     """Controls, Hamiltonian and dH/du (at the computed controls) at each row of Z = (x, lambda)."""
+    p, obs, weight, exponent = equation
     for r in range(Z.shape[0]):
         z = Z[r, :NZ]
         controls(z, p, U[r])
@@ -290,7 +295,9 @@ def linearize_rows(X, u, p, f, A, B, R):
 
 @njit(cache=True, error_model="numpy")
 def rhs_along(Z, p, obs, weight, exponent, dZ):
-    """Time derivative of (z, cost) at each row of Z, for Hermite interpolation between steps."""
+    """Time derivative of (z, cost) at each row of Z, for Hermite interpolation between steps.
+    The equation's data come unpacked: SciPy's solvers call it as their right-hand side
+    (experiments/peers.py), where typing a record would cost more than the call."""
     for r in range(Z.shape[0]):
         aug_rhs(Z[r], 0, p, obs, weight, exponent, dZ[r])
 

@@ -1,14 +1,13 @@
 """The compiled kernels of a vehicle model: generated once, cached on disk, loaded fast.
 
 The generated module (see :mod:`.codegen`) lives in the user's cache directory; numba caches its
-machine code beside it, so each model compiles once per machine. The cache key of a built-in
-model is the text of its source file and of the generator, so a warm start loads the module
-without importing SymPy at all.
+machine code beside it, so each model compiles once per machine. Its name carries the cache key
+(:mod:`.cache_key`: the model's source and every file that feeds the module), so a warm start
+loads the module without importing SymPy at all.
 """
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 import logging
 import sys
@@ -19,46 +18,22 @@ from types import ModuleType
 from typing import Any
 
 import numba
+from numba.core.dispatcher import Dispatcher
 
 from .._atomic import write_atomic
 from .._cache import cache_dir, copy_atomic, copy_compiled, numba_cache_of, writable_dir
 from ..errors import ModelError
-from . import MODELS, builtin_source, get_model
-from .aid import PlanningAid
+from ..model import MODELS, builtin_source, get_model
+from ..model.aid import PlanningAid
+from .cache_key import cache_key
 
 log = logging.getLogger(__name__)
 
-_HERE = Path(__file__).parent.parent  # the package
-# Everything compiled into the generated module, callees included: numba's disk cache does not
-# notice a change in a function that a cached function calls, so the key must.
-_GENERATOR_FILES = (
-    "model/codegen.py",
-    "model/pmp.py",
-    "model/bounds.py",
-    "integrate/flow_template.py",
-    "bvp/newton_template.py",
-    "model/base.py",
-    "model/aid.py",
-    "model/penalty.py",
-    "roots/linear.py",
-    "bvp/abi.py",
-    "integrate/status.py",
-    "roots/result.py",
-)
-
 
 def _key(model) -> str:
-    """Hash of everything that shapes the generated text: model, generator, derivation, template."""
-    h = hashlib.sha256()
-    model_text = builtin_source(model) if isinstance(model, str) else model.fingerprint()
-    for part in (
-        numba.__version__,
-        model_text,
-        *((_HERE / f).read_text() for f in _GENERATOR_FILES),
-    ):
-        h.update(part.encode())
-        h.update(b"\0")
-    return h.hexdigest()[:16]
+    """The cache key of ``model``'s module (a built-in name or a ``VehicleModel``): see
+    :mod:`.cache_key`."""
+    return cache_key(builtin_source(model) if isinstance(model, str) else model.fingerprint())
 
 
 @cache
@@ -124,6 +99,21 @@ def _import(mod_name: str, path: Path) -> ModuleType:
         sys.modules.pop(mod_name, None)
         raise
     return module
+
+
+def entry_point(kernel, args: tuple):
+    """The machine code of ``kernel`` for the types of ``args``, compiled or loaded from numba's
+    disk cache on first use, callable as ``kernel`` is.
+
+    A call through it skips numba's dispatch, which types every argument on every call: for a
+    record (a NamedTuple, typed in Python field by field) that costs microseconds, more than the
+    call itself (the flow's integrator: 11 us through the dispatcher, 1 us through its entry
+    point, measured). The caller must then pass arguments of these types on every call (the
+    owner builds them: see ``Flow._run``). Without the JIT (``NUMBA_DISABLE_JIT``), the kernel.
+    """
+    if not isinstance(kernel, Dispatcher):
+        return kernel
+    return kernel.compile(tuple(numba.typeof(a) for a in args))
 
 
 def remove_cached(path: Path) -> None:

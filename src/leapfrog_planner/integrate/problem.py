@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import checks
+from ..compiled.kernels import ModelInfo, model_info
 from ..errors import ScenarioError, require_integer
-from .kernels import ModelInfo, model_info
-from .penalty import ObstacleGrid, clearance, obstacle_grid
+from ..model.penalty import ObstacleGrid, clearance, obstacle_grid
 
 
 @dataclass(frozen=True, eq=False)
