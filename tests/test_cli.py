@@ -186,13 +186,13 @@ BAD = [
     Bad(
         "solver-value-quiet",
         ("solve", "{file}", "--quiet"),
-        r"\.toml: solver\.partitions: partitions: must be an integer >= 2, got 1",
+        r"\.toml: solver\.partitions: must be an integer >= 2, got 1",
         BASE + "\n[solver]\npartitions = 1\n",
     ),
     Bad(
         "solver-value",
         SOLVE,
-        r"\.toml: solver\.partitions: partitions: must be an integer >= 2, got 1",
+        r"\.toml: solver\.partitions: must be an integer >= 2, got 1",
         BASE + "\n[solver]\npartitions = 1\n",
     ),
     Bad("derive-unknown-model", ("derive", "tank"), r"unknown model 'tank'"),
@@ -269,8 +269,8 @@ def good_runs(tmp_path_factory) -> dict[str, Run]:
     jobs["solve-verbose"] = (["solve", "paper-case-1"], root / "solve-verbose")
     # A fast deterministic failure (~1 s of solving): q = 2 from the start, so no sweep, and the
     # simple shooting from the first arc's costate does not converge on case 4 (max-iterations)
-    # and is not rescued by multiple shooting (--final shooting), nor by the stages again with
-    # q = 4 (--option finer_doublings=0).
+    # and is not rescued by multiple shooting (--final shooting), by other paths (one path, no
+    # extra ones), nor by the stages again with q = 4 (--option finer_doublings=0).
     jobs["fail"] = (
         [
             "solve",
@@ -283,6 +283,8 @@ def good_runs(tmp_path_factory) -> dict[str, Run]:
             "1",
             "--option",
             "finer_doublings=0",  # (q = 4 would converge)
+            "--option",
+            "extra_paths=0",
             "--json",
             "f.json",
             "--plot",
