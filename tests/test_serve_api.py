@@ -83,7 +83,10 @@ def test_plan_gives_what_the_page_draws(client):
     path = v["path"]
     assert len(path["t"]) == len(path["x"]) == len(path["v"]) == len(path["reverse"]) == 401
     assert path["x"][0] == 0.0 and path["x"][-1] == pytest.approx(2.0, abs=1e-6)
-    assert sorted(a["cost"] for a in v["alternatives"]) == pytest.approx([5.663874, 5.784293])
+    # the other runs, each with its path: the answer is the cheapest converged one
+    converged = [a["cost"] for a in v["alternatives"] if a["status"] == "converged"]
+    assert converged and min(converged) > v["cost"]
+    assert all(len(a["path"]["x"]) > 1 for a in v["alternatives"])
     assert v["failed_alternatives"] == 0  # (more than 3 failed runs are counted, not listed)
     frames = v["frames"]
     assert frames[0]["sweep"] == 0 and len(frames) == v["sweeps"] + 1
@@ -108,9 +111,9 @@ def test_a_cheaper_motion_beside_a_converged_extremal_reaches_the_page():
 
 
 def test_options_are_used(client):
-    body = {"scenario": CASE4, "options": {"method": "newton", "initial_paths": 1}}
-    v = client.post("/api/plan", json=body).json()
-    assert v["method"] == "newton" and v["alternatives"] == []
+    options = {"method": "newton", "initial_paths": 1, "partitions": 4}
+    v = client.post("/api/plan", json={"scenario": CASE4, "options": options}).json()
+    assert v["method"] == "newton" and v["frames"][0]["q"] == 4
 
 
 def test_a_failure_is_an_answer_with_its_message_and_best_motion(client):
