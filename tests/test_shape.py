@@ -12,6 +12,9 @@ import leapfrog_planner
 PACKAGE = Path(leapfrog_planner.__file__).parent
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 100
+#: Stricter in planning/ (the initial paths, the Leapfrog driver, the direct method): a
+#: function there reads as the step of the method it names.
+MAX_PLANNING_FUNCTION_LINES = 60
 MAX_ROOT_MODULES = 8
 #: The layers, in the order of the data (docs/architecture.md states the same order): each
 #: subpackage imports only from its own layer and the layers before it. The modules at the root
@@ -212,6 +215,21 @@ def test_modules_and_functions_are_small():
                 if n > MAX_FUNCTION_LINES:
                     too_long.append(f"{mod}.{node.name}: {n} lines")
     assert not too_big, too_big
+    assert not too_long, too_long
+
+
+def test_functions_in_planning_are_smaller_still():
+    too_long, seen = [], 0
+    for mod, (path, _) in _modules().items():
+        if _layer(mod) != "planning":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                seen += 1
+                n = node.end_lineno - node.lineno + 1
+                if n > MAX_PLANNING_FUNCTION_LINES:
+                    too_long.append(f"{mod}.{node.name}: {n} lines")
+    assert seen > 200  # the check sees planning/, its subpackages included
     assert not too_long, too_long
 
 

@@ -29,6 +29,13 @@ import numpy as np
 
 from .. import checks
 from ..errors import ModelError, ScenarioError, SettingsError, require_integer
+from .direct_arcs import (
+    arc_clearance,
+    arc_end_state,
+    controls_from_states,
+    unicycle_to_wheel,
+    wheel_to_unicycle,
+)
 
 __all__ = ["DirectResult", "DirectTranscription", "cached_transcription", "multistart_guesses",
            "richardson", "solve_direct", "straight_line_guess"]  # fmt: skip
@@ -36,9 +43,6 @@ __all__ = ["DirectResult", "DirectTranscription", "cached_transcription", "multi
 _MODELS = ("unicycle", "diff-drive")  # the direct method writes its own dynamics for these
 
 _CASADI_MISSING = "the direct method needs casadi: pip install 'leapfrog-planner[dev]'"
-
-# Samples per interval used to measure clearance along the continuous path, not just at nodes.
-_CLEARANCE_SAMPLES = 8
 
 
 def _casadi():
@@ -74,6 +78,32 @@ class DirectResult:
     end_state_error: float = math.nan
 
 
+@dataclass(frozen=True)
+class _Case:
+    """What a solve is given: end states, horizon, obstacle rows, penalty weight and exponent,
+    and the control bounds (per control ``(lo, hi)`` or ``None``; ``None``: no bounds).
+    :meth:`DirectTranscription.solve` checks them; :func:`solve_direct` checks the ends,
+    horizon and obstacles first and leaves the rest to its solves."""
+
+    start: np.ndarray
+    goal: np.ndarray
+    horizon: float
+    obstacles: np.ndarray
+    weight: float
+    exponent: float
+    control_bounds: Any = None
+
+
+@dataclass(frozen=True)
+class _StartPoint:
+    """IPOPT's start point ``x0`` and the bounds ``lbx``, ``ubx`` of the NLP's variables (the
+    node states, then the controls, flat)."""
+
+    x0: np.ndarray
+    lbx: np.ndarray
+    ubx: np.ndarray
+
+
 # --------------------------------------------------------------------------- validation
 
 
@@ -107,70 +137,6 @@ def _model(value: Any) -> str:
     if value not in _MODELS:
         raise ModelError(f"the direct method has no model {value!r} (it has {', '.join(_MODELS)})")
     return value
-
-
-# --------------------------------------------------------------------------- model helpers
-
-
-def _wheel_to_unicycle(controls: np.ndarray, radius: float, axle: float) -> np.ndarray:
-    """Map diff-drive wheel speeds (omega_R, omega_L) to unicycle (v, omega)."""
-    wr, wl = controls[:, 0], controls[:, 1]
-    return np.column_stack((radius * (wr + wl) / 2.0, radius * (wr - wl) / axle))
-
-
-def _unicycle_to_wheel(controls: np.ndarray, radius: float, axle: float) -> np.ndarray:
-    """Inverse of :func:`_wheel_to_unicycle`, used to turn state guesses into wheel guesses."""
-    v, omega = controls[:, 0], controls[:, 1]
-    half = omega * axle / (2.0 * radius)
-    return np.column_stack((v / radius + half, v / radius - half))
-
-
-def _controls_from_states(states: np.ndarray, horizon: float) -> np.ndarray:
-    """Unicycle controls that roughly reproduce a state guess, interval by interval.
-
-    The speed is the displacement projected on the mid-interval heading, so a guess whose heading
-    points backwards along the path gives a reversing robot rather than a nonsense one.
-    """
-    h = horizon / (len(states) - 1)
-    d = np.diff(states, axis=0)
-    mid = states[:-1, 2] + d[:, 2] / 2.0
-    v = (d[:, 0] * np.cos(mid) + d[:, 1] * np.sin(mid)) / h
-    return np.column_stack((v, d[:, 2] / h))
-
-
-def arc_end_state(x0, unicycle_controls: np.ndarray, horizon: float) -> np.ndarray:
-    """End state of the unicycle under piecewise-constant ``(v, omega)``, exactly (no steps)."""
-    h = horizon / len(unicycle_controls)
-    x = np.array(x0, dtype=float)
-    for v, om in unicycle_controls:
-        chord = v * h * np.sinc(om * h / (2.0 * np.pi))
-        mid = x[2] + om * h / 2.0
-        x += (chord * math.cos(mid), chord * math.sin(mid), om * h)
-    return x
-
-
-def _min_clearance(
-    states: np.ndarray, unicycle_controls: np.ndarray, horizon: float, obstacles: np.ndarray
-) -> float:
-    """Minimum of ``|p - c| - r`` over the path and all obstacles.
-
-    Between nodes the path is sampled along the exact arc for the constant (v, omega) of the
-    interval, so a thin obstacle cannot hide between two nodes.
-    """
-    if len(obstacles) == 0:
-        return math.inf
-    n = len(unicycle_controls)
-    h = horizon / n
-    tau = h * np.arange(_CLEARANCE_SAMPLES) / _CLEARANCE_SAMPLES  # (S,)
-    x0, y0, th0 = (states[:-1, i, None] for i in range(3))  # (N, 1) each
-    v, w = unicycle_controls[:, 0, None], unicycle_controls[:, 1, None]
-    # Exact arc: integral of cos(th0 + w s) over [0, tau] = tau cos(th0 + w tau/2) sinc(w tau/2).
-    chord = v * tau * np.sinc(w * tau / (2.0 * np.pi))
-    mid = th0 + w * tau / 2.0
-    xs = np.concatenate(((x0 + chord * np.cos(mid)).ravel(), states[-1:, 0]))
-    ys = np.concatenate(((y0 + chord * np.sin(mid)).ravel(), states[-1:, 1]))
-    dist = np.hypot(xs[:, None] - obstacles[:, 0], ys[:, None] - obstacles[:, 1])
-    return float(np.min(dist - obstacles[:, 2]))
 
 
 # --------------------------------------------------------------------------- transcription
@@ -309,70 +275,91 @@ class DirectTranscription:
         controls are derived from the state guess. The guess's end nodes are replaced by start
         and goal, which are imposed exactly.
         """
-        start = _state(start, "start")
-        goal = _state(goal, "goal")
-        horizon = _horizon(horizon)
-        obstacles = _obstacles(obstacles)
+        case = self._case(start, goal, horizon, obstacles, weight, exponent, control_bounds)
+        states0, controls0 = self._first_guess(case, guess_states, guess_controls)
+        point = self._start_point(case, states0, controls0)
+        params = np.concatenate(
+            ([case.horizon, case.weight, case.exponent], case.obstacles.ravel())
+        )
+
+        tic = time.perf_counter()
+        sol = self._solver(x0=point.x0, p=params, lbx=point.lbx, ubx=point.ubx, lbg=0.0, ubg=0.0)
+        solve_time = time.perf_counter() - tic
+        return self._result(case, sol, self._solver.stats(), solve_time)
+
+    def _case(self, start, goal, horizon, obstacles, weight, exponent, control_bounds) -> _Case:
+        """The scenario checked, with as many obstacles as this transcription was built for."""
+        start, goal = _state(start, "start"), _state(goal, "goal")
+        horizon, obstacles = _horizon(horizon), _obstacles(obstacles)
         weight = _positive(weight, "weight", allow_zero=True)
         exponent = _positive(exponent, "exponent")
-        n = self.intervals
-        if len(obstacles) != self.n_obstacles:
+        case = _Case(start, goal, horizon, obstacles, weight, exponent, control_bounds)
+        if len(case.obstacles) != self.n_obstacles:
             raise ScenarioError(
                 f"this transcription was built for {self.n_obstacles} obstacles, "
-                f"got {len(obstacles)}"
+                f"got {len(case.obstacles)}"
             )
+        return case
 
+    def _first_guess(self, case: _Case, guess_states, guess_controls) -> tuple[np.ndarray, ...]:
+        """The guess's states, its end nodes replaced by start and goal (default: the straight
+        line), and controls in the model's units (default: derived from the states)."""
+        n = self.intervals
         if guess_states is None:
-            states0, _ = straight_line_guess(start, goal, horizon, n)
+            states0, _ = straight_line_guess(case.start, case.goal, case.horizon, n)
         else:
             states0 = _guess(guess_states, "guess_states", (n + 1, 3))
-        states0[0], states0[-1] = start, goal
+        states0[0], states0[-1] = case.start, case.goal
         if guess_controls is None:
-            controls0 = _controls_from_states(states0, horizon)
+            controls0 = controls_from_states(states0, case.horizon)
             if self.model == "diff-drive":
-                controls0 = _unicycle_to_wheel(controls0, self.wheel_radius, self.axle_length)
+                controls0 = unicycle_to_wheel(controls0, self.wheel_radius, self.axle_length)
         else:
             controls0 = _guess(guess_controls, "guess_controls", (n, 2))
+        return states0, controls0
 
+    def _start_point(self, case: _Case, states0, controls0) -> _StartPoint:
+        """IPOPT's start point and bounds: the end nodes fixed to start and goal, the controls
+        boxed by the case's control bounds (the guess's controls clipped into them)."""
+        n = self.intervals
         lbx = np.full(3 * (n + 1) + 2 * n, -np.inf)
         ubx = -lbx
-        lbx[:3] = ubx[:3] = start
-        lbx[3 * n : 3 * n + 3] = ubx[3 * n : 3 * n + 3] = goal
-        for i, bound in enumerate(control_bounds or ()):
+        lbx[:3] = ubx[:3] = case.start
+        lbx[3 * n : 3 * n + 3] = ubx[3 * n : 3 * n + 3] = case.goal
+        for i, bound in enumerate(case.control_bounds or ()):
             if bound is not None:
                 lbx[3 * (n + 1) + i :: 2], ubx[3 * (n + 1) + i :: 2] = bound
                 controls0[:, i] = np.clip(controls0[:, i], *bound)
-        x0 = np.concatenate((states0.ravel(), controls0.ravel()))
-        params = np.concatenate(([horizon, weight, exponent], obstacles.ravel()))
+        return _StartPoint(np.concatenate((states0.ravel(), controls0.ravel())), lbx, ubx)
 
-        tic = time.perf_counter()
-        sol = self._solver(x0=x0, p=params, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
-        solve_time = time.perf_counter() - tic
-        stats = self._solver.stats()
-
+    def _result(self, case: _Case, sol, stats, solve_time: float) -> DirectResult:
+        """IPOPT's solution ``sol`` and ``stats`` as a :class:`DirectResult`; the clearance and
+        the end state's error are measured along the exact arcs of the controls."""
+        n = self.intervals
         w = np.asarray(sol["x"], dtype=float).ravel()
         states = w[: 3 * (n + 1)].reshape(n + 1, 3)
         controls = w[3 * (n + 1) :].reshape(n, 2)
         unicycle = (
             controls
             if self.model == "unicycle"
-            else _wheel_to_unicycle(controls, self.wheel_radius, self.axle_length)
+            else wheel_to_unicycle(controls, self.wheel_radius, self.axle_length)
         )
         status = str(stats.get("return_status", "unknown"))
         success = bool(stats.get("success", False))
         iterations = int(stats.get("iter_count", -1))
+        end = arc_end_state(case.start, unicycle, case.horizon)
         return DirectResult(
             success=success,
             status=status,
             message=f"IPOPT: {status} after {iterations} iterations",
             cost=float(sol["f"]),
-            t=np.linspace(0.0, horizon, n + 1),
+            t=np.linspace(0.0, case.horizon, n + 1),
             states=states,
             controls=controls,
-            min_clearance=_min_clearance(states, unicycle, horizon, obstacles),
+            min_clearance=arc_clearance(states, unicycle, case.horizon, case.obstacles),
             iterations=iterations,
             solve_time=solve_time,
-            end_state_error=float(np.linalg.norm(arc_end_state(start, unicycle, horizon) - goal)),
+            end_state_error=float(np.linalg.norm(end - case.goal)),
         )
 
 
@@ -413,7 +400,7 @@ def straight_line_guess(start, goal, horizon, intervals) -> tuple[np.ndarray, np
     n = require_integer("intervals", intervals, 1)
     s = np.linspace(0.0, 1.0, n + 1)[:, None]
     states = start + s * (goal - start)
-    return states, _controls_from_states(states, horizon)
+    return states, controls_from_states(states, horizon)
 
 
 def _arc(start: np.ndarray, goal: np.ndarray, n: int, offset: float, heading: str) -> np.ndarray:
@@ -523,52 +510,64 @@ def solve_direct(
     and reused for all guesses.
     """
     _model(model)  # first: another model's states may hold more than three numbers
-    start = _state(start, "start")
-    goal = _state(goal, "goal")
-    horizon = _horizon(horizon)
-    obstacles = _obstacles(obstacles)
+    start, goal = _state(start, "start"), _state(goal, "goal")
+    horizon, obstacles = _horizon(horizon), _obstacles(obstacles)
+    case = _Case(start, goal, horizon, obstacles, weight, exponent, control_bounds)
     n = require_integer("intervals", intervals, 1)
     if coarse_intervals is not None:
         coarse_intervals = require_integer("coarse_intervals", coarse_intervals, 1)
     user = [] if guesses is None else list(guesses)
 
-    def solve_all(transcription, starts):
-        return [
-            transcription.solve(
-                start,
-                goal,
-                horizon,
-                obstacles,
-                weight=weight,
-                exponent=exponent,
-                guess_states=states,
-                guess_controls=controls,
-                control_bounds=control_bounds,
-            )
-            for states, controls in starts
-        ]
-
     starts: list[tuple[np.ndarray, np.ndarray | None]] = [(g, None) for g in user]
     if multistart:
-        if coarse_intervals is not None and coarse_intervals < n:
-            coarse_kw = {**kw, "tol": max(kw.get("tol", 1e-10), 1e-6)}
-            coarse = cached_transcription(
-                len(obstacles), coarse_intervals, model=model, **coarse_kw
-            )
-            guesses_c = multistart_guesses(start, goal, coarse_intervals)
-            optima = _distinct(solve_all(coarse, [(g, None) for g in guesses_c]))
-            if optima:
-                starts += [_resample(r, n) for r in optima]
-            else:  # nothing converged on the coarse mesh: try the raw guesses on the full one
-                starts += [(g, None) for g in multistart_guesses(start, goal, n)]
-        else:
-            starts += [(g, None) for g in multistart_guesses(start, goal, n)]
+        starts += _builtin_starts(case, n, coarse_intervals, model, kw)
     if not starts:
-        starts = [(straight_line_guess(start, goal, horizon, n)[0], None)]
+        starts = [(straight_line_guess(case.start, case.goal, case.horizon, n)[0], None)]
+    transcription = cached_transcription(len(case.obstacles), n, model=model, **kw)
+    return _best(_solve_all(transcription, case, starts))
 
-    transcription = cached_transcription(len(obstacles), n, model=model, **kw)
+
+def _builtin_starts(case: _Case, n: int, coarse_intervals, model: str, kw: dict) -> list:
+    """The starts ``(states, controls or None)`` that the built-in guesses
+    (:func:`multistart_guesses`) give a mesh of ``n`` intervals: each distinct local optimum of
+    the guesses on the coarse mesh, resampled to the full one; the raw guesses themselves when
+    there is no coarse mesh (None, or not below ``n``) or nothing converged on it. ``kw`` are
+    the transcription's options (on the coarse mesh with a tolerance of 1e-6 at the finest)."""
+    if coarse_intervals is not None and coarse_intervals < n:
+        coarse_kw = {**kw, "tol": max(kw.get("tol", 1e-10), 1e-6)}
+        coarse = cached_transcription(
+            len(case.obstacles), coarse_intervals, model=model, **coarse_kw
+        )
+        guesses = multistart_guesses(case.start, case.goal, coarse_intervals)
+        optima = _distinct(_solve_all(coarse, case, [(g, None) for g in guesses]))
+        if optima:
+            return [_resample(r, n) for r in optima]
+        # nothing converged on the coarse mesh: try the raw guesses on the full one
+    return [(g, None) for g in multistart_guesses(case.start, case.goal, n)]
+
+
+def _solve_all(transcription: DirectTranscription, case: _Case, starts) -> list[DirectResult]:
+    """One solve of ``case`` per start ``(states, controls or None)``, in order."""
+    return [
+        transcription.solve(
+            case.start,
+            case.goal,
+            case.horizon,
+            case.obstacles,
+            weight=case.weight,
+            exponent=case.exponent,
+            guess_states=states,
+            guess_controls=controls,
+            control_bounds=case.control_bounds,
+        )
+        for states, controls in starts
+    ]
+
+
+def _best(results: list[DirectResult]) -> DirectResult:
+    """The best of ``results`` by :func:`_better` (the first of equals)."""
     best = None
-    for result in solve_all(transcription, starts):
+    for result in results:
         if best is None or _better(result, best):
             best = result
     return best

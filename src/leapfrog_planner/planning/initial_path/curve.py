@@ -72,6 +72,20 @@ def _spline(pts, m_first, m_last, intervals, gl_x):
     of the grid intervals and the speeds ``|dp/du|`` at their Gauss-Legendre nodes ``gl_x``; all
     but the first two are empty when the last knot is not positive. The slopes ``dp/du`` at the
     vertices are ``m_first`` and ``m_last`` at the ends and central differences inside."""
+    legs, x = _knots(pts)
+    if not x[-1] > 0.0:  # start and goal at the same place
+        coef = np.empty((0, 4, 2))
+        return legs, x, coef, x[:0], np.empty(0, np.int64), x[:0], np.empty((0, gl_x.size))
+    spline = Hermite(x, legs, _coefficients(pts, legs, x, m_first, m_last))
+    u, leg = _arclength_grid(legs, x, intervals)
+    half, speed = _grid_speeds(spline, u, leg, gl_x)
+    return legs, x, spline.coef, u, leg, half, speed
+
+
+@njit(cache=True)
+def _knots(pts):
+    """The lengths of the polyline's legs and the knots: the cumulative chord length at each
+    vertex, from 0."""
     n = pts.shape[0] - 1
     legs = np.empty(n)
     x = np.empty(n + 1)
@@ -79,10 +93,17 @@ def _spline(pts, m_first, m_last, intervals, gl_x):
     for k in range(n):
         legs[k] = math.hypot(pts[k + 1, 0] - pts[k, 0], pts[k + 1, 1] - pts[k, 1])
         x[k + 1] = legs[k] if k == 0 else x[k] + legs[k]
+    return legs, x
+
+
+@njit(cache=True)
+def _coefficients(pts, legs, x, m_first, m_last):
+    """Per leg, p(t) = c0 + c1 t + c2 t^2 + c3 t^3 with t in [0, 1] across the leg: the cubic
+    from vertex to vertex whose slopes ``dp/du`` are ``m_first`` and ``m_last`` at the ends of
+    the polyline and central differences at its inner vertices (times the leg's length, as
+    slopes in ``t``)."""
+    n = legs.size
     coef = np.empty((n, 4, 2))
-    if not x[n] > 0.0:  # start and goal at the same place
-        return legs, x, coef[:0], x[:0], np.empty(0, np.int64), x[:0], np.empty((0, gl_x.size))
-    # Per leg, p(t) = c0 + c1 t + c2 t^2 + c3 t^3 with t in [0, 1] across the leg.
     for k in range(n):
         for d in range(2):
             if k == 0:
@@ -98,7 +119,15 @@ def _spline(pts, m_first, m_last, intervals, gl_x):
             coef[k, 1, d] = m0
             coef[k, 2, d] = 3.0 * (p1 - p0) - 2.0 * m0 - m1
             coef[k, 3, d] = 2.0 * (p0 - p1) + m0 + m1
+    return coef
 
+
+@njit(cache=True)
+def _arclength_grid(legs, x, intervals):
+    """The grid of the arclength table: each leg cut into equal parts, about ``intervals`` in
+    all (in proportion to its length) and at least two; the parameters from 0 to the last knot,
+    and the leg of each (the last parameter's is the last leg)."""
+    n = legs.size
     scale = intervals / x[n]
     n_sub = np.empty(n, np.int64)
     for k in range(n):
@@ -114,17 +143,24 @@ def _spline(pts, m_first, m_last, intervals, gl_x):
             r += 1
     u[total] = x[n]
     leg[total] = n - 1
+    return u, leg
+
+
+@njit(cache=True)
+def _grid_speeds(spline, u, leg, gl_x):
+    """Per interval of the grid ``u`` (in legs ``leg``): its half width, and the speeds
+    ``|dp/du|`` at its Gauss-Legendre nodes ``gl_x``."""
+    total = u.size - 1
     half = np.empty(total)
     speed = np.empty((total, gl_x.size))
     d = np.empty((1, 2))
-    spline = Hermite(x, legs, coef)
     for r in range(total):
         half[r] = 0.5 * (u[r + 1] - u[r])
         mid = 0.5 * (u[r + 1] + u[r])
         for q in range(gl_x.size):
             _hermite_at(spline, leg[r], mid + half[r] * gl_x[q], 1, d, 0)
             speed[r, q] = math.hypot(d[0, 0], d[0, 1])
-    return legs, x, coef, u, leg, half, speed
+    return half, speed
 
 
 @njit(cache=True)

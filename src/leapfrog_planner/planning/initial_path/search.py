@@ -308,6 +308,35 @@ def initial_paths(
     :class:`ScenarioError` for invalid input, an end (or waypoint) inside an obstacle, or when
     no collision-free path exists (even with margin 0).
     """
+    req = _request(start, goal, obstacles, k, margin, waypoints)
+    if req.waypoints is not None and req.waypoints.shape[0]:
+        return _waypoint_paths(req)
+    used, cands = _classes_at_some_margin(req)
+    note = "" if used == req.margin else f" (margin {used:g})"
+    out = _class_paths(req, cands, used, note)
+    if turns or points_away(req.S, req.G):
+        out += _turn_paths(req, used, note)
+    return out
+
+
+@dataclass(frozen=True)
+class _Request:
+    """The arguments of :func:`initial_paths`, checked: end states ``S`` and ``G``, obstacle
+    rows, number of classes, margin, waypoint rows (None without) and the geometry's
+    tolerance."""
+
+    S: np.ndarray
+    G: np.ndarray
+    obs: np.ndarray
+    k: int
+    margin: float
+    waypoints: np.ndarray | None
+    tol: float
+
+
+def _request(start, goal, obstacles, k, margin, waypoints) -> _Request:
+    """The arguments of :func:`initial_paths` checked (:class:`ScenarioError`), the ends and
+    waypoints outside every obstacle."""
     S = end_state(start, "start")
     G = end_state(goal, "goal")
     obs = checks.obstacles(obstacles)
@@ -321,42 +350,58 @@ def initial_paths(
     if wps is not None:
         for i, w in enumerate(wps):
             checks.outside(w, f"waypoints[{i}]", obs)
-    tol = tolerance(S, G, obs)
+    return _Request(S, G, obs, k, margin, wps, tolerance(S, G, obs))
 
-    if wps is not None and wps.shape[0]:
-        poly = _through(np.vstack([S[:2], wps, G[:2]]), obs, margin, tol)
-        poly = clean_polyline(poly, S[:2], G[:2], tol)
-        variants = [_smooth_best(poly, S, G, obs, tol, None, m) for m in end_modes(poly, S, G)]
-        return [
-            _relabel(p, ", ".join(filter(None, ("waypoints", p.modes.describe()))))
-            for p in variants
-        ]
 
-    used = None
-    for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
-        cands = _plan(S, G, obs, m, k, tol)
+def _waypoint_paths(req: _Request) -> list[InitialPath]:
+    """The path through the waypoints (each leg routed by :func:`_route`), once per way of
+    meeting the end poses, labelled ``"waypoints"`` plus the modes' description."""
+    S, G, obs, tol = req.S, req.G, req.obs, req.tol
+    poly = _through(np.vstack([S[:2], req.waypoints, G[:2]]), obs, req.margin, tol)
+    poly = clean_polyline(poly, S[:2], G[:2], tol)
+    variants = [_smooth_best(poly, S, G, obs, tol, None, m) for m in end_modes(poly, S, G)]
+    return [
+        _relabel(p, ", ".join(filter(None, ("waypoints", p.modes.describe())))) for p in variants
+    ]
+
+
+def _classes_at_some_margin(req: _Request) -> tuple[float, list[_Candidate]]:
+    """The margin used and the first ``k`` classes planned with it (:func:`_plan`): the first
+    margin of :func:`_fallback_margins` with which some path exists. Raises
+    :class:`ScenarioError` when none exists even with margin 0."""
+    for m in _fallback_margins(req.margin):
+        cands = _plan(req.S, req.G, req.obs, m, req.k, req.tol)
         if cands is not None:
-            used = m
-            break
-    else:
-        raise ScenarioError(
-            f"no collision-free initial path from start {checks.fmt_point(S[:2])}"
-            f" to goal {checks.fmt_point(G[:2])}"
-            f" round the {obs.shape[0]} obstacles (even with margin 0)"
-        )
-    cands = cands[:k]
+            return m, cands[: req.k]
+    raise ScenarioError(
+        f"no collision-free initial path from start {checks.fmt_point(req.S[:2])}"
+        f" to goal {checks.fmt_point(req.G[:2])}"
+        f" round the {req.obs.shape[0]} obstacles (even with margin 0)"
+    )
 
+
+def _fallback_margins(margin: float) -> dict[float, None]:
+    """The margins tried in turn, until some path exists: the fractions
+    :data:`_MARGIN_FALLBACK` of ``margin``, then 0 (each once)."""
+    return dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0])
+
+
+def _class_paths(req: _Request, cands, used: float, note: str) -> list[InitialPath]:
+    """The smoothed paths of the classes ``cands`` (planned with margin ``used``), one per way
+    of meeting the end poses (:func:`end_modes`). Classes are ordered by the length of their
+    first path (then by graph length and search order) and labelled ``"straight"`` (the
+    graph's direct start -> goal edge) or ``"visibility #rank"``, plus the margin ``note`` and
+    the modes' description."""
+    S, G, obs, tol = req.S, req.G, req.obs, req.tol
     retry: dict[tuple[int, float], np.ndarray | None] = {}
     classes = []
     for cand in cands:
         variants = [
-            _smoothed_in_class(cand, S, G, obs, tol, used, k, retry, modes)
+            _smoothed_in_class(cand, S, G, obs, tol, used, req.k, retry, modes)
             for modes in end_modes(cand.polyline, S, G)
         ]
         classes.append((variants, cand))
-
     classes.sort(key=lambda vc: (vc[0][0].length, vc[1].graph_length, vc[1].order))
-    note = "" if used == margin else f" (margin {used:g})"
     out = []
     for rank, (variants, cand) in enumerate(classes, start=1):
         straight = cand.nodes.size == 2  # the direct start -> goal edge of the graph
@@ -364,9 +409,14 @@ def initial_paths(
         for path in variants:
             how = path.modes.describe()
             out.append(_relabel(path, f"{name}, {how}" if how else name))
-    if not (turns or points_away(S, G)):
-        return out
-    for C, path in _cusp_paths(S, G, obs, used, tol):
+    return out
+
+
+def _turn_paths(req: _Request, used: float, note: str) -> list[InitialPath]:
+    """The three-point turns (:func:`_cusp_paths`) with margin ``used``, labelled by their
+    cusp point and modes, plus the margin ``note``."""
+    out = []
+    for C, path in _cusp_paths(req.S, req.G, req.obs, used, req.tol):
         label = f"three-point turn at ({C[0]:.3g}, {C[1]:.3g}), {path.modes.describe()}"
         out.append(_relabel(path, label + note))
     return out
@@ -382,7 +432,7 @@ def _route(a: np.ndarray, b: np.ndarray, obs: np.ndarray, margin: float, tol: fl
     """The shortest polyline from ``a`` to ``b`` round the inflated obstacles (the margin falls
     back as for a whole path; with no path at all, the straight segment, whose clearance shows
     it)."""
-    for m in dict.fromkeys([margin * f for f in _MARGIN_FALLBACK] + [0.0]):
+    for m in _fallback_margins(margin):
         poly = _shortest_leg(a, b, obs, m, tol)
         if poly is not None:
             return poly

@@ -1,5 +1,5 @@
-"""The exact tangent graph of the inflated discs and its compiled searches (shortest paths
-with barrier rays, winding of each step, ray crossings)."""
+"""The exact tangent graph of the inflated discs and its compiled queries (winding of each step,
+ray crossings); its shortest paths with barrier rays are :mod:`.dijkstra`'s."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit
 
 from .curve import TWO_PI
+from .dijkstra import shortest_paths
 from .geometry import clean_polyline, close_and_round, cross, rotate
 from .spatial import DiscGrid, common_tangents, disc_grid, disc_pairs, points_inside, segments_cut
 
@@ -278,7 +279,7 @@ class TangentGraph:
         ``bits[e]`` has bit ``b`` set when edge ``e`` crosses barrier ``b``; a mask blocks the
         barriers of its set bits.
         """
-        return _search(self.indptr, self.dst, self.wgt, bits, masks, self.node_xy)
+        return shortest_paths(self.indptr, self.dst, self.wgt, bits, masks, self.node_xy)
 
     def signatures(self, paths: np.ndarray, plen: np.ndarray, obs: np.ndarray) -> np.ndarray:
         """Exact winding numbers ``(P, m)`` of each node path (closed by the reversed chord)
@@ -436,116 +437,3 @@ def _step_turns(paths, plen, angle, node_circ, node_orient, inside):
                     step = x - TWO_PI * np.rint(x / TWO_PI)
                 total[p, j] = step if t == 0 else total[p, j] + step
     return total
-
-
-@njit(cache=True)
-def _search(indptr, dst, wgt, bits, masks, node_xy):
-    """For each mask: the shortest path from node 0 to node 1 without the edges whose ``bits``
-    meet the mask (Dijkstra, ordered by the A* bound ``distance + straight line to the goal``,
-    which is consistent here): lengths (inf: none), node paths padded with -1 (as wide as the
-    longest), path sizes."""
-    n = indptr.size - 1
-    n_masks = masks.size
-    lengths = np.full(n_masks, np.inf)
-    flat = np.empty(64, np.int64)  # the paths one after another
-    used = 0
-    plen = np.zeros(n_masks, np.int64)
-    dist = np.empty(n)
-    pred = np.empty(n, np.int64)
-    done = np.empty(n, np.bool_)
-    gx, gy = node_xy[1, 0], node_xy[1, 1]
-    hkey = np.empty(dst.size + 1)
-    hval = np.empty(dst.size + 1, np.int64)
-    togo = np.empty(n)
-    for v in range(n):
-        togo[v] = math.hypot(node_xy[v, 0] - gx, node_xy[v, 1] - gy)
-    for p in range(n_masks):
-        blocked = masks[p]
-        dist[:] = np.inf
-        pred[:] = -1
-        done[:] = False
-        dist[0] = 0.0
-        # A binary heap of (key, node) pairs in two arrays, ordered lexicographically; every
-        # edge is relaxed at most once, so it never holds more than len(dst) + 1 entries.
-        hkey[0] = togo[0]
-        hval[0] = 0
-        size = 1
-        while size > 0:
-            u = hval[0]
-            size -= 1
-            if size > 0:
-                key = hkey[size]
-                val = hval[size]
-                i = 0
-                while True:
-                    c = 2 * i + 1
-                    if c >= size:
-                        break
-                    if c + 1 < size and (
-                        hkey[c + 1] < hkey[c] or (hkey[c + 1] == hkey[c] and hval[c + 1] < hval[c])
-                    ):
-                        c += 1
-                    if hkey[c] < key or (hkey[c] == key and hval[c] < val):
-                        hkey[i] = hkey[c]
-                        hval[i] = hval[c]
-                        i = c
-                    else:
-                        break
-                hkey[i] = key
-                hval[i] = val
-            if done[u]:
-                continue
-            done[u] = True
-            if u == 1:
-                break
-            d = dist[u]
-            for e in range(indptr[u], indptr[u + 1]):
-                if bits[e] & blocked:
-                    continue
-                v = dst[e]
-                nd = d + wgt[e]
-                if nd < dist[v]:
-                    dist[v] = nd
-                    pred[v] = u
-                    key = nd + togo[v]
-                    i = size
-                    size += 1
-                    while i > 0:
-                        par = (i - 1) // 2
-                        if key < hkey[par] or (key == hkey[par] and v < hval[par]):
-                            hkey[i] = hkey[par]
-                            hval[i] = hval[par]
-                            i = par
-                        else:
-                            break
-                    hkey[i] = key
-                    hval[i] = v
-        if not done[1]:
-            continue
-        lengths[p] = dist[1]
-        k = 0
-        v = np.int64(1)
-        while v != -1:
-            k += 1
-            v = pred[v]
-        plen[p] = k
-        if used + k > flat.size:
-            flat = np.concatenate((flat, np.empty(max(flat.size, k), np.int64)))
-        v = np.int64(1)
-        while v != -1:  # written backwards from the goal
-            k -= 1
-            flat[used + k] = v
-            v = pred[v]
-        used += plen[p]
-    return lengths, _pad_paths(flat, plen), plen
-
-
-@njit(cache=True)
-def _pad_paths(flat, plen):
-    """The paths stored one after another in ``flat``, as rows padded with -1."""
-    paths = np.full((plen.size, max(plen.max(), 1) if plen.size else 1), -1, np.int64)
-    used = 0
-    for p in range(plen.size):
-        paths[p, : plen[p]] = flat[used : used + plen[p]]
-        used += plen[p]
-    return paths
