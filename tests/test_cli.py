@@ -222,7 +222,7 @@ def bad_params():
         yield pytest.param(b, marks=marks, id=b.id)
 
 
-@pytest.mark.parametrize("bad", bad_params())
+@pytest.mark.parametrize("bad", list(bad_params()))
 def test_bad_input_gives_exit_2_and_one_line(bad_runs, bad):
     run, path = bad_runs[bad.id]
     assert "Traceback" not in run.stderr
