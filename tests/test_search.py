@@ -108,3 +108,15 @@ def test_the_planner_is_deterministic(name):
     a, b = plan(name), plan(name)
     assert a.cost == b.cost and a.initial_path == b.initial_path
     assert [rec.label for rec in a.search] == [rec.label for rec in b.search]
+
+
+def test_a_goal_at_the_start_stays_there():
+    """Start and goal the same, a disc nearby: the extremal costs 0 (the robot stays), which
+    the stage of wider margins compares paths with (a ratio to 0 once raised an error)."""
+    sc = Scenario(
+        name="stay", horizon=1.0, start=[0, 0, 0], goal=[0, 0, 0], obstacles=[[1.0, 0.1, 0.2]]
+    )
+    r = plan(sc)
+    assert r.success and r.cost == pytest.approx(0.0, abs=1e-12)
+    assert r.energy >= 0.0 and r.penalty >= 0.0 and r.min_clearance > 0
+    assert all(rec.reason for rec in r.search)

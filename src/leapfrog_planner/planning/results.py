@@ -129,7 +129,7 @@ def validate_arcs(
     return Validation(
         trajectory=tr,
         cost=cost,
-        energy=cost - penalty,
+        energy=max(cost - penalty, 0.0),  # (the penalty by quadrature can exceed a cost of 0)
         penalty=penalty,
         clearance=problem.penalty.clearance(tr.x[:, :2]),
         end_state_error=error,

@@ -189,7 +189,10 @@ def wider_margin(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunReq
     top = float(search.estimates(plain, rnd).min())
     if not (clear and top > WIDER_WHEN * min(clear)):
         return []
-    why = f"the paths were estimated at {top / min(clear):.3g} times the extremal's cost"
+    why = (
+        f"the paths were estimated at {top:.4g}, over {WIDER_WHEN:g} times the extremal's cost"
+        f" {min(clear):.4g}"
+    )  # (the extremal may cost 0: the goal at the start)
     log.info("%s: margin %.3g too", why, wide)
     wider = search.wider_paths(wide)
     cheaper = [p for p, c in zip(wider, search.estimates(wider, rnd), strict=True) if c < top]
