@@ -43,7 +43,7 @@ class Pixels:
 
 def read_pixels(path: str) -> Pixels:
     """The pixels of the image file ``path`` (a PGM by its magic number, else by Pillow)."""
-    name = short(path, 80)
+    name = short(path, 200)
     try:
         st = os.stat(path)
     except OSError as exc:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
 import stat
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -46,6 +47,7 @@ from .occupancy import FREE, OCCUPIED, RESOLUTION_MAX, UNKNOWN, OccupancyMap
 
 MAP_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
 REQUIRED_KEYS = MAP_KEYS[:-1]
+BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")  # a key named as it is; any other is quoted
 MODES = ("trinary", "scale", "raw")
 #: A map's YAML file larger than this is refused (map_server writes some 150 bytes).
 MAX_YAML_BYTES = 1 << 20
@@ -115,7 +117,8 @@ def parse_yaml(raw: bytes, source: str) -> Any:
         where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
         _fail(source, "", f"invalid YAML: {exc.problem or exc.context or 'unreadable'}{where}")
     except (yaml.YAMLError, ValueError) as exc:  # ValueError: an integer of 5,000 digits
-        _fail(source, "", f"invalid YAML: {short(' '.join(str(exc).split()), 120)}")
+        text = " ".join(str(exc).split())
+        _fail(source, "", f"invalid YAML: {text if len(text) <= 120 else text[:117] + '...'}")
 
 
 def _known_keys(doc: Mapping, source: str) -> None:
@@ -126,7 +129,8 @@ def _known_keys(doc: Mapping, source: str) -> None:
         if k not in MAP_KEYS:
             hint = difflib.get_close_matches(k, MAP_KEYS, n=1)
             did = f"did you mean {hint[0]!r}? " if hint else ""
-            _fail(source, short(k), f"unknown key ({did}allowed: {', '.join(MAP_KEYS)})")
+            name = k if BARE_KEY.fullmatch(k) else short(k)
+            _fail(source, name, f"unknown key ({did}allowed: {', '.join(MAP_KEYS)})")
     for k in REQUIRED_KEYS:
         if k not in doc:
             _fail(source, k, "missing required key")
