@@ -102,7 +102,8 @@ def test_cells_are_the_image_rows_reversed(name):
     """Row 0 of the map is the image's bottom row: checked against Pillow's pixels."""
     m = load_ros_map(MAPS / f"{name}.yaml")
     spec = read_map_yaml(MAPS / f"{name}.yaml")
-    p = (255 - np.asarray(Image.open(MAPS / f"{name}.pgm"), dtype=float)) / 255
+    with Image.open(MAPS / f"{name}.pgm") as image:
+        p = (255 - np.asarray(image, dtype=float)) / 255
     expected = np.where(p > spec.occupied_thresh, 100, np.where(p < spec.free_thresh, 0, -1))
     np.testing.assert_array_equal(m.data, expected[::-1])
     i, j = 10, 20  # the centre of a cell is where the cell is
