@@ -193,6 +193,24 @@ def test_other_pgm_depths_plain_pgm_and_case_of_the_mode(tmp_path):
     np.testing.assert_array_equal(m.data, np.array(expected)[::-1])
 
 
+def test_sixteen_bit_png_and_a_palette_with_a_transparent_entry(tmp_path):
+    wide = np.array([[0, 65535, 20000], [40000, 1, 30000]], dtype=np.uint16)
+    Image.fromarray(wide).save(tmp_path / "m.png")  # 16-bit grey
+    m = load_ros_map(write_map(tmp_path, file="m.png"))
+    expected = [[nav2_cell((v, v, v), 0, False, "trinary", 0, 0.65, 0.25, 65535) for v in row]
+                for row in wide.tolist()]  # fmt: skip
+    np.testing.assert_array_equal(m.data, np.array(expected)[::-1])
+    palette = Image.fromarray(np.array([[0, 1, 2]], dtype=np.uint8), "P")
+    palette.putpalette([0, 0, 0, 255, 255, 255, 120, 120, 120])
+    palette.save(tmp_path / "m.png", transparency=1)  # white, but transparent
+    scale = load_ros_map(write_map(tmp_path, file="m.png", mode="scale"))
+    assert scale.data.tolist() == [[100, -1, round((135 / 255 - 0.25) / 0.4 * 100)]]
+    # Trinary averages the opacity in: black (0 * 3 + 255) / 4 is occupied; transparent white
+    # (255 * 3 + 0) / 4 gives occ = 0.25 exactly, not below free_thresh: unknown.
+    trinary = load_ros_map(write_map(tmp_path, file="m.png"))
+    assert trinary.data.tolist() == [[100, -1, -1]]
+
+
 def test_the_image_is_found_next_to_the_yaml_file(tmp_path, monkeypatch):
     (tmp_path / "maps").mkdir()
     write_map(tmp_path / "maps", [[0, 255]])
@@ -301,6 +319,8 @@ def test_a_yaml_bomb_is_refused_at_once(tmp_path):
         (b"P2\n2 2\n255\n0 1 2\n", "plain PGM: 4 values expected, found 3"),
         (b"P2\n2 2\n255\n0 1 x 2\n", "plain PGM: not a number at byte 4 of the raster"),
         (b"P2\n2 2\n255\n0 1 2 9999999\n", "plain PGM: a value too long at byte 6"),
+        (b"P2\n2 2\n255\n0 1 2 256\n", "a pixel value 256 above maxval 255"),
+        (b"P2\n2 2\n65535\n0 1 2 99999\n", "a pixel value 99999 above maxval 65535"),
         (b"P2\n5000 5000\n255\n", "5000 x 5000 pixels is more than the limit of 1e+07 cells"),
     ],
 )
@@ -364,8 +384,10 @@ def test_an_occupancy_map_checks_its_fields_and_owns_its_cells():
             OccupancyMap(data, resolution)
     with pytest.raises(ScenarioError, match=r"origin: expected 3 numbers, got 2"):
         OccupancyMap(np.zeros((2, 2), np.int8), 1.0, (0.0, 0.0))
-    with pytest.raises(ScenarioError, match=r"threshold: must be 1..100, got 0"):
+    with pytest.raises(ScenarioError, match=r"threshold: must be an integer >= 1, got 0"):
         m.blocked(threshold=0)
+    with pytest.raises(ScenarioError, match=r"threshold: must be at most 100, got 101"):
+        m.blocked(threshold=101)
     np.testing.assert_array_equal(m.blocked(), [[False, True], [True, False]])
     np.testing.assert_array_equal(m.blocked(False, threshold=50), [[False, True], [False, True]])
 

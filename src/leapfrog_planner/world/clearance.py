@@ -159,5 +159,6 @@ class MapClearance:
         if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] == 0:
             raise ScenarioError(f"points: expected an (N, 2) array with N >= 1, got {pts.shape}")
         values = self.clearance(pts[:, 0], pts[:, 1], radius)
+        values.setflags(write=False)
         worst = int(np.argmin(values))
         return PathClearance(values, float(values[worst]), worst)

@@ -113,13 +113,13 @@ def _read_pgm(f, head: bytes, name: str) -> Pixels:
             raise ScenarioError(
                 f"{name}: truncated PGM: {count * size} bytes of pixels expected, got {len(raw)}"
             )
-        values = np.frombuffer(raw, dtype=np.uint8 if size == 1 else ">u2").astype(
-            np.uint8 if size == 1 else np.uint16
-        )
+        values = np.frombuffer(raw, dtype=np.uint8 if size == 1 else ">u2")
     else:
         values = _plain_values(f.read(PLAIN_BYTES_PER_VALUE * count + HEADER_BYTES), count, name)
-    if maxval not in (255, 65535) and int(values.max()) > maxval:
-        raise ScenarioError(f"{name}: a pixel value {int(values.max())} above maxval {maxval}")
+    if maxval not in (255, 65535) or magic == b"P2":
+        if int(values.max()) > maxval:
+            raise ScenarioError(f"{name}: a pixel value {int(values.max())} above maxval {maxval}")
+    values = values.astype(np.uint8 if maxval < 256 else np.uint16, copy=False)
     return Pixels(values.reshape(height, width), 1, maxval)
 
 
@@ -148,7 +148,7 @@ def _plain_values(raw: bytes, count: int, name: str) -> np.ndarray:
     for k in range(int(lengths.max())):
         has = lengths > k
         values[has] = values[has] * 10 + (b[starts[has] + k] - ord("0"))
-    return values.astype(np.uint16)
+    return values
 
 
 # --------------------------------------------------------------------------- Pillow

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import checks
-from ..errors import ScenarioError, describe
+from ..errors import ScenarioError, describe, require_integer
 
 FREE = 0
 OCCUPIED = 100
@@ -104,9 +104,7 @@ class OccupancyMap:
         """The cells that are obstacles (a new boolean array, row 0 at the bottom): value at
         least ``threshold`` (100: occupied only, as nav2's static layer by default), and the
         unknown ones if ``unknown_is_occupied``."""
-        threshold = int(threshold)
-        if not FREE < threshold <= OCCUPIED:
-            raise ScenarioError(f"threshold: must be 1..100, got {threshold}")
+        threshold = require_integer("threshold", threshold, 1, OCCUPIED, error=ScenarioError)
         mask = self.data >= threshold
         if unknown_is_occupied:
             mask |= self.data == UNKNOWN
