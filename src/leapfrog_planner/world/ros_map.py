@@ -67,6 +67,11 @@ class MapYaml:
     mode: str = "trinary"
 
 
+def shown(path: str) -> str:
+    """A file's name as messages show it (a NUL character as ``\\0``)."""
+    return path.replace("\0", "\\0")
+
+
 def _fail(source: str, key: str, problem: str) -> NoReturn:
     text = f"{source}: {key}: {problem}" if key else f"{source}: {problem}"
     raise ScenarioError(" ".join(text.split()))
@@ -83,6 +88,8 @@ def _named(source: str, check, *args, **kw):
 def read_bounded(path: str, source: str, limit: int = MAX_YAML_BYTES) -> bytes:
     """The bytes of a small file, at most ``limit`` (a FIFO without a writer reads as empty
     instead of blocking; a device that never ends hits the cap)."""
+    if "\0" in path:
+        _fail(source, "", "cannot read file: its name holds a NUL character")
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except OSError as exc:
@@ -199,9 +206,10 @@ def map_yaml_from_dict(doc: Any, source: str, folder: str = "") -> MapYaml:
 
 def read_map_yaml(path: str | os.PathLike) -> MapYaml:
     """The checked keys of the map's YAML file ``path``."""
-    source = str(path)
-    doc = parse_yaml(read_bounded(source, source), source)
-    return map_yaml_from_dict(doc, source, os.path.dirname(source))
+    path = str(path)
+    source = shown(path)
+    doc = parse_yaml(read_bounded(path, source), source)
+    return map_yaml_from_dict(doc, source, os.path.dirname(path))
 
 
 def rule_table(channels: int, maxval: int, spec: MapYaml) -> np.ndarray:
@@ -242,8 +250,8 @@ def load_ros_map(path: str | os.PathLike, name: str | None = None) -> OccupancyM
 
     ``name`` (default: the YAML file's stem) names the map. Any fault of the file, its keys or
     its image raises :class:`~leapfrog_planner.errors.ScenarioError` with one line."""
-    source = str(path)
-    spec = read_map_yaml(source)
+    spec = read_map_yaml(path)
+    source = shown(str(path))
     try:
         pixels = read_pixels(spec.image)
     except ScenarioError as exc:
