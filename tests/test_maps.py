@@ -287,6 +287,8 @@ def test_not_utf8_a_huge_file_a_directory_and_no_file(tmp_path):
     assert load_error(path).endswith("larger than 1024 kB, not a map's YAML file")
     assert "is a directory" in load_error(tmp_path)
     assert "cannot read file: No such file or directory" in load_error(tmp_path / "none.yaml")
+    with pytest.raises(ScenarioError, match=r"^a\\0b.yaml: cannot read file: its name holds a NUL"):
+        load_ros_map("a\0b.yaml")
 
 
 def test_a_yaml_bomb_is_refused_at_once(tmp_path):
