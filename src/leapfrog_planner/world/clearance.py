@@ -37,7 +37,8 @@ CHUNK = 1 << 14  # points a query handles at a time (bounds the temporaries)
 
 def boundary_cells(blocked: np.ndarray, outside_blocked: bool) -> np.ndarray:
     """The blocked cells with a side on a free cell (or on the map's edge when the outside is
-    free): the only ones that can hold the nearest blocked point to a free point."""
+    free): one of them always holds the nearest blocked point to a point outside the blocked
+    region, so the others need not be searched."""
     free = np.pad(~blocked, 1, constant_values=not outside_blocked)
     side_free = free[:-2, 1:-1] | free[2:, 1:-1] | free[1:-1, :-2] | free[1:-1, 2:]
     return blocked & side_free
