@@ -5,7 +5,6 @@ kind of bad input (one line, a ScenarioError), the yaw, and the clearance agains
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
@@ -297,14 +296,12 @@ def test_a_yaml_bomb_is_refused_at_once(tmp_path):
     laughs += [f"&a{k} [{', '.join([f'*a{k - 1}'] * 9)}]" for k in range(1, 12)]
     path = tmp_path / "m.yaml"
     keys = yaml.safe_dump({"image": "m.pgm", **KEYS, "origin": None})
-    start = time.perf_counter()
     path.write_text("".join(f"a{k}: {text}\n" for k, text in enumerate(laughs)))
     assert ": a0: unknown key (allowed: image, resolution" in load_error(path)
     path.write_text(keys.replace("origin: null", f"origin: [{', '.join(laughs)}]"))
     assert "origin: expected 3 numbers, got 12" in load_error(path)
     path.write_text(keys.replace("origin: null", f"origin: [{', '.join(laughs[:3])}]"))
     assert "origin[0]: expected a number, got an array of 9" in load_error(path)
-    assert time.perf_counter() - start < 5
 
 
 @pytest.mark.parametrize(
@@ -340,10 +337,8 @@ def test_png_trouble_is_one_line_too(tmp_path):
     (tmp_path / "m.png").write_bytes(raw[: len(raw) // 2])
     assert "m.png': cannot decode the image (" in load_error(write_map(tmp_path, image="m.png"))
     (tmp_path / "m.png").write_bytes(huge_png(12_000, 10_000))
-    start = time.perf_counter()
     message = load_error(write_map(tmp_path, image="m.png"))
     assert "12000 x 10000 pixels is more than the limit of 1e+08 cells" in message
-    assert time.perf_counter() - start < 2  # refused from the header, nothing decoded
     (tmp_path / "m.png").write_bytes(huge_png(30_000, 20_000))  # over Pillow's own limit
     message = load_error(write_map(tmp_path, image="m.png"))
     assert "m.png': more pixels than the limit of 1e+08 cells" in message
@@ -587,18 +582,25 @@ def test_real_maps_clearance_matches_a_brute_force_over_all_their_cells():
     assert clear.distance(14.225, 12.975) == 0.0  # depot's tilted rack
 
 
-def test_a_large_map_builds_and_answers_fast():
+def test_a_large_map_answers_as_its_nearest_cells_say():
+    """2000 x 2000 cells (walls and scattered cells): each answer is the distance to the
+    nearest blocked square or to the map's edge, checked by brute force among the blocked cells
+    near the point.
+    (Times: benchmarks/bench_maps.py.)"""
     rng = np.random.default_rng(5)
     data = np.zeros((2000, 2000), np.int8)
     data[::200, :] = OCCUPIED
     data[:, ::250] = OCCUPIED
     data[rng.random((2000, 2000)) < 0.002] = OCCUPIED
     m = OccupancyMap(data, 0.05)
-    start = time.perf_counter()
     clear = MapClearance(m)
-    built = time.perf_counter() - start
-    x, y = rng.uniform(0, 100, (2, 10_000))
-    start = time.perf_counter()
-    clear.distance(x, y)
-    asked = time.perf_counter() - start
-    assert built < 3 and asked < 1, (built, asked)  # measured: 0.1 s and 0.02 s
+    x, y = rng.uniform(0, 100, (2, 200))
+    got = clear.distance(x, y)
+    rows, cols = np.nonzero(data == OCCUPIED)
+    cx, cy = (cols + 0.5) * 0.05, (rows + 0.5) * 0.05
+    for xi, yi, d in zip(x, y, got, strict=True):
+        near = np.hypot(cx - xi, cy - yi) < 12 * 0.05 + d  # every square that could be nearer
+        dx = np.maximum(np.abs(cx[near] - xi) - 0.025, 0.0)
+        dy = np.maximum(np.abs(cy[near] - yi) - 0.025, 0.0)
+        outside = min(xi, 100.0 - xi, yi, 100.0 - yi)  # off the map: unknown, so blocked
+        assert d == pytest.approx(min(np.hypot(dx, dy).min(), outside), abs=1e-12)
