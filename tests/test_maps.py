@@ -603,4 +603,4 @@ def test_a_large_map_answers_as_its_nearest_cells_say():
         dx = np.maximum(np.abs(cx[near] - xi) - 0.025, 0.0)
         dy = np.maximum(np.abs(cy[near] - yi) - 0.025, 0.0)
         outside = min(xi, 100.0 - xi, yi, 100.0 - yi)  # off the map: unknown, so blocked
-        assert d == pytest.approx(min(np.hypot(dx, dy).min(), outside), abs=1e-12)
+        assert d == pytest.approx(min(np.hypot(dx, dy).min(initial=np.inf), outside), abs=1e-12)
