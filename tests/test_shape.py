@@ -22,6 +22,7 @@ MAX_ROOT_MODULES = 8
 #: batch share a layer: each uses the other.
 LAYERS = (
     ("",),  # the root modules
+    ("world",),  # maps and the clearance against them
     ("model",),  # the symbolic model
     ("compiled",),
     ("integrate",),
@@ -283,3 +284,20 @@ def test_old_module_paths_still_import_with_a_warning():
     assert old is planner and old.plan is planner.plan
     assert any("moved to leapfrog_planner.planning.planner" in str(w.message) for w in caught)
     assert all(w.category is DeprecationWarning for w in caught)
+
+
+def test_the_world_layer_needs_only_numpy_scipy_pyyaml_and_pillow():
+    """world/ (maps, clearance) stays light: besides the root modules, the standard library and
+    these four, it imports nothing (no numba, no SymPy)."""
+    import sys
+
+    allowed = {"numpy", "scipy", "yaml", "PIL", "leapfrog_planner"}
+    found = set()
+    for path in (PACKAGE / "world").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                found |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and not node.level:
+                found.add(node.module.split(".")[0])
+    third_party = found - set(sys.stdlib_module_names)
+    assert {"numpy", "yaml"} <= third_party <= allowed, third_party
