@@ -59,8 +59,8 @@ WIDER_WHEN = 4.0
 #: More paths run while estimated within this factor of the cheapest path, and each of them
 #: stops when a sweep leaves it this many times dearer than the cheapest collision-free
 #: extremal of the first paths: on the general preset (seed 1) the best known optimum on
-#: 97.2% of 500 layouts against 94.4% from the three best-ranked paths, at 1.3 times their
-#: median time (docs/tuning.md).
+#: 97.4% of 500 layouts against 94.4% from the three best-ranked paths, at 1.14 times their
+#: time (median of the ratios; docs/tuning.md).
 EXTRA_GATE = 2.0
 ABANDON_FACTOR = 3.0
 
