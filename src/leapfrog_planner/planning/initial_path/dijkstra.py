@@ -101,6 +101,12 @@ def _dijkstra(edges, blocked, labels, heap):
                 size = _heap_push(heap, size, nd + edges.togo[v], v)
 
 
+@njit(cache=True, inline="always")
+def _precedes(key_a, node_a, key_b, node_b):
+    """The heap's order: by key, ties by node (the same pops on every machine)."""
+    return key_a < key_b or (key_a == key_b and node_a < node_b)
+
+
 @njit(cache=True)
 def _heap_pop(heap, size):
     """Take the least pair out of the heap (its first ``size`` entries): its node, and the
@@ -116,11 +122,9 @@ def _heap_pop(heap, size):
             c = 2 * i + 1
             if c >= size:
                 break
-            if c + 1 < size and (
-                hkey[c + 1] < hkey[c] or (hkey[c + 1] == hkey[c] and hval[c + 1] < hval[c])
-            ):
+            if c + 1 < size and _precedes(hkey[c + 1], hval[c + 1], hkey[c], hval[c]):
                 c += 1
-            if hkey[c] < key or (hkey[c] == key and hval[c] < val):
+            if _precedes(hkey[c], hval[c], key, val):
                 hkey[i] = hkey[c]
                 hval[i] = hval[c]
                 i = c
@@ -140,7 +144,7 @@ def _heap_push(heap, size, key, v):
     size += 1
     while i > 0:
         par = (i - 1) // 2
-        if key < hkey[par] or (key == hkey[par] and v < hval[par]):
+        if _precedes(key, v, hkey[par], hval[par]):
             hkey[i] = hkey[par]
             hval[i] = hval[par]
             i = par
