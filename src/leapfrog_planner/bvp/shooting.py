@@ -28,7 +28,7 @@ from ..compiled.kernels import entry_point
 from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
 from ..integrate.problem import OptimalControlProblem
-from ..model.penalty import penalty_terms
+from ..model.penalty import grid_penalty_terms
 from ..roots import (
     STRATEGIES,
     ModifiedNewtonStep,
@@ -209,10 +209,10 @@ def affine_costate_guess(
             break
     c = f - A @ xbar - B @ u
     q = np.zeros(nx)
-    obs = problem.obstacles
-    if obs.shape[0]:
-        _, q[0], q[1], *_ = penalty_terms(
-            xbar[0], xbar[1], obs, problem.penalty.weight, problem.penalty.exponent, False
+    pen = problem.penalty
+    if pen.any:
+        _, q[0], q[1], *_ = grid_penalty_terms(
+            xbar[0], xbar[1], pen.grid, pen.weight, pen.exponent, False
         )
     n2 = 2 * nx
     big = np.zeros((n2 + 1, n2 + 1))

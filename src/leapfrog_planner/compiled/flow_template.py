@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from leapfrog_planner.model.penalty import obstacle_count, penalty_at
+from leapfrog_planner.model.penalty import has_penalty, penalty_at
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
@@ -32,7 +32,7 @@ def aug_rhs(Y, k, p, obs, weight, exponent, out):
     """Right-hand side of the augmented system: canonical system, cost rate, sensitivities."""
     base = NZ + 1
     model_augmented(Y, p, Y[base:], k, out)
-    if obstacle_count(obs) == 0:
+    if not has_penalty(obs):
         return
     P, Px, Py, Pxx, Pxy, Pyy = penalty_at(Y[0], Y[1], obs, weight, exponent, k > 0)
     out[NX] -= Px

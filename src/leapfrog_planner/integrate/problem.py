@@ -14,15 +14,19 @@ from .. import checks
 from ..compiled.kernels import ModelInfo, model_info
 from ..errors import ScenarioError, require_integer
 from ..model.penalty import ObstacleGrid, clearance, obstacle_grid
+from ..world.obstacle_map import ObstacleMap
 
 
 @dataclass(frozen=True, eq=False)
 class ObstaclePenalty:
-    """``P(x, y) = sum_j W exp(-(|(x, y) - c_j|^2 / r_j^2)^n)`` over disc obstacles."""
+    """``P(x, y) = sum_j W exp(-(|(x, y) - c_j|^2 / r_j^2)^n)`` over disc obstacles, plus the
+    penalty field of a ``map`` (world/field.py: the same formula with a distance to the map's
+    blocked cells in place of the distance to a centre)."""
 
     obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     weight: float = 100.0
     exponent: int = 2
+    map: ObstacleMap | None = None
 
     def __post_init__(self):
         obs = self.obstacles
@@ -34,6 +38,19 @@ class ObstaclePenalty:
         object.__setattr__(self, "weight", checks.real(self.weight, "penalty.weight", ge=0))
         exponent = require_integer("penalty.exponent", self.exponent, 1, error=ScenarioError)
         object.__setattr__(self, "exponent", exponent)
+        if self.map is not None:
+            if not isinstance(self.map, ObstacleMap):
+                raise ScenarioError(f"map: expected an ObstacleMap, got {self.map!r:.60}")
+            if exponent < 2:
+                raise ScenarioError(
+                    "penalty.exponent: must be at least 2 with a map (its penalty is twice"
+                    f" differentiable only then), got {exponent}"
+                )
+
+    @property
+    def any(self) -> bool:
+        """Whether there is any obstacle: a disc or a map."""
+        return self.obstacles.shape[0] > 0 or self.map is not None
 
     @property
     def grid(self) -> ObstacleGrid:
@@ -41,7 +58,8 @@ class ObstaclePenalty:
         obstacles near each point (the same sum, bit for bit); built once per penalty."""
         grid = self.__dict__.get("_grid")
         if grid is None:
-            grid = obstacle_grid(self.obstacles, self.weight, self.exponent)
+            field = None if self.map is None else self.map.field
+            grid = obstacle_grid(self.obstacles, self.weight, self.exponent, field)
             object.__setattr__(self, "_grid", grid)
         return grid
 
@@ -49,8 +67,9 @@ class ObstaclePenalty:
         """Penalty values at points ``xy`` of shape ``(..., 2)``."""
         xy = np.asarray(xy, dtype=float)
         obs = self.obstacles
+        base = 0.0 if self.map is None else self.map.penalty(xy, self.weight, self.exponent)
         if obs.shape[0] == 0:
-            return np.zeros(xy.shape[:-1])
+            return base + np.zeros(xy.shape[:-1])
         # Rows in chunks of about a million terms: the same values, without an (N, m) array.
         flat = xy.reshape(-1, 2)
         out = np.empty(flat.shape[0])
@@ -59,11 +78,21 @@ class ObstaclePenalty:
             part = flat[lo : lo + step]
             d2 = ((part[:, None, :] - obs[:, :2]) ** 2).sum(-1) / obs[:, 2] ** 2
             out[lo : lo + step] = (self.weight * np.exp(-(d2**self.exponent))).sum(-1)
-        return out.reshape(xy.shape[:-1])[()]
+        return base + out.reshape(xy.shape[:-1])[()]
 
     def clearance(self, xy) -> np.ndarray:
-        """Per obstacle, the smallest distance from the path ``xy`` to its edge."""
-        return clearance(np.asarray(xy, dtype=float).reshape(-1, 2), self.obstacles)
+        """Per obstacle, the smallest distance from the path ``xy`` to its edge; with a map, a
+        last entry: the least clearance of the polyline ``xy`` against the map's blocked cells
+        (exact at the points, a proven lower bound between them)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        discs = clearance(xy, self.obstacles)
+        if self.map is None:
+            return discs
+        return np.append(discs, self.map.path_clearance(xy))
+
+    def with_weight(self, weight: float) -> ObstaclePenalty:
+        """The same obstacles with another weight."""
+        return ObstaclePenalty(self.obstacles, weight, self.exponent, self.map)
 
 
 def obstacle_penalty(obstacles=(), weight: float = 100.0, exponent: int = 2) -> ObstaclePenalty:
@@ -116,10 +145,7 @@ class OptimalControlProblem:
 
     def with_weight(self, weight: float) -> OptimalControlProblem:
         """The same problem with another obstacle weight (for continuation; nothing recompiles)."""
-        pen = self.penalty
-        return OptimalControlProblem(
-            self.model, ObstaclePenalty(pen.obstacles, weight, pen.exponent), self.parameters
-        )
+        return OptimalControlProblem(self.model, self.penalty.with_weight(weight), self.parameters)
 
     def with_parameter(self, name: str, value: float) -> OptimalControlProblem:
         """The same problem with the model parameter ``name`` set to ``value``."""
@@ -141,11 +167,12 @@ class OptimalControlProblem:
                 self.penalty.weight,
                 self.penalty.exponent,
                 self.parameters,
+                self.penalty.map,
             ),
         )
 
 
-def _rebuild(definition, obstacles, weight, exponent, parameters):
+def _rebuild(definition, obstacles, weight, exponent, parameters, obstacle_map=None):
     return OptimalControlProblem(
-        definition, ObstaclePenalty(obstacles, weight, exponent), parameters
+        definition, ObstaclePenalty(obstacles, weight, exponent, obstacle_map), parameters
     )

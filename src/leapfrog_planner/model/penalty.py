@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
+from ..world.field import MapField, field_penalty_terms, no_field
 from .grid import cell_lists, grid_layout
 
 
@@ -100,11 +101,13 @@ class ObstacleGrid(NamedTuple):
     ny: int
     weight: float  # the largest weight the grid holds for
     exponent: int
+    field: MapField  # a map's penalty field (world/field.py), added to the discs' sum
 
 
-def obstacle_grid(obstacles, weight: float, exponent: int) -> ObstacleGrid:
+def obstacle_grid(obstacles, weight: float, exponent: int, field: MapField | None = None) -> ObstacleGrid:
     """The grid of ``obstacles`` for the penalty with ``weight`` and ``exponent`` (valid for
-    any weight up to ``weight``: the influence discs only shrink with the weight)."""
+    any weight up to ``weight``: the influence discs only shrink with the weight), with a map's
+    ``field`` (none by default)."""
     obs = as_obstacle_array(obstacles).view()
     obs.setflags(write=False)  # one compiled type, whatever the caller's array
     far = far_bound(float(weight))
@@ -113,24 +116,33 @@ def obstacle_grid(obstacles, weight: float, exponent: int) -> ObstacleGrid:
     typical = float(np.median(reach)) if reach.size else 1.0
     lo, h, nx, ny = grid_layout(obs[:, :2], reach, typical)
     starts, items = cell_lists(obs[:, :2], reach + 1e-9 * h, lo, h, nx, ny)
+    field = no_field() if field is None else field
     return ObstacleGrid(
-        obs, starts, items, float(lo[0]), float(lo[1]), h, nx, ny, float(weight), int(exponent)
+        obs, starts, items, float(lo[0]), float(lo[1]), h, nx, ny, float(weight), int(exponent),
+        field,
     )
 
 
 @njit(cache=True)
 def grid_penalty_terms(x, y, grid, weight, exponent, want_hessian):
-    """:func:`penalty_terms` over the obstacles of ``(x, y)``'s grid cell: the same sum, in the
-    same order (the others are skipped there as negligible); all obstacles at a nan point."""
+    """The map's field plus :func:`penalty_terms` over the obstacles of ``(x, y)``'s grid cell:
+    the discs' sum in the same order (the others are skipped there as negligible); all
+    obstacles at a nan point."""
+    P, Px, Py, Pxx, Pxy, Pyy = field_penalty_terms(x, y, grid.field, weight, exponent, want_hessian)
+    a, b, c, d, e, f = _disc_terms(x, y, grid, weight, exponent, want_hessian)
+    return P + a, Px + b, Py + c, Pxx + d, Pxy + e, Pyy + f
+
+
+@njit(cache=True, inline="always")
+def _disc_terms(x, y, grid, weight, exponent, want_hessian):
     obs = grid.obstacles
     fx = (x - grid.ox) / grid.h
     fy = (y - grid.oy) / grid.h
     if fx != fx or fy != fy or weight > grid.weight or exponent != grid.exponent:
         # A nan point, or a grid built for another penalty: the plain loop.
         return penalty_terms(x, y, obs, weight, exponent, want_hessian)
-    P = Px = Py = Pxx = Pxy = Pyy = 0.0
     if not (0.0 <= fx < grid.nx and 0.0 <= fy < grid.ny):
-        return P, Px, Py, Pxx, Pxy, Pyy
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     c = min(int(fy), grid.ny - 1) * grid.nx + min(int(fx), grid.nx - 1)
     lo, hi = grid.starts[c], grid.starts[c + 1]
     return _summed_terms(x, y, obs, grid.items, lo, hi, weight, exponent, want_hessian)
@@ -144,9 +156,12 @@ def penalty_at(x, y, obs, weight, exponent, want_hessian):
     return penalty_terms(x, y, obs, weight, exponent, want_hessian)
 
 
-def obstacle_count(obs) -> int:
-    """The number of obstacles of an :class:`ObstacleGrid` or an ``(m, 3)`` array."""
-    return (obs.obstacles if isinstance(obs, ObstacleGrid) else obs).shape[0]
+def has_penalty(obs) -> bool:
+    """Whether ``obs`` (an :class:`ObstacleGrid` or an ``(m, 3)`` array) has any obstacle: a
+    disc or a map."""
+    if isinstance(obs, ObstacleGrid):
+        return obs.obstacles.shape[0] > 0 or obs.field.coef.shape[0] > 0
+    return obs.shape[0] > 0
 
 
 @overload(penalty_at)
@@ -160,11 +175,11 @@ def _penalty_at(x, y, obs, weight, exponent, want_hessian):
     )
 
 
-@overload(obstacle_count)
-def _obstacle_count(obs):
+@overload(has_penalty)
+def _has_penalty(obs):
     if isinstance(obs, types.Array):
-        return lambda obs: obs.shape[0]
-    return lambda obs: obs.obstacles.shape[0]
+        return lambda obs: obs.shape[0] > 0
+    return lambda obs: obs.obstacles.shape[0] > 0 or obs.field.coef.shape[0] > 0
 
 
 def as_obstacle_array(obstacles) -> np.ndarray:

@@ -23,8 +23,9 @@ import numpy as np
 from .. import checks
 from ..compiled.kernels import model_info
 from ..errors import ScenarioError, describe, require_integer, short
-from ..integrate.problem import OptimalControlProblem
+from ..integrate.problem import ObstaclePenalty, OptimalControlProblem
 from ..model import MODELS
+from .scenario_map import ScenarioMap, map_from_table
 from .scenario_toml import BARE_KEY, toml_key, toml_state, toml_value
 
 __all__ = [
@@ -56,6 +57,7 @@ TOP_LEVEL_KEYS = (
     "penalty",
     "solver",
     "obstacles",
+    "map",
 )
 REQUIRED_KEYS = ("horizon", "start", "goal")
 #: The smoothing widths of bounded controls, relative to the narrowest range: Leapfrog at the
@@ -204,6 +206,7 @@ class Scenario:
     robot_radius: float = 0.0  # the footprint: a disc of this radius about (x, y)
     margin: float = 0.0  # clearance a converged path keeps beyond the footprint
     control_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)  # name: (lo, hi)
+    map: ScenarioMap | None = None  # a ROS map the robot plans in (planning/scenario_map.py)
 
     def __post_init__(self):
         source = None if self.source is None else str(self.source)
@@ -245,6 +248,13 @@ class Scenario:
         grown = obstacles + np.array([0.0, 0.0, robot_radius])
         for key, p in points:  # the footprint may not overlap an obstacle
             c.outside(p, key, grown if robot_radius else obstacles)
+        if self.map is not None:
+            if not isinstance(self.map, ScenarioMap):
+                c.fail("map", f"expected a ScenarioMap, got {describe(self.map)}")
+            if exponent < 2:
+                c.fail("penalty.exponent", "must be at least 2 with a map")
+            for key, p in points:
+                c._named(self.map.check_point, p, key, robot_radius)
 
         values = {
             "name": name,
@@ -262,6 +272,7 @@ class Scenario:
             "robot_radius": robot_radius,
             "margin": margin,
             "control_bounds": bounds,
+            "map": self.map,
         }
         for k, v in values.items():
             object.__setattr__(self, k, v)
@@ -351,13 +362,10 @@ class Scenario:
             for name, (lo, hi) in self.control_bounds.items():
                 parameters.update(zip(bound_names(name), (lo, hi), strict=True))
             parameters[SMOOTHING] = self.smoothing_widths[0] if smoothing is None else smoothing
-        return OptimalControlProblem.create(
-            model,
-            self.footprint_obstacles,
-            weight=self.weight,
-            exponent=self.exponent,
-            parameters=parameters,
-        )
+        info = model_info(model)
+        world = None if self.map is None else self.map.obstacles(self.robot_radius)
+        penalty = ObstaclePenalty(self.footprint_obstacles, self.weight, self.exponent, world)
+        return OptimalControlProblem(info, penalty, info.parameter_values(parameters))
 
     @property
     def smoothing_widths(self) -> tuple[float, ...]:
@@ -401,6 +409,8 @@ class Scenario:
         data["obstacles"] = [
             {"center": [float(cx), float(cy)], "radius": float(r)} for cx, cy, r in self.obstacles
         ]
+        if self.map is not None:
+            data["map"] = self.map.to_dict()
         return data
 
     def to_toml(self) -> str:
@@ -414,7 +424,7 @@ class Scenario:
         ]
         if "waypoints" in d:
             lines.append(f"waypoints = {toml_value(d['waypoints'])}")
-        for table in ("robot", "penalty", "solver"):
+        for table in ("robot", "penalty", "solver", "map"):
             if table in d:
                 lines += ["", f"[{table}]"]
                 lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in d[table].items()]
@@ -466,6 +476,9 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
         obstacles[j, :2] = c.vector(ob["center"], 2, f"{key}.center", " [cx, cy]")
         obstacles[j, 2] = c.number(ob["radius"], f"{key}.radius", gt=0)
 
+    world = None
+    if "map" in data:
+        world = c._named(map_from_table, c.table(data["map"], "map"), _folder(source))
     return Scenario(
         name=data.get("name", _default_name(source)),
         horizon=data["horizon"],
@@ -482,7 +495,16 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
         robot_radius=robot.get("radius", 0.0),
         margin=robot.get("margin", 0.0),
         control_bounds=bounds,
+        map=world,
     )
+
+
+def _folder(source: str) -> str:
+    """Where the files a scenario names are found: its file's folder (the working folder for
+    a scenario that is not a file)."""
+    if source.startswith(_BUILTIN_PREFIX) or source.startswith("<"):
+        return os.getcwd()
+    return os.path.dirname(os.path.abspath(source))
 
 
 def load_scenario_text(text: str | bytes, source: str = "<string>") -> Scenario:

@@ -94,7 +94,7 @@ class LocalSolver:
             ),
         )
         self.W = problem.penalty.weight
-        self.has_obstacles = problem.obstacles.shape[0] > 0 and self.W > 0
+        self.has_obstacles = problem.penalty.any and self.W > 0
         self.count = Counter()
         self.strategies = Strategies()
         self._shooters: dict[tuple, LocalShooter] = {}

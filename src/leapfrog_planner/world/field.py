@@ -1,0 +1,362 @@
+"""The smooth penalty field of a map: ``P = W exp(-(max(u, 0)^2)^n)``, twice differentiable.
+
+For a disc of radius ``r`` the penalty is ``W exp(-(|p - c|^2 / r^2)^n)``: ``|p - c| / r`` is the
+distance from the disc's centre in units of its radius. A map has no centres, so ``u`` is built
+from the distance to its blocked cells so that it means the same:
+
+``d``
+    the exact signed distance from each cell centre to the blocked cells taken as closed squares
+    (:mod:`.distance`; positive outside, negative inside), less the robot's radius ``rho``: every
+    obstacle grows by the footprint, as each disc does;
+``dt = G_sigma * d``
+    a Gaussian smoothing of width ``sigma = max(0.1 l, 2 h)`` (``h`` the cell size). Without it
+    the distance has a ridge (``|y|``) along the middle of every corridor, a kink that Newton's
+    method would meet as a Hessian spike of height ``1/h``, and it ripples along walls that are
+    not axis-aligned (a staircase of cells). The smoothing rounds both;
+``u = m_sigma^-1(l + dt) / l``
+    where ``m_sigma(r) = E|x + sigma Z|`` (``|x| = r``, ``Z`` a standard normal 2-vector; the
+    mean of a Rice distribution) is what the smoothing makes of the distance to a disc's centre.
+    Undoing it, an isolated disc of radius ``l`` gives ``u = |p - c| / l`` exactly: the disc's
+    penalty, with the length scale ``l`` in place of its radius;
+``coef``
+    ``u`` at the cell centres becomes a tensor-product cubic B-spline (the interpolating
+    prefilter), so ``u`` is C2 everywhere and each evaluation reads 4 x 4 coefficients: O(1)
+    whatever the map's size. ``t -> exp(-t^n)`` at ``t = max(u, 0)^2`` is C2 for ``n >= 2``.
+
+The field stores ``u`` only: the weight ``W`` and exponent ``n`` stay run-time arguments, so the
+continuation on the weight rebuilds nothing, and a new map compiles nothing. Distances are clipped
+where the penalty is negligible (``e^-60 W``), and the grid is padded beyond the map by that much
+with the map's outside policy (blocked: ``P = W``; free: ``P = 0``); beyond the padding the
+evaluator returns that constant, so the field stays C2 there too.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .distance import signed_distance_squares
+
+#: The smoothing width: ``sigma = max(SMOOTH_FRACTION * l, SMOOTH_CELLS * h)``.
+SMOOTH_FRACTION = 0.1
+SMOOTH_CELLS = 2.0
+#: The largest weight the field's reach is built for (``P < e^-60 W`` beyond it; above this
+#: weight the clipped tail is still below ``e^-70 W``).
+WEIGHT_MAX = 1e6
+#: The smallest exponent the field is built for (and the smallest that keeps P twice
+#: continuously differentiable at ``u = 0``).
+EXPONENT_MIN = 2
+#: The Gaussian kernel is truncated at this many widths (scipy's default).
+TRUNCATE = 4.0
+
+
+class MapField(NamedTuple):
+    """What the compiled evaluator reads (module docstring). Node ``(i, j)`` of ``coef`` lies
+    at the world point ``(x0, y0) + R(yaw) (j h, i h)``; ``coef`` are the cubic B-spline
+    coefficients of ``u``; beyond the usable nodes ``u = u_out``. An empty ``coef`` (0 x 0) is
+    no map at all."""
+
+    coef: np.ndarray  # (ny, nx) float64, read-only
+    x0: float
+    y0: float
+    cos_yaw: float
+    sin_yaw: float
+    h: float
+    u_out: float
+
+
+def no_field() -> MapField:
+    """The field of no map (its penalty is 0 everywhere)."""
+    coef = np.zeros((0, 0))
+    coef.setflags(write=False)
+    return MapField(coef, 0.0, 0.0, 1.0, 0.0, 1.0, 1e3)
+
+
+def far_u() -> float:
+    """The ``u`` beyond which ``P < e^-60 W`` for every weight up to :data:`WEIGHT_MAX` and
+    exponent from :data:`EXPONENT_MIN` (the disc penalty's rule for skipping a term)."""
+    return (60.0 + math.log(WEIGHT_MAX)) ** (0.5 / EXPONENT_MIN)
+
+
+def smoothing_width(length: float, resolution: float) -> float:
+    """``sigma`` (metres) for the length scale ``l`` on cells of size ``h``."""
+    return max(SMOOTH_FRACTION * length, SMOOTH_CELLS * resolution)
+
+
+# --------------------------------------------------------------------------- calibration
+
+
+def rice_mean(r, sigma: float) -> np.ndarray:
+    """``m_sigma(r) = E|x + sigma Z|`` for ``|x| = r`` and ``Z`` a standard normal 2-vector: the
+    Gaussian smoothing (variance ``sigma^2`` per axis) of the distance to a point."""
+    from scipy.special import i0e, i1e
+
+    r = np.asarray(r, dtype=float)
+    z = r * r / (4.0 * sigma * sigma)
+    return sigma * math.sqrt(math.pi / 2.0) * ((1.0 + 2.0 * z) * i0e(z) + 2.0 * z * i1e(z))
+
+
+class RiceTable(NamedTuple):
+    """``r = m_sigma^-1(m)`` tabulated on a uniform grid of ``m`` from ``m0`` by ``dm``; below
+    ``m0`` (``r < 1.5 sigma``, deep inside obstacles where ``P > 0.88 W``) the tangent line of
+    slope ``slope``; above the table, the asymptote ``m = r + sigma^2 / (2 r)``."""
+
+    m0: float
+    dm: float
+    r: np.ndarray
+    slope: float
+    sigma: float
+
+
+def rice_table(sigma: float, r_max: float, n: int = 8193) -> RiceTable:
+    """The inverse of :func:`rice_mean` up to ``r_max``, as a table (8k entries: the linear
+    interpolation's error is far below the field's own)."""
+    r_low = 1.5 * sigma
+    r = np.linspace(r_low, max(r_max, 2.0 * r_low), 4 * n)
+    m = rice_mean(r, sigma)
+    grid = np.linspace(m[0], m[-1], n)
+    slope = (m[1] - m[0]) / (r[1] - r[0])
+    return RiceTable(float(grid[0]), float(grid[1] - grid[0]), np.interp(grid, m, r), slope, sigma)
+
+
+@njit(cache=True)
+def _calibrate(dt, length, m0, dm, table, slope, sigma, out):
+    """``out = m_sigma^-1(length + dt) / length`` elementwise (:class:`RiceTable`)."""
+    n = table.size
+    flat_in = dt.ravel()
+    flat_out = out.ravel()
+    m_top = m0 + dm * (n - 1)
+    for k in range(flat_in.size):
+        m = length + flat_in[k]
+        if m <= m0:
+            r = table[0] + (m - m0) / slope
+        elif m >= m_top:
+            r = 0.5 * (m + math.sqrt(max(m * m - 2.0 * sigma * sigma, 0.0)))
+        else:
+            t = (m - m0) / dm
+            i = min(int(t), n - 2)
+            f = t - i
+            r = table[i] * (1.0 - f) + table[i + 1] * f
+        flat_out[k] = r / length
+
+
+# --------------------------------------------------------------------------- B-spline
+
+
+#: The pole of the cubic B-spline's interpolation filter.
+POLE = math.sqrt(3.0) - 2.0
+
+
+@njit(cache=True)
+def _prefilter_rows(a, pole):
+    """In place, along each row: samples to cubic B-spline coefficients (the causal and
+    anti-causal recursions of Unser's interpolating filter, mirror boundaries; the causal start
+    is truncated where ``pole^k < 1e-12``)."""
+    ny, nx = a.shape
+    terms = min(nx, int(math.log(1e-12) / math.log(-pole)) + 1)
+    end = pole / (pole * pole - 1.0)
+    for i in range(ny):
+        row = a[i]
+        zk = 1.0
+        c0 = 0.0
+        for k in range(terms):
+            c0 += zk * row[k]
+            zk *= pole
+        row[0] = c0
+        for k in range(1, nx):
+            row[k] += pole * row[k - 1]
+        row[nx - 1] = end * (row[nx - 1] + pole * row[nx - 2])
+        for k in range(nx - 2, -1, -1):
+            row[k] = pole * (row[k + 1] - row[k])
+        for k in range(nx):
+            row[k] *= 6.0
+
+
+def spline_coefficients(values: np.ndarray) -> np.ndarray:
+    """The cubic B-spline coefficients that interpolate ``values`` at the nodes (both axes)."""
+    coef = np.ascontiguousarray(values, dtype=np.float64).copy()
+    _prefilter_rows(coef, POLE)
+    coef = np.ascontiguousarray(coef.T)
+    _prefilter_rows(coef, POLE)
+    return np.ascontiguousarray(coef.T)
+
+
+# --------------------------------------------------------------------------- building
+
+
+class FieldPlan(NamedTuple):
+    """The sizes a field is built with (metres, except ``pad``, in cells)."""
+
+    length: float
+    radius: float
+    sigma: float
+    reach_out: float  # distances beyond this outside the grown obstacles are clipped
+    reach_in: float  # ... and beyond this inside them
+    pad: int
+
+
+def field_plan(length: float, radius: float, resolution: float) -> FieldPlan:
+    """How far the field must reach for the length scale, the robot's radius and the cells."""
+    sigma = smoothing_width(length, resolution)
+    slack = TRUNCATE * sigma + 2.0 * resolution
+    reach_out = length * (far_u() - 1.0) + slack
+    reach_in = length + slack
+    pad = int(math.ceil((max(reach_out, reach_in) + radius) / resolution)) + 4
+    return FieldPlan(length, radius, sigma, reach_out, reach_in, pad)
+
+
+def build_field(
+    blocked: np.ndarray,
+    resolution: float,
+    origin: tuple[float, float, float],
+    plan: FieldPlan,
+    outside_blocked: bool,
+) -> MapField:
+    """The field of the ``blocked`` cells (row 0 at the bottom) of a map with ``resolution``
+    and ``origin`` ``(x, y, yaw)``, by the steps of the module docstring."""
+    from scipy.ndimage import gaussian_filter
+
+    h, pad = float(resolution), plan.pad
+    ny, nx = blocked.shape[0] + 2 * pad, blocked.shape[1] + 2 * pad
+    grid = np.full((ny, nx), bool(outside_blocked))
+    grid[pad:-pad, pad:-pad] = blocked
+    cap_in, cap_out = plan.reach_in / h + 1.0, (plan.reach_out + plan.radius) / h + 1.0
+    if grid.any():
+        d = signed_distance_squares(grid, cap_in, cap_out)
+    else:
+        d = np.full((ny, nx), cap_out)
+    d *= h
+    d -= plan.radius
+    np.clip(d, -plan.reach_in, plan.reach_out, out=d)
+    s_cells = plan.sigma / h
+    # float32 is ample for the smoothing (distances of at most ~100 cells) and twice as fast.
+    dt = gaussian_filter(d.astype(np.float32), s_cells, mode="nearest", truncate=TRUNCATE)
+    sigma = math.sqrt(sampled_gaussian_variance(s_cells)) * h  # what the kernel really does
+    table = rice_table(sigma, plan.length + plan.reach_out + 8.0 * sigma)
+    u = np.empty(dt.shape)
+    _calibrate(dt, plan.length, table.m0, table.dm, table.r, table.slope, sigma, u)
+    coef = spline_coefficients(u)
+    coef.setflags(write=False)
+    x0, y0, yaw = origin
+    c, s = math.cos(yaw), math.sin(yaw)
+    gx = gy = (0.5 - pad) * h  # node (0, 0): the centre of map cell (-pad, -pad)
+    u_out = -1.0 if outside_blocked else 1e3
+    return MapField(coef, x0 + c * gx - s * gy, y0 + s * gx + c * gy, c, s, h, u_out)
+
+
+def sampled_gaussian_variance(sigma_cells: float) -> float:
+    """The per-axis variance (cells^2) of the sampled, truncated kernel that
+    ``scipy.ndimage.gaussian_filter`` applies for ``sigma_cells``."""
+    radius = int(TRUNCATE * sigma_cells + 0.5)
+    x = np.arange(-radius, radius + 1, dtype=float)
+    w = np.exp(-0.5 * (x / sigma_cells) ** 2)
+    return float((w * x * x).sum() / w.sum())
+
+
+# --------------------------------------------------------------------------- evaluation
+
+
+@njit(cache=True, inline="always")
+def _row(row, j, b0, b1, b2, b3):
+    return b0 * row[j] + b1 * row[j + 1] + b2 * row[j + 2] + b3 * row[j + 3]
+
+
+@njit(cache=True, inline="always")
+def _basis(t):
+    """The cubic B-spline's four weights at ``t`` in [0, 1), their first and second
+    derivatives."""
+    m = 1.0 - t
+    t2 = t * t
+    b = (m * m * m / 6.0, (3.0 * t2 * t - 6.0 * t2 + 4.0) / 6.0,
+         (-3.0 * t2 * t + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t2 * t / 6.0)  # fmt: skip
+    d = (-0.5 * m * m, 1.5 * t2 - 2.0 * t, -1.5 * t2 + t + 0.5, 0.5 * t2)
+    dd = (m, 3.0 * t - 2.0, 1.0 - 3.0 * t, t)
+    return b, d, dd
+
+
+@njit(cache=True)
+def _spline(coef, gx, gy, want_hessian):
+    """``u`` and its derivatives in grid units at the grid point ``(gx, gy)`` (node ``(i, j)``
+    at ``(j, i)``), from the 4 x 4 coefficients around it."""
+    j0, i0 = int(math.floor(gx)), int(math.floor(gy))
+    bx, dx, ddx = _basis(gx - j0)
+    by, dy, ddy = _basis(gy - i0)
+    j = j0 - 1
+    u = ux = uy = uxx = uxy = uyy = 0.0
+    for k in range(4):
+        row = coef[i0 - 1 + k]
+        v = _row(row, j, bx[0], bx[1], bx[2], bx[3])
+        g = _row(row, j, dx[0], dx[1], dx[2], dx[3])
+        u += by[k] * v
+        ux += by[k] * g
+        uy += dy[k] * v
+        if want_hessian:
+            uxx += by[k] * _row(row, j, ddx[0], ddx[1], ddx[2], ddx[3])
+            uxy += dy[k] * g
+            uyy += ddy[k] * v
+    return u, ux, uy, uxx, uxy, uyy
+
+
+@njit(cache=True)
+def field_u(x, y, field, want_hessian):
+    """``(u, u_x, u_y, u_xx, u_xy, u_yy)`` at the world point ``(x, y)`` (the Hessian 0 unless
+    asked for); ``u_out`` and zero derivatives beyond the field's usable nodes."""
+    coef = field.coef
+    ny, nx = coef.shape
+    c, s, ih = field.cos_yaw, field.sin_yaw, 1.0 / field.h
+    dx, dy = x - field.x0, y - field.y0
+    gx, gy = (c * dx + s * dy) * ih, (c * dy - s * dx) * ih
+    if gx != gx or gy != gy:
+        return math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
+    if not (1.0 <= gx < nx - 2.0 and 1.0 <= gy < ny - 2.0):
+        return field.u_out, 0.0, 0.0, 0.0, 0.0, 0.0
+    u, a, b, aa, ab, bb = _spline(coef, gx, gy, want_hessian)
+    # The world gradient is R (a, b) / h and the Hessian R H R^T / h^2 (R: rotation by yaw).
+    ux, uy = (c * a - s * b) * ih, (s * a + c * b) * ih
+    if not want_hessian:
+        return u, ux, uy, 0.0, 0.0, 0.0
+    ih2 = ih * ih
+    hxx = (c * c * aa - 2.0 * c * s * ab + s * s * bb) * ih2
+    hxy = (c * s * (aa - bb) + (c * c - s * s) * ab) * ih2
+    hyy = (s * s * aa + 2.0 * c * s * ab + c * c * bb) * ih2
+    return u, ux, uy, hxx, hxy, hyy
+
+
+@njit(cache=True)
+def field_penalty_terms(x, y, field, weight, exponent, want_hessian):
+    """``(P, P_x, P_y, P_xx, P_xy, P_yy)`` of ``P = W exp(-(max(u, 0)^2)^n)`` at ``(x, y)``:
+    the same tuple as the disc penalty's ``penalty_terms``; all 0 for :func:`no_field`."""
+    if field.coef.shape[0] == 0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    u, ux, uy, uxx, uxy, uyy = field_u(x, y, field, want_hessian)
+    if u != u:
+        return math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
+    if u <= 0.0:
+        return weight, 0.0, 0.0, 0.0, 0.0, 0.0
+    n = exponent
+    u2n2 = 1.0  # u^(2n - 2), without pow (as in the disc loop)
+    for _ in range(n - 1):
+        u2n2 *= u * u
+    u2n1 = u2n2 * u
+    q = u2n1 * u  # u^(2n)
+    if q > 60.0 + (math.log(weight) if weight > 1.0 else 0.0):
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    e = weight * math.exp(-q)
+    g1 = -2.0 * n * u2n1 * e  # dP/du
+    if not want_hessian:
+        return e, g1 * ux, g1 * uy, 0.0, 0.0, 0.0
+    g2 = e * (4.0 * n * n * u2n1 * u2n1 - 2.0 * n * (2.0 * n - 1.0) * u2n2)  # d2P/du2
+    return (e, g1 * ux, g1 * uy, g2 * ux * ux + g1 * uxx, g2 * ux * uy + g1 * uxy,
+            g2 * uy * uy + g1 * uyy)  # fmt: skip
+
+
+@njit(cache=True)
+def field_penalty_rows(xy, field, weight, exponent, want_hessian, out):
+    """:func:`field_penalty_terms` at each row of ``xy`` (``(N, 2)``) into ``out`` (``(N, 6)``)."""
+    for k in range(xy.shape[0]):
+        terms = field_penalty_terms(xy[k, 0], xy[k, 1], field, weight, exponent, want_hessian)
+        for m in range(6):
+            out[k, m] = terms[m]

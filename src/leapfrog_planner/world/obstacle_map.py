@@ -1,0 +1,91 @@
+"""A map as the planner sees it: its smooth penalty field and the exact clearance of a motion.
+
+The penalty (:mod:`.field`) steers the optimisation; the clearance (:mod:`.clearance`) judges the
+answer against the cells themselves, never against the smoothed field.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import checks
+from ..errors import ScenarioError
+from .clearance import MapClearance
+from .field import FieldPlan, MapField, build_field, field_penalty_rows, field_plan
+from .occupancy import OccupancyMap
+
+#: The default length scale is this many times the robot's radius (small obstacles then still
+#: reach nearly the full weight)...
+LENGTH_PER_RADIUS = 2.0
+#: ... and at least this many cells (the spline needs a few nodes across the profile).
+LENGTH_CELLS = 4.0
+
+
+def default_length(radius: float, resolution: float) -> float:
+    """The length scale used when none is given: ``max(2 rho, 4 h)``."""
+    return max(LENGTH_PER_RADIUS * radius, LENGTH_CELLS * resolution)
+
+
+@dataclass(frozen=True, eq=False)
+class ObstacleMap:
+    """The blocked cells of ``occupancy`` (occupied, and unknown ones and the world beyond the
+    map if ``unknown_is_occupied``) for a round robot of ``radius``: the penalty field with the
+    length scale ``length`` (metres; default :func:`default_length`) and the exact clearance."""
+
+    occupancy: OccupancyMap
+    radius: float = 0.0
+    length: float | None = None
+    unknown_is_occupied: bool = True
+    plan: FieldPlan = dataclasses.field(init=False, repr=False)
+    field: MapField = dataclasses.field(init=False, repr=False)
+    cells: MapClearance = dataclasses.field(init=False, repr=False)
+
+    def __post_init__(self):
+        occ = self.occupancy
+        if not isinstance(occ, OccupancyMap):
+            raise ScenarioError(f"map: expected an OccupancyMap, got {occ!r:.60}")
+        radius = checks.real(self.radius, "robot.radius", ge=0)
+        h = occ.resolution
+        length = default_length(radius, h) if self.length is None else self.length
+        length = checks.real(length, "map.length", gt=0)
+        if length < 2.0 * h:
+            raise ScenarioError(
+                f"map.length: {length:g} m is less than two cells ({2 * h:g} m) of the map"
+            )
+        cells = MapClearance(occ, bool(self.unknown_is_occupied))
+        plan = field_plan(length, radius, h)
+        values = build_field(cells.blocked, h, occ.origin, plan, cells.unknown_is_occupied)
+        for name, value in (("radius", radius), ("length", length), ("plan", plan),
+                            ("field", values), ("cells", cells),
+                            ("unknown_is_occupied", cells.unknown_is_occupied)):  # fmt: skip
+            object.__setattr__(self, name, value)
+
+    def penalty(self, xy, weight: float, exponent: int) -> np.ndarray:
+        """The map's penalty ``P`` at points ``xy`` of shape ``(..., 2)``."""
+        xy = np.asarray(xy, dtype=float)
+        flat = np.ascontiguousarray(xy.reshape(-1, 2))
+        out = np.empty((flat.shape[0], 6))
+        field_penalty_rows(flat, self.field, float(weight), int(exponent), False, out)
+        return out[:, 0].reshape(xy.shape[:-1])[()]
+
+    def clearance_at(self, xy) -> np.ndarray:
+        """The exact clearance of the robot centred at each point of ``xy`` (``(..., 2)``): the
+        distance to the nearest blocked cell less the radius (metres)."""
+        xy = np.asarray(xy, dtype=float)
+        return self.cells.clearance(xy[..., 0], xy[..., 1], self.radius)
+
+    def path_clearance(self, xy) -> float:
+        """A lower bound of the clearance along the polyline through the points ``xy``
+        (``(N, 2)``), exact at the points: the distance to the blocked cells is 1-Lipschitz, so
+        on a segment of length ``L`` whose ends have clearances ``a`` and ``b`` it is at least
+        ``(a + b - L) / 2`` (and at least ``min(a, b) - L / 2``)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        c = self.clearance_at(xy)
+        if c.size < 2:
+            return float(c.min(initial=np.inf))
+        seg = np.hypot(*np.diff(xy, axis=0).T)
+        between = 0.5 * (c[:-1] + c[1:] - seg)
+        return float(min(c.min(), between.min()))
