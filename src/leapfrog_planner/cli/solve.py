@@ -187,6 +187,12 @@ def scenarios():
     default=None,
     help="final solve: simple shooting with multiple-shooting fallback (auto)  [default: auto]",
 )
+@click.option(
+    "--map",
+    "map_file",
+    default=None,
+    help="plan in this ROS map (its map_server YAML), in place of the scenario's [map]",
+)
 @click.option("--json", "json_path", default=None, help="write the result as JSON")
 @click.option("--npz", "npz_path", default=None, help="write the trajectory arrays as NPZ")
 @click.option("--plot", "plot_path", default=None, help="write the path figure (PNG, PDF or SVG)")
@@ -198,6 +204,7 @@ def solve(
     partitions,
     initial_paths,
     final,
+    map_file,
     json_path,
     npz_path,
     plot_path,
@@ -210,7 +217,7 @@ def solve(
 
     if plot_path is not None and Path(plot_path).suffix.lower() not in (".png", ".pdf", ".svg"):
         raise click.UsageError("--plot: the file must end in .png, .pdf or .svg")
-    inputs = [scenario]
+    inputs = [scenario] + ([map_file] if map_file else [])
     outputs = {
         "--json": output_path(json_path, "--json", inputs),
         "--npz": output_path(npz_path, "--npz", inputs),
@@ -218,6 +225,8 @@ def solve(
     }
     distinct_outputs(outputs)
     sc = load_scenario(scenario)
+    if map_file is not None:
+        sc = with_map(sc, map_file)
     named = [
         ("method", method),
         ("partitions", partitions),
@@ -249,6 +258,17 @@ def solve(
             markup=False,
         )
     return EXIT_OK if result.success else EXIT_FAILED
+
+
+def with_map(sc, map_file: str):
+    """``sc`` planned in the map of ``map_file`` (its unknown policy and length scale kept)."""
+    from dataclasses import replace
+
+    from ..planning.scenario_map import ScenarioMap
+
+    old = sc.map
+    given = ScenarioMap(map_file) if old is None else ScenarioMap(map_file, old.unknown, old.length)
+    return replace(sc, map=given)
 
 
 def _plan_with_progress(planner):

@@ -104,7 +104,9 @@ class ObstacleGrid(NamedTuple):
     field: MapField  # a map's penalty field (world/field.py), added to the discs' sum
 
 
-def obstacle_grid(obstacles, weight: float, exponent: int, field: MapField | None = None) -> ObstacleGrid:
+def obstacle_grid(
+    obstacles, weight: float, exponent: int, field: MapField | None = None
+) -> ObstacleGrid:
     """The grid of ``obstacles`` for the penalty with ``weight`` and ``exponent`` (valid for
     any weight up to ``weight``: the influence discs only shrink with the weight), with a map's
     ``field`` (none by default)."""
@@ -118,7 +120,16 @@ def obstacle_grid(obstacles, weight: float, exponent: int, field: MapField | Non
     starts, items = cell_lists(obs[:, :2], reach + 1e-9 * h, lo, h, nx, ny)
     field = no_field() if field is None else field
     return ObstacleGrid(
-        obs, starts, items, float(lo[0]), float(lo[1]), h, nx, ny, float(weight), int(exponent),
+        obs,
+        starts,
+        items,
+        float(lo[0]),
+        float(lo[1]),
+        h,
+        nx,
+        ny,
+        float(weight),
+        int(exponent),
         field,
     )
 

@@ -102,3 +102,25 @@ def plan_result(
         cheaper_motion=float("nan") if answer.cheaper is None else answer.cheaper[1],
         search=tuple(r.record() for r in runs),
     )
+
+
+def unreachable_result(
+    scenario: Scenario, settings: dict, method: str, problem, message: str, wall_s: float
+) -> PlanResult:
+    """The result of a plan whose start and goal are not connected: failed, with no motion (no
+    initial path exists, so no run was made)."""
+    from .status import PlanStatus
+
+    nan, info = float("nan"), problem.model
+    ends = (np.array([0.0, scenario.horizon]), np.vstack([scenario.start, scenario.goal]))
+    return PlanResult(
+        status=PlanStatus.FAILED, message=message, scenario=scenario.name, model=info.name,
+        state_names=info.states, control_names=info.controls, method=method,
+        final_solver=None, initial_path="none", costate0=None, trajectory=None, cost=nan,
+        energy=nan, penalty=nan, clearance=np.zeros(0), end_state_error=nan,
+        max_costate_jump=nan, max_dH_du=nan, hamiltonian_variation=nan, initial_cost=nan,
+        history=(), initial_junctions=ends, newton_iterations=0, f_evals=0, cost_increases=0,
+        time_initial_path_s=wall_s, time_sweeps_s=0.0, time_final_s=0.0,
+        time_validation_s=0.0, wall_time_s=wall_s, alternatives=(), weight=scenario.weight,
+        optimal=False, trajectory_source="none", task=scenario, settings=settings,
+    )  # fmt: skip

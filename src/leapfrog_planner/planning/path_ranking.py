@@ -255,10 +255,12 @@ def penalty_margin(scenario: Scenario) -> float:
     (for control-affine models with a quadratic control cost, time scaling maps ``(T, W)`` to
     ``(1, W T^2)``), and so they do here.
     """
-    obs = scenario.footprint_obstacles
-    if obs.shape[0] == 0 or not scenario.weight > 0.0:
+    radii = scenario.footprint_obstacles[:, 2].tolist()
+    if scenario.map is not None:  # the map's length scale stands for its obstacles' radius
+        radii.append(scenario.map.obstacles(scenario.robot_radius).length)
+    if not radii or not scenario.weight > 0.0:
         return 0.0
-    r = float(np.mean(obs[:, 2]))
+    r = float(np.mean(radii))
     length = max(float(np.hypot(*(scenario.goal[:2] - scenario.start[:2]))), r)
     energy = 0.5 * (length / scenario.horizon) ** 2
     ratio = scenario.weight / (PENALTY_TO_ENERGY * energy)

@@ -16,7 +16,8 @@ from .._blas import single_threaded_blas
 from ..integrate.flow import Flow
 from .answer import Chosen, Context, choose_answer
 from .initial_path import InitialPath, initial_paths, points_away
-from .outcome import Timing, plan_result
+from .initial_path.map_paths import Unreachable, map_initial_paths
+from .outcome import Timing, plan_result, unreachable_result
 from .path_ranking import drivable, rank_paths
 from .result_files import plain
 from .results import PlanResult
@@ -74,15 +75,18 @@ class Planner:
         """The paths a plan runs first (:meth:`initial_paths`) and the extra ones it races
         against them (the ``more paths`` stage of :mod:`.search`)."""
         s, st = self.scenario, self.settings
-        candidates = initial_paths(
-            s.start[:3],  # poses: a model's further states are filled along the paths
-            s.goal[:3],
-            s.footprint_obstacles,
-            k=max(st.initial_paths + st.extra_paths, st.candidate_paths),
-            margin=max(st.margin, s.margin) if margin is None else margin,
-            waypoints=s.waypoints,
-            turns=True,
-        )
+        k = max(st.initial_paths + st.extra_paths, st.candidate_paths)
+        margin = max(st.margin, s.margin) if margin is None else margin
+        ends = (s.start[:3], s.goal[:3])  # poses: a model's further states are filled along
+        if s.map is not None:
+            world = self.problem.penalty.map
+            candidates = map_initial_paths(
+                *ends, world, s.footprint_obstacles, k=k, margin=margin, turns=True
+            )
+        else:
+            candidates = initial_paths(
+                *ends, s.footprint_obstacles, k=k, margin=margin, waypoints=s.waypoints, turns=True
+            )
         ends = (s.start, s.goal)
         keep = [True] * len(candidates)
         if s.control_bounds:  # a robot that cannot reverse is given no path that does
@@ -118,7 +122,13 @@ class Planner:
 
     def _plan(self) -> PlanResult:
         t_begin = time.perf_counter()
-        paths = self.path_selection()
+        try:
+            paths = self.path_selection()
+        except Unreachable as exc:
+            wall = time.perf_counter() - t_begin
+            method = self.settings.leapfrog.method
+            settings = plain(self.settings)
+            return unreachable_result(self.scenario, settings, method, self.problem, str(exc), wall)
         search = Search(
             self.scenario, self.settings, paths, self.robot.model.aid,
             self.runner.problem_of, self.initial_paths, self.choose,

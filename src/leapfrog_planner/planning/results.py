@@ -114,7 +114,14 @@ def validate_arcs(
         r = flow(arcs.t[j], z0, arcs.t[j + 1], samples=n)
         if r.status != FlowStatus.OK or r.trajectory is None:
             return Validation(
-                None, nan, nan, nan, np.full(problem.penalty.clearance(np.zeros((0, 2))).size, nan), np.inf, nan, nan
+                None,
+                nan,
+                nan,
+                nan,
+                np.full(problem.penalty.clearance(np.zeros((0, 2))).size, nan),
+                np.inf,
+                nan,
+                nan,
             )
         target = arcs.X[j + 1] if j == q - 1 else np.concatenate([arcs.X[j + 1], arcs.lam0[j + 1]])
         end = r.x if j == q - 1 else r.z

@@ -7,7 +7,6 @@ problem raises :class:`~leapfrog_planner.errors.ScenarioError` (a ``ValueError``
 
 from __future__ import annotations
 
-import difflib
 import os
 import re
 import stat
@@ -16,17 +15,18 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 
 from .. import checks
 from ..compiled.kernels import model_info
-from ..errors import ScenarioError, describe, require_integer, short
+from ..errors import ScenarioError, describe, short
 from ..integrate.problem import ObstaclePenalty, OptimalControlProblem
 from ..model import MODELS
+from .scenario_checks import ScenarioCheck, key_path
 from .scenario_map import ScenarioMap, map_from_table
-from .scenario_toml import BARE_KEY, toml_key, toml_state, toml_value
+from .scenario_toml import toml_key, toml_state, toml_value
 
 __all__ = [
     "SOLVER_KEYS",
@@ -75,96 +75,6 @@ DEFAULT_EXPONENT = 2
 _BUILTIN_PREFIX = "builtin:"
 
 
-# --------------------------------------------------------------------------- validation helpers
-
-
-def _key_path(prefix: str, key: Any) -> str:
-    key = str(key)
-    name = key if BARE_KEY.fullmatch(key) else short(key)
-    return f"{prefix}.{name}" if prefix else name
-
-
-class _Check:
-    """Validators that raise one-line :class:`ScenarioError` messages naming ``source``."""
-
-    def __init__(self, source: str):
-        self.source = source
-
-    def fail(self, key: str, message: str) -> NoReturn:
-        text = f"{self.source}: {key}: {message}" if key else f"{self.source}: {message}"
-        raise ScenarioError(" ".join(text.splitlines()))
-
-    def _named(self, check, *args, **kw):
-        """``check`` (of :mod:`..checks`) with this file's name in front of its message."""
-        try:
-            return check(*args, **kw)
-        except ScenarioError as e:
-            self.fail("", str(e))
-
-    def number(self, value: Any, key: str, *, gt: float | None = None, ge: float | None = None):
-        return self._named(checks.real, value, key, gt=gt, ge=ge)
-
-    def integer(self, value: Any, key: str, *, minimum: int | None = None, maximum=None) -> int:
-        return self._named(require_integer, key, value, minimum, maximum, error=ScenarioError)
-
-    def in_range(self, x: float, key: str, bounds: tuple[float, float]) -> float:
-        return self._named(checks.in_range, x, key, *bounds)
-
-    def magnitude(self, values, key: str, limit: float) -> None:
-        self._named(checks.magnitude, values, key, limit)
-
-    def pose(self, value: Any, key: str, names=("x", "y", "heading")) -> np.ndarray:
-        """A state ``[x, y, heading, ...]`` of the model (``names``) within the bounds."""
-        p = self.vector(value, len(names), key, f" [{', '.join(names)}]")
-        self.magnitude(p[:2], key, checks.COORDINATE_MAX)
-        if not abs(p[2]) <= checks.HEADING_MAX:
-            self.fail(f"{key}[2]", f"must be at most {checks.HEADING_MAX:g} in size, got {p[2]!r}")
-        for i in range(3, p.size):
-            if not abs(p[i]) <= checks.COORDINATE_MAX:
-                self.fail(f"{key}[{i}]", f"must be at most 1e+06 in size, got {p[i]!r}")
-        return p
-
-    def string(self, value: Any, key: str) -> str:
-        if not isinstance(value, str):
-            self.fail(key, f"expected a string, got {describe(value)}")
-        try:
-            value.encode("utf-8")
-        except UnicodeEncodeError:
-            self.fail(key, f"not valid Unicode text: {short(value)}")
-        return str(value)
-
-    def table(self, value: Any, key: str) -> Mapping:
-        if not isinstance(value, Mapping):
-            self.fail(key, f"expected a table, got {describe(value)}")
-        for k in value:
-            if not isinstance(k, str):
-                self.fail(key, f"keys must be strings, got {describe(k)}")
-        return value
-
-    def known_keys(self, table: Mapping, allowed, prefix: str, what: str = "") -> None:
-        for k in table:
-            if k not in allowed:
-                hint = difflib.get_close_matches(k, list(allowed), n=1)
-                did = f"did you mean {hint[0]!r}? " if hint else ""
-                self.fail(
-                    _key_path(prefix, k),
-                    f"unknown key{what} ({did}allowed: {', '.join(allowed) or 'none'})",
-                )
-
-    def vector(self, value: Any, n: int, key: str, what: str = "") -> np.ndarray:
-        return self._named(checks.vector, value, n, key, what)
-
-    def rows(self, value: Any, n: int, key: str, what: str = "") -> np.ndarray:
-        """An array of ``n``-vectors as a ``(k, n)`` float array (``k`` may be 0)."""
-        return self._named(checks.rows, value, n, key, what)
-
-    def obstacles(self, value) -> np.ndarray:
-        return self._named(checks.obstacles, value)
-
-    def outside(self, point, key: str, obstacles: np.ndarray) -> None:
-        self._named(checks.outside, point, key, obstacles)
-
-
 def _fresh_readonly(arr: np.ndarray) -> np.ndarray:
     arr = np.array(arr, dtype=float, copy=True)
     arr.setflags(write=False)
@@ -210,7 +120,7 @@ class Scenario:
 
     def __post_init__(self):
         source = None if self.source is None else str(self.source)
-        c = _Check(source if source is not None else "<scenario>")
+        c = ScenarioCheck(source if source is not None else "<scenario>")
         name = c.string(self.name, "name")
         if not name:
             c.fail("name", "expected a non-empty string")
@@ -253,6 +163,8 @@ class Scenario:
                 c.fail("map", f"expected a ScenarioMap, got {describe(self.map)}")
             if exponent < 2:
                 c.fail("penalty.exponent", "must be at least 2 with a map")
+            if waypoints is not None:
+                c.fail("waypoints", "not supported with a map yet")
             for key, p in points:
                 c._named(self.map.check_point, p, key, robot_radius)
 
@@ -277,7 +189,7 @@ class Scenario:
         for k, v in values.items():
             object.__setattr__(self, k, v)
 
-    def _check_model(self, c: _Check) -> tuple[str, dict[str, float]]:
+    def _check_model(self, c: ScenarioCheck) -> tuple[str, dict[str, float]]:
         model = c.string(self.model, "robot.model")
         if model not in MODELS:
             c.fail("robot.model", f"unknown model {model!r} (known: {', '.join(MODELS)})")
@@ -290,19 +202,19 @@ class Scenario:
         for k, v in given.items():
             if k in ROBOT_KEYS or k in info.controls:  # only by direct construction
                 c.fail(f"robot.{k}", "give it as a Scenario field, not a model parameter")
-            checked[k] = c.number(v, _key_path("robot", k), gt=0 if positive[k] else None)
+            checked[k] = c.number(v, key_path("robot", k), gt=0 if positive[k] else None)
             if positive[k]:
-                c.in_range(checked[k], _key_path("robot", k), checks.PARAMETER_RANGE)
+                c.in_range(checked[k], key_path("robot", k), checks.PARAMETER_RANGE)
         values = info.parameter_values(checked)
         return model, dict(zip(info.parameters, values, strict=True))
 
-    def _check_bounds(self, c: _Check, model: str) -> dict[str, tuple[float, float]]:
+    def _check_bounds(self, c: ScenarioCheck, model: str) -> dict[str, tuple[float, float]]:
         """``[robot] <control> = [min, max]``: finite, ``min < max``, for the model's controls."""
         controls = model_info(model).controls
         table = c.table({} if self.control_bounds is None else self.control_bounds, "robot")
         out = {}
         for name, value in table.items():
-            key = _key_path("robot", name)
+            key = key_path("robot", name)
             if name not in controls:
                 c.fail(key, f"model {model!r} has no control {name!r} ({', '.join(controls)})")
             lo, hi = c.vector(value, 2, key, " [min, max]")
@@ -312,12 +224,12 @@ class Scenario:
             out[name] = (float(lo), float(hi))
         return out
 
-    def _check_solver(self, c: _Check) -> dict[str, Any]:
+    def _check_solver(self, c: ScenarioCheck) -> dict[str, Any]:
         table = c.table({} if self.solver is None else self.solver, "solver")
         c.known_keys(table, tuple(SOLVER_KEYS), "solver")
         out: dict[str, Any] = {}
         for k, v in table.items():
-            key = _key_path("solver", k)
+            key = key_path("solver", k)
             expected = SOLVER_KEYS[k]
             if expected is bool:
                 if not isinstance(v, bool | np.bool_):
@@ -440,7 +352,7 @@ class Scenario:
 def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scenario:
     """A scenario from a parsed file (nested tables and arrays, as :func:`tomllib.loads` gives)."""
     source = str(source)
-    c = _Check(source)
+    c = ScenarioCheck(source)
     if not isinstance(data, Mapping):
         c.fail("", f"expected a table of scenario keys, got {describe(data)}")
     c.table(data, "(top level)")
@@ -515,13 +427,13 @@ def load_scenario_text(text: str | bytes, source: str = "<string>") -> Scenario:
     try:
         data = tomllib.loads(text)
     except RecursionError:
-        _Check(source).fail("", "invalid TOML: values nested too deeply")
+        ScenarioCheck(source).fail("", "invalid TOML: values nested too deeply")
     except tomllib.TOMLDecodeError as exc:
         message = str(exc)
         if "(at end of document)" in message:  # tomllib gives no line number here
             last = text.count("\n") + (0 if text.endswith("\n") else 1)
             message = message.replace("(at end of document)", f"(at end of document, line {last})")
-        _Check(source).fail("", f"invalid TOML: {message}")
+        ScenarioCheck(source).fail("", f"invalid TOML: {message}")
     return scenario_from_dict(data, source)
 
 
@@ -529,7 +441,7 @@ def _decode(raw: bytes, source: str) -> str:
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        _Check(source).fail(
+        ScenarioCheck(source).fail(
             "", f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start})"
         )
 
@@ -559,7 +471,7 @@ MAX_FILE_BYTES = 16 * 2**20
 def _read_file(path: Path, name: str) -> bytes:
     """The bytes of a scenario file, at most :data:`MAX_FILE_BYTES`. A FIFO without a writer
     reads as empty instead of blocking; a device that never ends (``/dev/zero``) hits the cap."""
-    c = _Check(name)
+    c = ScenarioCheck(name)
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except OSError as exc:

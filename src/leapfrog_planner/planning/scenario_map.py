@@ -62,7 +62,9 @@ class ScenarioMap:
         radius: a 2000 x 2000 map takes about half a second)."""
         cache = self.__dict__.setdefault("_built", {})
         if radius not in cache:
-            cache[radius] = ObstacleMap(self.occupancy, radius, self.length, self.unknown_is_occupied)
+            cache[radius] = ObstacleMap(
+                self.occupancy, radius, self.length, self.unknown_is_occupied
+            )
         return cache[radius]
 
     def check_point(self, point, key: str, radius: float) -> None:
@@ -108,9 +110,7 @@ def map_from_table(table, folder: str) -> ScenarioMap:
     """The ``[map]`` table of a scenario file in ``folder`` (relative files are found there)."""
     unknown_keys = [k for k in table if k not in MAP_KEYS]
     if unknown_keys:
-        raise ScenarioError(
-            f"map.{unknown_keys[0]}: unknown key (allowed: {', '.join(MAP_KEYS)})"
-        )
+        raise ScenarioError(f"map.{unknown_keys[0]}: unknown key (allowed: {', '.join(MAP_KEYS)})")
     if "file" not in table:
         raise ScenarioError("map.file: missing required key")
     name = table["file"]
