@@ -1,4 +1,4 @@
-"""Maps: load time, the clearance's build time and the time of 10^4 queries.
+"""Maps: load time, the clearance's and the penalty field's build times, the time of 10^4 queries.
 
     python benchmarks/bench_maps.py [--repeat 5]
 
@@ -9,7 +9,9 @@ clearance only, on 2000 x 2000 cells of noise (30 % occupied: 1.2 million cells 
 the worst case of the k-d tree). The queries: 10^4 random points over the map, and a path of
 10^4 samples (a widening spiral). The first build in a process also imports
 ``scipy.spatial``: it is timed once, apart. Medians (and minima) over ``--repeat`` runs, against
-the targets (build under 1 s, 10^4 points well under 100 ms). No assertions.
+the targets (build under 1 s, 10^4 points well under 100 ms). The penalty field (robot radius
+0.2 m, the default length scale 0.4 m): its build, and 10^6 evaluations with the Hessian along
+the spiral (one thread). No assertions.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from leapfrog_planner.world import MapClearance, OccupancyMap, load_ros_map
+from leapfrog_planner.world.field import field_penalty_rows
+from leapfrog_planner.world.obstacle_map import ObstacleMap
 
 DEPOT = Path(__file__).resolve().parents[1] / "tests" / "data" / "maps" / "depot.yaml"
 TARGET_BUILD_S, TARGET_QUERY_MS = 1.0, 100.0
@@ -99,6 +103,17 @@ def report_clearance(name: str, m: OccupancyMap, repeat: int) -> None:
         print(f"  {label}: {med * 1e3:.1f} ms (min {low * 1e3:.1f})  {mark}")
 
 
+def report_field(name: str, m: OccupancyMap, repeat: int) -> None:
+    med, low, world = timed(lambda: ObstacleMap(m, radius=0.2), repeat)
+    mark = "PASS" if med <= TARGET_BUILD_S else "MISS"
+    mb = world.field.coef.nbytes / 2**20
+    print(f"{name}: penalty field {med * 1e3:.0f} ms (min {low * 1e3:.0f}), {mb:.0f} MB  {mark}")
+    xy = np.ascontiguousarray(np.repeat(spiral(m), 100, axis=0))
+    out = np.empty((xy.shape[0], 6))
+    med, low, _ = timed(lambda: field_penalty_rows(xy, world.field, 100.0, 2, True, out), repeat)
+    print(f"  10^6 evaluations with the Hessian: {med * 1e3:.0f} ms ({med * 1e3:.0f} ns each)")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
@@ -124,6 +139,8 @@ def main(argv=None) -> int:
     )
     report_clearance("depot", depot, args.repeat)
     report_clearance("synthetic 2000 x 2000", big, args.repeat)
+    report_field("depot", depot, args.repeat)
+    report_field("synthetic 2000 x 2000", big, args.repeat)
     noise = np.where(np.random.default_rng(2).random((2000, 2000)) < 0.3, 100, 0).astype(np.int8)
     report_clearance("noise 2000 x 2000, 30 % occupied", OccupancyMap(noise, 0.05), args.repeat)
     return 0

@@ -19,9 +19,13 @@ from the distance to its blocked cells so that it means the same:
     Undoing it, an isolated disc of radius ``l`` gives ``u = |p - c| / l`` exactly: the disc's
     penalty, with the length scale ``l`` in place of its radius;
 ``coef``
-    ``u`` at the cell centres becomes a tensor-product cubic B-spline (the interpolating
-    prefilter), so ``u`` is C2 everywhere and each evaluation reads 4 x 4 coefficients: O(1)
-    whatever the map's size. ``t -> exp(-t^n)`` at ``t = max(u, 0)^2`` is C2 for ``n >= 2``.
+    ``u`` at the cell centres becomes a tensor-product quintic B-spline (the interpolating
+    prefilter), so ``u`` is C4 everywhere and each evaluation reads 6 x 6 coefficients: O(1)
+    whatever the map's size. ``t -> exp(-t^n)`` at ``t = max(u, 0)^2`` is C2 for ``n >= 2``
+    (and C3 for the default ``n = 2``). A cubic spline (C2) is smooth enough for Newton's
+    method, but the integrator is not: along a path its Hessian's kinks at every line of nodes
+    cost the dop853 steps their order, and the flow's end point moved by 6e-9 when its costate
+    moved by 1e-13 (a kink per cell, 5 cm, at rtol 1e-12), above the final solve's tolerance.
 
 The field stores ``u`` only: the weight ``W`` and exponent ``n`` stay run-time arguments, so the
 continuation on the weight rebuilds nothing, and a new map compiles nothing. Distances are clipped
@@ -55,7 +59,7 @@ TRUNCATE = 4.0
 
 class MapField(NamedTuple):
     """What the compiled evaluator reads (module docstring). Node ``(i, j)`` of ``coef`` lies
-    at the world point ``(x0, y0) + R(yaw) (j h, i h)``; ``coef`` are the cubic B-spline
+    at the world point ``(x0, y0) + R(yaw) (j h, i h)``; ``coef`` are the quintic B-spline
     coefficients of ``u``; beyond the usable nodes ``u = u_out``. An empty ``coef`` (0 x 0) is
     no map at all."""
 
@@ -122,6 +126,30 @@ def rice_table(sigma: float, r_max: float, n: int = 8193) -> RiceTable:
     return RiceTable(float(grid[0]), float(grid[1] - grid[0]), np.interp(grid, m, r), slope, sigma)
 
 
+def rice_slope(r, sigma: float) -> np.ndarray:
+    """``d m_sigma / d r = sqrt(pi/2) r / (2 sigma) (I0e(z) + I1e(z))``, ``z = r^2 / (4 sigma^2)``."""
+    from scipy.special import i0e, i1e
+
+    z = r * r / (4.0 * sigma * sigma)
+    return math.sqrt(math.pi / 2.0) * r / (2.0 * sigma) * (i0e(z) + i1e(z))
+
+
+def polish_inverse(u: np.ndarray, dt: np.ndarray, length: float, table: RiceTable) -> None:
+    """Two Newton steps on ``m_sigma(r) = length + dt`` from the table's ``r = length u``, in
+    place, where the table was used. The table's linear interpolation is off by up to 1e-7,
+    erratically from node to node: noise at the scale of the cells, whose high derivatives cost
+    the integrator its accuracy (the flow's end point moved by 1e-9 when its start moved by
+    1e-13). After the steps the nodes are exact to rounding."""
+    m = length + dt.astype(np.float64)
+    top = table.m0 + table.dm * (table.r.size - 1)
+    where = np.flatnonzero((m > table.m0) & (m < top))
+    r = u.ravel()[where] * length
+    target = m.ravel()[where]
+    for _ in range(2):
+        r -= (rice_mean(r, table.sigma) - target) / rice_slope(r, table.sigma)
+    u.ravel()[where] = r / length
+
+
 @njit(cache=True)
 def _calibrate(dt, length, m0, dm, table, slope, sigma, out):
     """``out = m_sigma^-1(length + dt) / length`` elementwise (:class:`RiceTable`)."""
@@ -146,18 +174,20 @@ def _calibrate(dt, length, m0, dm, table, slope, sigma, out):
 # --------------------------------------------------------------------------- B-spline
 
 
-#: The pole of the cubic B-spline's interpolation filter.
-POLE = math.sqrt(3.0) - 2.0
+#: The poles of the quintic B-spline's interpolation filter (Unser, "Splines: a perfect fit for
+#: signal and image processing", IEEE Signal Processing Magazine 16, 1999).
+POLES = (-0.430575347099973791851434783493520, -0.043096288203264653822712376822550)
 
 
 @njit(cache=True)
 def _prefilter_rows(a, pole):
-    """In place, along each row: samples to cubic B-spline coefficients (the causal and
-    anti-causal recursions of Unser's interpolating filter, mirror boundaries; the causal start
-    is truncated where ``pole^k < 1e-12``)."""
+    """In place, along each row: one pole's causal and anti-causal recursions of the
+    interpolating filter, mirror boundaries, with its gain ``(1 - z)(1 - 1/z)``; the causal
+    start is truncated where ``pole^k < 1e-12``."""
     ny, nx = a.shape
     terms = min(nx, int(math.log(1e-12) / math.log(-pole)) + 1)
     end = pole / (pole * pole - 1.0)
+    gain = (1.0 - pole) * (1.0 - 1.0 / pole)
     for i in range(ny):
         row = a[i]
         zk = 1.0
@@ -172,16 +202,17 @@ def _prefilter_rows(a, pole):
         for k in range(nx - 2, -1, -1):
             row[k] = pole * (row[k + 1] - row[k])
         for k in range(nx):
-            row[k] *= 6.0
+            row[k] *= gain
 
 
 def spline_coefficients(values: np.ndarray) -> np.ndarray:
-    """The cubic B-spline coefficients that interpolate ``values`` at the nodes (both axes)."""
+    """The quintic B-spline coefficients that interpolate ``values`` at the nodes (both axes)."""
     coef = np.ascontiguousarray(values, dtype=np.float64).copy()
-    _prefilter_rows(coef, POLE)
-    coef = np.ascontiguousarray(coef.T)
-    _prefilter_rows(coef, POLE)
-    return np.ascontiguousarray(coef.T)
+    for _ in range(2):  # rows, then (transposed) columns
+        for pole in POLES:
+            _prefilter_rows(coef, pole)
+        coef = np.ascontiguousarray(coef.T)
+    return coef
 
 
 # --------------------------------------------------------------------------- building
@@ -233,12 +264,14 @@ def build_field(
     np.clip(d, -plan.reach_in, plan.reach_out, out=d)
     s_cells = plan.sigma / h
     # float32 is ample for the smoothing (distances of at most ~100 cells) and twice as fast.
-    dt = gaussian_filter(d.astype(np.float32), s_cells, mode="nearest", truncate=TRUNCATE)
-    sigma = math.sqrt(sampled_gaussian_variance(s_cells)) * h  # what the kernel really does
+    dt = gaussian_filter(d, s_cells, mode="nearest", truncate=TRUNCATE)
+    # What the kernel really does, and the B-spline's own smoothing (variance (5 + 1) / 12 h^2).
+    sigma = math.sqrt(sampled_gaussian_variance(s_cells) + 0.5) * h
     table = rice_table(sigma, plan.length + plan.reach_out + 8.0 * sigma)
     u = np.empty(dt.shape)
     _calibrate(dt, plan.length, table.m0, table.dm, table.r, table.slope, sigma, u)
-    coef = spline_coefficients(u)
+    polish_inverse(u, dt, plan.length, table)
+    coef = np.ascontiguousarray(u)
     coef.setflags(write=False)
     x0, y0, yaw = origin
     c, s = math.cos(yaw), math.sin(yaw)
@@ -258,45 +291,70 @@ def sampled_gaussian_variance(sigma_cells: float) -> float:
 
 # --------------------------------------------------------------------------- evaluation
 
+#: The quintic B-spline's weights of the nodes ``j - 2 .. j + 3`` at ``j + t`` (``0 <= t < 1``):
+#: row ``m`` holds the coefficients of ``t^0 .. t^5`` of node ``j - 2 + m``, times 120.
+QUINTIC = (
+    np.array(
+        [
+            [1, -5, 10, -10, 5, -1],
+            [26, -50, 20, 20, -20, 5],
+            [66, 0, -60, 0, 30, -10],
+            [26, 50, 20, -20, -20, 10],
+            [1, 5, 10, 10, 5, -5],
+            [0, 0, 0, 0, 0, 1],
+        ],
+        dtype=np.float64,
+    )
+    / 120.0
+)
+
 
 @njit(cache=True, inline="always")
-def _row(row, j, b0, b1, b2, b3):
-    return b0 * row[j] + b1 * row[j + 1] + b2 * row[j + 2] + b3 * row[j + 3]
+def _weights(m, t):
+    """Node ``m``'s weight at ``t`` and its first and second derivatives (Horner)."""
+    c = QUINTIC[m]
+    w = ((((c[5] * t + c[4]) * t + c[3]) * t + c[2]) * t + c[1]) * t + c[0]
+    d = (((5.0 * c[5] * t + 4.0 * c[4]) * t + 3.0 * c[3]) * t + 2.0 * c[2]) * t + c[1]
+    dd = ((20.0 * c[5] * t + 12.0 * c[4]) * t + 6.0 * c[3]) * t + 2.0 * c[2]
+    return w, d, dd
 
 
 @njit(cache=True, inline="always")
-def _basis(t):
-    """The cubic B-spline's four weights at ``t`` in [0, 1), their first and second
-    derivatives."""
-    m = 1.0 - t
-    t2 = t * t
-    b = (m * m * m / 6.0, (3.0 * t2 * t - 6.0 * t2 + 4.0) / 6.0,
-         (-3.0 * t2 * t + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t2 * t / 6.0)  # fmt: skip
-    d = (-0.5 * m * m, 1.5 * t2 - 2.0 * t, -1.5 * t2 + t + 0.5, 0.5 * t2)
-    dd = (m, 3.0 * t - 2.0, 1.0 - 3.0 * t, t)
-    return b, d, dd
+def _all_weights(t):
+    """The six nodes' weights at ``t``, their first and their second derivatives (tuples)."""
+    w0, d0, e0 = _weights(0, t)
+    w1, d1, e1 = _weights(1, t)
+    w2, d2, e2 = _weights(2, t)
+    w3, d3, e3 = _weights(3, t)
+    w4, d4, e4 = _weights(4, t)
+    w5, d5, e5 = _weights(5, t)
+    return (w0, w1, w2, w3, w4, w5), (d0, d1, d2, d3, d4, d5), (e0, e1, e2, e3, e4, e5)
 
 
 @njit(cache=True)
 def _spline(coef, gx, gy, want_hessian):
     """``u`` and its derivatives in grid units at the grid point ``(gx, gy)`` (node ``(i, j)``
-    at ``(j, i)``), from the 4 x 4 coefficients around it."""
+    at ``(j, i)``), from the 6 x 6 coefficients around it."""
     j0, i0 = int(math.floor(gx)), int(math.floor(gy))
-    bx, dx, ddx = _basis(gx - j0)
-    by, dy, ddy = _basis(gy - i0)
-    j = j0 - 1
+    tx, ty = gx - j0, gy - i0
+    bx, dx, ddx = _all_weights(tx)
     u = ux = uy = uxx = uxy = uyy = 0.0
-    for k in range(4):
-        row = coef[i0 - 1 + k]
-        v = _row(row, j, bx[0], bx[1], bx[2], bx[3])
-        g = _row(row, j, dx[0], dx[1], dx[2], dx[3])
-        u += by[k] * v
-        ux += by[k] * g
-        uy += dy[k] * v
+    for k in range(6):
+        row = coef[i0 - 2 + k]
+        v = g = gg = 0.0
+        for m in range(6):
+            c = row[j0 - 2 + m]
+            v += bx[m] * c
+            g += dx[m] * c
+            gg += ddx[m] * c
+        by, dy, ddy = _weights(k, ty)
+        u += by * v
+        ux += by * g
+        uy += dy * v
         if want_hessian:
-            uxx += by[k] * _row(row, j, ddx[0], ddx[1], ddx[2], ddx[3])
-            uxy += dy[k] * g
-            uyy += ddy[k] * v
+            uxx += by * gg
+            uxy += dy * g
+            uyy += ddy * v
     return u, ux, uy, uxx, uxy, uyy
 
 
@@ -311,7 +369,7 @@ def field_u(x, y, field, want_hessian):
     gx, gy = (c * dx + s * dy) * ih, (c * dy - s * dx) * ih
     if gx != gx or gy != gy:
         return math.nan, math.nan, math.nan, math.nan, math.nan, math.nan
-    if not (1.0 <= gx < nx - 2.0 and 1.0 <= gy < ny - 2.0):
+    if not (2.0 <= gx < nx - 3.0 and 2.0 <= gy < ny - 3.0):
         return field.u_out, 0.0, 0.0, 0.0, 0.0, 0.0
     u, a, b, aa, ab, bb = _spline(coef, gx, gy, want_hessian)
     # The world gradient is R (a, b) / h and the Hessian R H R^T / h^2 (R: rotation by yaw).
