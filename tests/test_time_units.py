@@ -26,23 +26,27 @@ DATA = Path(__file__).parent / "data"
 @pytest.mark.parametrize("T", [0.5, 3.0])
 def test_horizon_is_weight_times_T_squared(T):
     """Time scaled by T is the weight scaled by T^2: the same cost (over T) and the same route.
-    Paper case 1 has two routes of equal cost (one turns up first, one down), so the unit-time
-    plan is made from the initial path the plan at T ended on: round-off may pick either."""
+    Paper case 1 has two routes of equal cost (one turns up first, one down) that several
+    initial paths reach (the straight one, three-point turns): round-off picks either, so the
+    unit-time route compared is the closest of those its initial paths lead to."""
     sc = load_scenario("paper-case-1")
     long = plan(replace(sc, horizon=T))
+    unit = plan(replace(sc, horizon=1.0, weight=sc.weight * T * T))
+    assert long.success and unit.success
+    assert long.cost == pytest.approx(unit.cost / T, rel=1e-8)
     planner = Planner(replace(sc, horizon=1.0, weight=sc.weight * T * T))
     first, extra = planner.path_selection()
-    path = next(p for p in first + extra if p.label == long.initial_path)
-    unit = plan(replace(sc, horizon=1.0, weight=sc.weight * T * T))
-    run = planner.run_path(path)
-    assert long.success and unit.success and run.clear
-    assert long.cost == pytest.approx(unit.cost / T, rel=1e-8)
-    unit = run.validation
     s = np.linspace(0.0, 1.0, 41)
-    for k in range(3):
-        a = np.interp(s * T, long.trajectory.t, long.trajectory.x[:, k])
-        b = np.interp(s, unit.trajectory.t, unit.trajectory.x[:, k])  # the same path's
-        np.testing.assert_allclose(a, b, atol=1e-3)  # linear interpolation of 1001 samples
+    want = np.column_stack([np.interp(s * T, long.trajectory.t, long.trajectory.x[:, k])
+                            for k in range(3)])  # fmt: skip
+    gaps = []
+    for path in first + extra:
+        run = planner.run_path(path)
+        if run.clear and run.validation.cost == pytest.approx(long.cost * T, rel=1e-8):
+            tr = run.validation.trajectory
+            got = np.column_stack([np.interp(s, tr.t, tr.x[:, k]) for k in range(3)])
+            gaps.append(np.abs(got - want).max())
+    assert gaps and min(gaps) < 1e-3  # linear interpolation of 1001 samples
 
 
 @pytest.mark.parametrize("name", ["units-a", "units-b"])
