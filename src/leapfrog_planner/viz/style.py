@@ -32,6 +32,7 @@ GID_PATH = "optimal-path"
 GID_HEADING = "heading"
 GID_END_HEADING = "end-heading"
 GID_OBSTACLE = "obstacle"
+GID_MAP = "map"
 GID_INITIAL = "initial-junctions"
 GID_SWEEP = "sweep"
 GID_REVERSING = "reversing"
@@ -147,7 +148,35 @@ def frame_axes(ax: Axes, sc: Scenario, result: PlanResult) -> None:
     ax.set_ylabel("y")
 
 
+def map_grey(data: np.ndarray) -> np.ndarray:
+    """The grey level (0 black .. 1 white) of each cell as map_server saves and RViz shows a
+    map: free 254, occupied 0, unknown 205, values in between from white to black."""
+    grey = (255.0 - np.clip(data.astype(float), 0, 100) * 2.55) / 255.0
+    grey[data == 0] = 254.0 / 255.0
+    grey[data < 0] = 205.0 / 255.0
+    return grey
+
+
+def draw_map(ax: Axes, sc: Scenario) -> None:
+    """The scenario's map under everything else, in the world frame (its origin's yaw turns
+    it about its lower-left corner)."""
+    if sc.map is None:
+        return
+    from matplotlib.transforms import Affine2D
+
+    occ = sc.map.occupancy
+    rows, cols = occ.shape
+    h, (x0, y0, yaw) = occ.resolution, occ.origin
+    place = Affine2D().rotate(yaw).translate(x0, y0) + ax.transData
+    ax.imshow(
+        map_grey(occ.data), cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
+        extent=(0.0, cols * h, 0.0, rows * h), transform=place, interpolation="nearest",
+        zorder=0, gid=GID_MAP,
+    )  # fmt: skip
+
+
 def draw_obstacles(ax: Axes, sc: Scenario, label: bool = True) -> None:
+    draw_map(ax, sc)
     for j, (cx, cy, r) in enumerate(sc.obstacles.tolist()):
         ax.add_patch(
             Circle(
