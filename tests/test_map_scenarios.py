@@ -108,3 +108,89 @@ def test_waypoints_and_exponent_one_are_refused_with_a_map(depot_folder):
         replace(sc, waypoints=np.array([[20.0, 4.5]]))
     with pytest.raises(ScenarioError, match="penalty.exponent: must be at least 2 with a map"):
         replace(sc, exponent=1)
+
+
+# --------------------------------------------------------------------------- the command line
+
+
+def write_rooms(folder: Path, door: bool) -> Path:
+    """Two 2 x 2 m rooms at 5 cm, side by side, with a wall between them (a 0.6 m door in it,
+    or none) and an outer wall: a PGM and its YAML."""
+    n_y, n_x = 40, 80
+    cells = np.full((n_y, n_x), 254, np.uint8)
+    cells[:2, :] = cells[-2:, :] = cells[:, :2] = cells[:, -2:] = 0
+    cells[:, 39:41] = 0
+    if door:
+        cells[14:26, 39:41] = 254
+    (folder / "rooms.pgm").write_bytes(f"P5\n{n_x} {n_y}\n255\n".encode() + cells[::-1].tobytes())
+    (folder / "rooms.yaml").write_text(
+        "image: rooms.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.25\n"
+    )
+    return folder / "rooms.yaml"
+
+
+ROOMS = """
+name = "next door"
+horizon = 8.0
+start = [0.8, 1.0, 0.0]
+goal = [3.2, 1.0, 3.14159]
+
+[robot]
+radius = 0.15
+
+[penalty]
+weight = 1.0
+"""
+
+
+def test_solve_with_map_converges_through_the_door(tmp_path):
+    from tests.test_cli import run_cli
+
+    write_rooms(tmp_path, door=True)
+    (tmp_path / "task.toml").write_text(ROOMS)
+    out = run_cli(["solve", "task.toml", "--map", "rooms.yaml", "--json", "r.json", "--quiet"],
+                  tmp_path)  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    from leapfrog_planner.planning.results import PlanResult
+
+    r = PlanResult.load(tmp_path / "r.json")
+    assert r.success and r.min_clearance >= 0.0
+    assert r.task.map is not None and r.task.map.file == str(tmp_path / "rooms.yaml")
+    xy = r.trajectory.x[:, :2]
+    world = r.task.map.obstacles(0.15)
+    assert world.path_clearance(xy) >= 0.0
+    door = np.abs(xy[:, 0] - 2.0) < 0.05
+    assert door.any() and np.all(np.abs(xy[door, 1] - 1.0) < 0.3)  # it went through the door
+
+
+def test_start_and_goal_not_connected_fail_at_once_with_exit_1(tmp_path):
+    from tests.test_cli import run_cli
+
+    write_rooms(tmp_path, door=False)
+    (tmp_path / "task.toml").write_text(ROOMS + '\n[map]\nfile = "rooms.yaml"\n')
+    out = run_cli(["solve", "task.toml", "--json", "r.json", "--quiet"], tmp_path)
+    assert out.returncode == 1
+    assert "are not connected on the map for a robot of radius 0.15" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1
+    from leapfrog_planner.planning.results import PlanResult
+
+    r = PlanResult.load(tmp_path / "r.json")
+    assert r.status == "failed" and r.trajectory is None and r.wall_time_s < 1.0
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["--map", "missing.yaml"], "missing.yaml"),
+        (["--map", "task.toml"], "task.toml"),
+    ],
+)
+def test_solve_with_a_bad_map_is_one_line_and_exit_2(tmp_path, args, expected):
+    from tests.test_cli import run_cli
+
+    (tmp_path / "task.toml").write_text(ROOMS)
+    out = run_cli(["solve", "task.toml", *args, "--json", "r.json"], tmp_path)
+    assert out.returncode == 2 and expected in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "r.json").exists()
