@@ -211,15 +211,13 @@ def _corridor_doors(canvas: _Canvas, rooms, block: _Region, faces, sizes) -> Non
     first = True
     for k in rng.permutation(len(rooms)).tolist():
         room = rooms[k]
-        sides = [
-            side
-            for side, on in zip(
-                ("bottom", "top", "left", "right"),
-                (room.r0 == block.r0, room.r1 == block.r1, room.c0 == block.c0, room.c1 == block.c1),
-                strict=True,
-            )
-            if on and faces[side]
-        ]
+        on_block = {
+            "bottom": room.r0 == block.r0,
+            "top": room.r1 == block.r1,
+            "left": room.c0 == block.c0,
+            "right": room.c1 == block.c1,
+        }
+        sides = [side for side, on in on_block.items() if on and faces[side]]
         if not sides or not (first or rng.random() < 0.6):
             continue
         side = sides[int(rng.integers(len(sides)))]
@@ -338,8 +336,8 @@ def warehouse(
 ) -> OccupancyMap:
     """A warehouse (module docstring): rows of racks ``rack_depth`` deep (two shelves back to
     back) across the map, ``aisle`` metres apart, cut by ``cross_aisles`` cross aisles
-    ``cross_width`` wide (default: one about every 15 m of rack); a main aisle ``main_aisle`` wide along the walls and a dock area
-    ``dock`` metres deep along the bottom."""
+    ``cross_width`` wide (default: one about every 15 m of rack); a main aisle ``main_aisle``
+    wide along the walls and a dock area ``dock`` metres deep along the bottom."""
     canvas = _canvas(size, resolution, seed, wall)
     gap = canvas.cells(_opening(aisle, "aisle"))
     cross = canvas.cells(_opening(cross_width, "cross_width"))
@@ -355,11 +353,12 @@ def warehouse(
     if right - left < (count + 1) * 2 * cross:
         raise ScenarioError(f"cross_aisles: {count} do not fit in a {n}-cell map")
     step = (right - left) / (count + 1)
-    xs = [left + k * step + rng.uniform(-step / 6, step / 6) - cross / 2 for k in range(1, count + 1)]
+    jitter = rng.uniform(-step / 6, step / 6, size=count)
+    xs = [int(round(left + (k + 1) * step + jitter[k] - cross / 2)) for k in range(count)]
     for y in _rack_rows(canvas, top, n - t - main + gap, depth, gap):
         canvas.block(y, y + depth, left, right)
         for x in xs:
-            canvas.clear(y, y + depth, int(round(x)), int(round(x)) + cross)
+            canvas.clear(y, y + depth, x, x + cross)
     if bay:
         _dock(canvas, top, left, right, canvas.cells(_opening(1.2, "gap")))
     return _finish(canvas, f"warehouse_{n}_s{seed}")
