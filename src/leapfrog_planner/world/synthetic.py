@@ -24,7 +24,8 @@ at least 1.2 m. Narrower openings may be asked for, down to :data:`MIN_OPENING` 
 * :func:`nonconvex_field`: L, U and T shapes, stars and rings with gaps, turned at random, one
   per cell of a jittered grid (a few cells left empty), each inside a disc that keeps ``gap``
   from every other disc and from the outer wall: no two shapes touch, and a path may pass each
-  one on either side (many homotopy classes).
+  one on either side (many homotopy classes). Slivers thinner than 2 cells (a star's tips,
+  the rounding at a ring's edges) are shaved off: every obstacle is at least 2 cells thick.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
 from .. import checks
 from ..errors import ScenarioError, require_integer
@@ -429,6 +431,7 @@ def _shape(canvas: _Canvas, centre, r: float, w: float, gap: float) -> None:
         for x0, x1, y0, y1 in _bars(kind, r, w):
             mask |= (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
     mask &= np.hypot(dx, dy) <= r  # never beyond the disc, whatever the rounding
+    mask = ndimage.binary_opening(mask, structure=np.ones((2, 2), dtype=bool))  # no slivers
     canvas.occ[i0:i1, j0:j1] |= mask
 
 
