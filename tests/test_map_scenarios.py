@@ -194,3 +194,23 @@ def test_solve_with_a_bad_map_is_one_line_and_exit_2(tmp_path, args, expected):
     assert out.returncode == 2 and expected in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "r.json").exists()
+
+
+def test_generate_on_a_map_writes_the_protocols_queries(tmp_path):
+    from tests.test_cli import run_cli
+
+    out = run_cli(["generate", "--map", str(MAPS / "depot.yaml"), "--n", "4", "--seed", "3",
+                   "--out", "q"], tmp_path)  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    files = sorted((tmp_path / "q").glob("*.toml"))
+    assert len(files) == 4
+    for f in files:
+        sc = load_scenario(str(f))
+        world = sc.map.obstacles(sc.robot_radius)
+        assert sc.robot_radius == 0.2 and sc.weight == 1.0
+        assert np.hypot(*(sc.goal[:2] - sc.start[:2])) > 3.0
+        assert world.clearance_at(sc.start[:2]) >= 0.1 and world.clearance_at(sc.goal[:2]) >= 0.1
+        assert sc.horizon >= np.hypot(*(sc.goal[:2] - sc.start[:2])) / 0.5 - 1e-9
+    again = run_cli(["generate", "--map", str(MAPS / "depot.yaml"), "--n", "4", "--seed", "3",
+                     "--out", "q"], tmp_path)  # fmt: skip
+    assert again.returncode == 0  # the same set again: the same files, left alone

@@ -48,6 +48,7 @@ __all__ = [
     "generate",
     "generate_one",
     "parse_range",
+    "map_scenarios",
     "write_scenarios",
 ]
 
@@ -248,8 +249,13 @@ def write_scenarios(spec: GeneratorSpec, folder, *, overwrite: bool = False) -> 
     An existing file with other content is an error unless ``overwrite``; one with the same
     content is left alone, so writing the same set twice is harmless.
     """
+    return write_all(list(generate(spec)), folder, overwrite=overwrite)
+
+
+def write_all(scenarios: list[Scenario], folder, *, overwrite: bool = False) -> list[Path]:
+    """Write ``<name>.toml`` per scenario into ``folder`` (created); each file atomically (see
+    :func:`write_scenarios`)."""
     folder = Path(folder)
-    scenarios = list(generate(spec))  # draw everything first: a bad spec writes nothing
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     for sc in scenarios:
@@ -262,3 +268,38 @@ def write_scenarios(spec: GeneratorSpec, folder, *, overwrite: bool = False) -> 
             write_atomic(path, lambda tmp, text=text: Path(tmp).write_text(text, encoding="utf-8"))
         paths.append(path)
     return paths
+
+
+#: Queries on a map: the robot's radius (m), the speed that sets the horizon from the query's
+#: shortest path (m/s), and the penalty's weight (a horizon of tens of seconds: see the README).
+MAP_RADIUS, MAP_SPEED, MAP_WEIGHT = 0.2, 0.5, 1.0
+
+
+def map_scenarios(
+    map_file, n: int, seed: int = 0, *, radius: float = MAP_RADIUS, speed: float = MAP_SPEED,
+    weight: float = MAP_WEIGHT, min_distance: float = 3.0, clearance: float | None = None,
+    prefix: str = "map",
+) -> list[Scenario]:  # fmt: skip
+    """``n`` random queries on the map of ``map_file`` by the ROS 2 navigation stack's
+    planner-benchmark protocol (:func:`..world.queries.random_queries`: start and goal in free
+    space at ``clearance`` from the blocked cells, more than ``min_distance`` apart, headings
+    uniform, connected for a robot of ``radius``), each a scenario whose horizon is its shortest
+    path at ``speed``. Deterministic in ``seed``."""
+    from ..planning.scenario_map import ScenarioMap
+    from ..world.queries import random_queries
+
+    world = ScenarioMap(str(map_file))
+    clear = world.obstacles(radius).cells
+    queries = random_queries(clear, n, seed, radius, clearance, min_distance)
+    return [
+        Scenario(
+            name=f"{prefix}-s{seed}-{i:05d}",
+            horizon=max(q.shortest / speed, 1e-3),
+            start=list(q.start),
+            goal=list(q.goal),
+            weight=weight,
+            robot_radius=radius,
+            map=world,
+        )  # fmt: skip
+        for i, q in enumerate(queries)
+    ]

@@ -269,6 +269,11 @@ def _run_shooting(sc: Scenario, options: dict) -> dict:
 
 def _run_direct(sc: Scenario, options: dict) -> dict:
     t = time.perf_counter()
+    if sc.map is not None:  # its transcription knows discs only: it would ignore the map
+        return {"status": "failed", "failure": "unsupported", "cost": None,
+                "message": "the direct method does not take maps yet", "min_clearance": None,
+                "end_state_error": None, "newton_iterations": 0, "f_evals": None, "sweeps": None,
+                "final_solver": None, "wall_time_s": time.perf_counter() - t}  # fmt: skip
     paths = max(3, int(options.get("initial_paths", 1)))
     planner = Planner(sc, **{**options, "initial_paths": paths})
     s = np.linspace(0.0, 1.0, DIRECT_INTERVALS + 1)

@@ -139,16 +139,31 @@ def _spec(n, seed, preset, prefix=None, **given):
 
 @click.command()
 @_generator_options
+@click.option(
+    "--map",
+    "map_file",
+    default=None,
+    help="queries on this ROS map (its YAML) by nav2's planner-benchmark protocol: robot radius"
+    " 0.2 m, start and goal 0.3 m clear and over --min-distance (default 3 m) apart, connected,"
+    " headings uniform, T = the shortest path at 0.5 m/s, weight 1",
+)
 @click.option("--out", required=True, help="folder for the files")
 @click.option("--overwrite", is_flag=True, help="replace existing files with other content")
-def generate(out, overwrite, **gen):
+def generate(out, overwrite, map_file, **gen):
     """Write seeded random scenarios as TOML files (scenario i depends only on seed and i)."""
-    from ..batch.generate import write_scenarios
+    from ..batch.generate import map_scenarios, write_all, write_scenarios
 
     if gen["n"] is None:
         raise click.UsageError("--n is required")
+    output_folder(out, "--out", [map_file] if map_file else [])
+    if map_file is not None:
+        distance = 3.0 if gen["min_distance"] is None else gen["min_distance"]
+        scenarios = map_scenarios(map_file, gen["n"], gen["seed"], min_distance=distance,
+                                  prefix=gen["prefix"] or "map")  # fmt: skip
+        paths = write_all(scenarios, out, overwrite=overwrite)
+        click.echo(f"{len(paths)} scenarios in {out}")
+        return EXIT_OK
     spec = _spec(**gen)
-    output_folder(out, "--out")
     paths = write_scenarios(spec, out, overwrite=overwrite)
     click.echo(f"{len(paths)} scenarios in {out}")
     return EXIT_OK

@@ -127,7 +127,8 @@ def rice_table(sigma: float, r_max: float, n: int = 8193) -> RiceTable:
 
 
 def rice_slope(r, sigma: float) -> np.ndarray:
-    """``d m_sigma / d r = sqrt(pi/2) r / (2 sigma) (I0e(z) + I1e(z))``, ``z = r^2 / (4 sigma^2)``."""
+    """``d m_sigma / d r = sqrt(pi/2) r / (2 sigma) (I0e(z) + I1e(z))``, where
+    ``z = r^2 / (4 sigma^2)``."""
     from scipy.special import i0e, i1e
 
     z = r * r / (4.0 * sigma * sigma)
