@@ -71,8 +71,8 @@ def test_start_and_goal_are_joined_in_the_free_space_eroded_by_the_radius(office
 
 def test_the_same_seed_gives_the_same_queries_and_another_seed_others(office):
     clear, space, queries = office
-    again = random_queries(clear, 40, seed=5, space=space)
-    assert again == queries
+    again = random_queries(clear, 12, seed=5, space=space)  # the same draws, fewer of them
+    assert again == queries[:12]
     assert random_queries(clear, 3, seed=6, space=space)[0] != queries[0]
     fresh = random_queries(clear, 2, seed=5)  # the free space built anew: the same
     assert fresh == queries[:2]
@@ -81,19 +81,14 @@ def test_the_same_seed_gives_the_same_queries_and_another_seed_others(office):
 def test_the_shortest_path_is_at_least_the_straight_line_and_stays_clear(office):
     clear, space, queries = office
     res = clear.occupancy.resolution
-    longer = 0
-    for q in queries:
-        assert q.shortest >= q.distance
-        longer += q.shortest > 1.01 * q.distance
+    assert all(q.shortest >= q.distance for q in queries)
+    longer = sum(q.shortest > 1.01 * q.distance for q in queries)
+    for q in queries[:12]:
         path = space.path(q.start[:2], q.goal[:2])
         assert np.allclose(path[0], q.start[:2]) and np.allclose(path[-1], q.goal[:2])
         assert np.hypot(*np.diff(path, axis=0).T).sum() == pytest.approx(q.shortest, rel=1e-12)
-        dense = np.vstack(
-            [
-                a + np.linspace(0, 1, 50)[:, None] * (b - a)
-                for a, b in zip(path, path[1:], strict=False)
-            ]
-        )
+        t = np.linspace(0, 1, 50)[:, None]
+        dense = np.vstack([a + t * (b - a) for a, b in zip(path[:-1], path[1:], strict=True)])
         # sight is checked on clear cells: a path may graze the eroded space by a cell
         assert clear.distance(dense[:, 0], dense[:, 1]).min() >= RADIUS - 1.5 * res
     assert longer >= 10  # an office: most paths turn through doors

@@ -375,6 +375,57 @@ def pull_taut(points: np.ndarray, visible) -> np.ndarray:
     return points[keep]
 
 
+def _cut(v, ua, ub, most: float, visible) -> float:
+    """How far (cells, at most ``most``) from ``v`` along the unit directions ``ua`` and
+    ``ub`` the points ``v + d ua`` and ``v + d ub`` still see each other: doubled from
+    :data:`CUT_FIRST` while they do, then :data:`CUT_STEPS` halvings; 0 if even
+    :data:`CUT_FIRST` fails."""
+    lo = min(CUT_FIRST, most)
+    if not visible(v + lo * ua, v + lo * ub):
+        return 0.0
+    while 2 * lo <= most and visible(v + 2 * lo * ua, v + 2 * lo * ub):
+        lo *= 2
+    hi = min(2 * lo, most)
+    for _ in range(CUT_STEPS):
+        mid = 0.5 * (lo + hi)
+        if visible(v + mid * ua, v + mid * ub):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def cut_corners(points: np.ndarray, visible, rounds: int = CUT_ROUNDS) -> np.ndarray:
+    """The taut polyline ``points`` shortened round the corners it wraps: each inner point
+    ``v`` is replaced by the points ``p`` and ``q`` at the same distance from it along its two
+    segments, as far as (up to half the shorter segment; :func:`_cut`) ``p`` sees ``q``;
+    ``rounds`` passes. A corner of the eroded space is an arc (the radius round a wall's
+    corner): one vertex outside a quarter arc of radius ``r`` adds ``0.43 r`` to the length,
+    two add ``0.09 r``, four ``0.02 r``."""
+    pts = [np.asarray(p, dtype=float) for p in points]
+    for _ in range(rounds):
+        out, changed = [pts[0]], False
+        for k in range(1, len(pts) - 1):
+            v = pts[k]
+            ua, ub = out[-1] - v, pts[k + 1] - v
+            la, lb = math.hypot(*ua), math.hypot(*ub)
+            if la == 0.0 or lb == 0.0 or float(np.dot(ua, ub)) <= -CUT_COS * la * lb:
+                out.append(v)  # (almost) no turn here: nothing to gain
+                continue
+            ua, ub = ua / la, ub / lb
+            lo = _cut(v, ua, ub, 0.5 * min(la, lb), visible)
+            if lo > 0.0:
+                out += [v + lo * ua, v + lo * ub]
+                changed = True
+            else:
+                out.append(v)
+        out.append(pts[-1])
+        pts = out
+        if not changed:
+            break
+    return np.array(pts)
+
+
 # --------------------------------------------------------------------------- random queries
 
 
@@ -430,6 +481,20 @@ def _candidate_cells(space: FreeSpace, clearance: float, border: float) -> np.nd
     ok &= ((i + 1 > border) & (i < rows - border))[:, None]
     ok &= ((j + 1 > border) & (j < cols - border))[None, :]
     return np.flatnonzero(ok)
+
+
+def _start_draws(space: FreeSpace, seed: int, clearance: float, border: float) -> _Draws:
+    """The draws of :func:`random_queries` (``border`` in metres); a map without a single
+    candidate cell is refused."""
+    occ = space.clear.occupancy
+    cells = _candidate_cells(space, clearance, border / occ.resolution)
+    if cells.size == 0:
+        raise ScenarioError(
+            f"map {occ.name!r}: no free cell is {clearance:g} m from the obstacles"
+            f"{f' and {border:g} m inside the edges' if border else ''}: no room for queries"
+        )
+    rng = np.random.default_rng(seed)
+    return _Draws(space, rng, cells, clearance, border / occ.resolution)
 
 
 def _settings(clear, n, radius, clearance, min_distance, border):
@@ -500,22 +565,15 @@ def random_queries(
         space = FreeSpace(clear, radius)
     elif space.clear is not clear or space.radius != radius:
         raise ScenarioError("space: built for another map or radius")
-    occ = clear.occupancy
-    cells = _candidate_cells(space, clearance, border / occ.resolution)
-    where = f"map {occ.name!r}"
-    if cells.size == 0:
-        raise ScenarioError(
-            f"{where}: no free cell is {clearance:g} m from the obstacles"
-            f"{f' and {border:g} m inside the edges' if border else ''}: no room for queries"
-        )
-    draws = _Draws(space, np.random.default_rng(seed), cells, clearance, border / occ.resolution)
+    draws = _start_draws(space, seed, clearance, border)
     out: list[MapQuery] = []
     while len(out) < n:
         pair = _pair(draws, space, min_distance, budget)
         if pair is None:
             raise ScenarioError(
-                f"{where}: only {len(out)} of {n} queries after {draws.drawn} draws (clearance"
-                f" {clearance:g} m, min_distance {min_distance:g} m): too few valid places"
+                f"map {clear.occupancy.name!r}: only {len(out)} of {n} queries after"
+                f" {draws.drawn} draws (clearance {clearance:g} m, min_distance"
+                f" {min_distance:g} m): too few valid places"
             )
         if pair is False:
             continue
@@ -529,54 +587,3 @@ def random_queries(
             )
         )
     return out
-
-
-def _cut(v, ua, ub, most: float, visible) -> float:
-    """How far (cells, at most ``most``) from ``v`` along the unit directions ``ua`` and
-    ``ub`` the points ``v + d ua`` and ``v + d ub`` still see each other: doubled from
-    :data:`CUT_FIRST` while they do, then :data:`CUT_STEPS` halvings; 0 if even
-    :data:`CUT_FIRST` fails."""
-    lo = min(CUT_FIRST, most)
-    if not visible(v + lo * ua, v + lo * ub):
-        return 0.0
-    while 2 * lo <= most and visible(v + 2 * lo * ua, v + 2 * lo * ub):
-        lo *= 2
-    hi = min(2 * lo, most)
-    for _ in range(CUT_STEPS):
-        mid = 0.5 * (lo + hi)
-        if visible(v + mid * ua, v + mid * ub):
-            lo = mid
-        else:
-            hi = mid
-    return lo
-
-
-def cut_corners(points: np.ndarray, visible, rounds: int = CUT_ROUNDS) -> np.ndarray:
-    """The taut polyline ``points`` shortened round the corners it wraps: each inner point
-    ``v`` is replaced by the points ``p`` and ``q`` at the same distance from it along its two
-    segments, as far as (up to half the shorter segment; :func:`_cut`) ``p`` sees ``q``;
-    ``rounds`` passes. A corner of the eroded space is an arc (the radius round a wall's
-    corner): one vertex outside a quarter arc of radius ``r`` adds ``0.43 r`` to the length,
-    two add ``0.09 r``, four ``0.02 r``."""
-    pts = [np.asarray(p, dtype=float) for p in points]
-    for _ in range(rounds):
-        out, changed = [pts[0]], False
-        for k in range(1, len(pts) - 1):
-            v = pts[k]
-            ua, ub = out[-1] - v, pts[k + 1] - v
-            la, lb = math.hypot(*ua), math.hypot(*ub)
-            if la == 0.0 or lb == 0.0 or float(np.dot(ua, ub)) <= -CUT_COS * la * lb:
-                out.append(v)  # (almost) no turn here: nothing to gain
-                continue
-            ua, ub = ua / la, ub / lb
-            lo = _cut(v, ua, ub, 0.5 * min(la, lb), visible)
-            if lo > 0.0:
-                out += [v + lo * ua, v + lo * ub]
-                changed = True
-            else:
-                out.append(v)
-        out.append(pts[-1])
-        pts = out
-        if not changed:
-            break
-    return np.array(pts)
