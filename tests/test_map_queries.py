@@ -185,6 +185,9 @@ def one_line(call, words: str) -> None:
 def test_a_map_without_room_is_refused_in_one_line():
     walls = MapClearance(OccupancyMap(np.full((50, 50), OCCUPIED, np.int8), 0.05, name="rock"))
     one_line(lambda: random_queries(walls, 3), "map 'rock': no free cell is 0.3 m from")
+    rock = FreeSpace(walls, RADIUS)
+    assert rock.label.size == 0 and rock.component(1.0, 1.0) == -1
+    assert rock.shortest((0.5, 0.5), (2.0, 2.0)) == math.inf
     hall = MapClearance(OccupancyMap(np.zeros((60, 60), np.int8), 0.05, name="hall"))
     one_line(lambda: random_queries(hall, 3, clearance=2.0), "no free cell is 2 m from")
     one_line(lambda: random_queries(hall, 3, border=1.5), "and 1.5 m inside the edges")

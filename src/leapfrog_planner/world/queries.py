@@ -276,8 +276,8 @@ class FreeSpace:
     def component(self, x, y) -> np.ndarray:
         """The component of each world point (-1: joined to no clear block)."""
         u, v = self.clear.occupancy.world_to_grid(np.ravel(x), np.ravel(y))
-        out = np.array([self.link(p) for p in zip(u.tolist(), v.tolist(), strict=True)])
-        out = np.where(out >= 0, self.label[np.maximum(out, 0)], -1)
+        nodes = [self.link(p) for p in zip(u.tolist(), v.tolist(), strict=True)]
+        out = np.array([self.label[m] if m >= 0 else -1 for m in nodes], dtype=np.int64)
         return out.reshape(np.shape(x))
 
     # ----------------------------------------------------------------- paths
@@ -306,7 +306,9 @@ class FreeSpace:
             )
             if np.isfinite(dist[g]):
                 break
-            limit *= 4.0  # the goal lies beyond the limit: search farther
+            if limit == np.inf:  # cannot be: one component is one piece of the graph
+                return None
+            limit = limit * 4.0 if limit < 1e9 else np.inf  # the goal is farther: go on
         path = [g]
         while path[-1] != s:
             path.append(int(pred[path[-1]]))
