@@ -85,7 +85,7 @@ def test_the_shortest_path_is_at_least_the_straight_line_and_stays_clear(office)
     longer = sum(q.shortest > 1.01 * q.distance for q in queries)
     for q in queries[:12]:
         path = space.path(q.start[:2], q.goal[:2])
-        assert np.allclose(path[0], q.start[:2]) and np.allclose(path[-1], q.goal[:2])
+        assert path[0].tolist() == list(q.start[:2]) and path[-1].tolist() == list(q.goal[:2])
         assert np.hypot(*np.diff(path, axis=0).T).sum() == pytest.approx(q.shortest, rel=1e-12)
         t = np.linspace(0, 1, 50)[:, None]
         dense = np.vstack([a + t * (b - a) for a, b in zip(path[:-1], path[1:], strict=True)])

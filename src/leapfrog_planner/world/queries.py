@@ -335,14 +335,18 @@ class FreeSpace:
             pts = pull_taut(resample(pts, 1.0), self.visible)
             pts = pull_taut(cut_corners(pts, self.visible), self.visible)
         x, y = occ.grid_to_world(pts[:, 0], pts[:, 1])
-        return np.column_stack([x, y])
+        out = np.column_stack([x, y])
+        out[0], out[-1] = start[:2], goal[:2]  # the ends exactly, not through the grid
+        return out
 
     def shortest(self, start, goal) -> float:
-        """The length of :meth:`path` (metres; ``inf`` when there is none)."""
+        """The length of :meth:`path` (metres; ``inf`` when there is none): summed segment by
+        segment with ``math.hypot``, so that a straight path is exactly the distance."""
         pts = self.path(start, goal)
         if pts is None:
             return math.inf
-        return float(np.hypot(*np.diff(pts, axis=0).T).sum())
+        xy = pts.tolist()
+        return math.fsum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(xy[:-1], xy[1:], strict=True))
 
 
 def resample(points: np.ndarray, spacing: float) -> np.ndarray:
