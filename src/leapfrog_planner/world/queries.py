@@ -345,8 +345,8 @@ class FreeSpace:
         pts = self.path(start, goal)
         if pts is None:
             return math.inf
-        xy = pts.tolist()
-        return math.fsum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(xy[:-1], xy[1:], strict=True))
+        x, y = pts.T.tolist()
+        return math.fsum(map(math.hypot, np.diff(x).tolist(), np.diff(y).tolist()))
 
 
 def resample(points: np.ndarray, spacing: float) -> np.ndarray:
