@@ -155,15 +155,16 @@ def generate(out, overwrite, map_file, **gen):
 
     if gen["n"] is None:
         raise click.UsageError("--n is required")
-    output_folder(out, "--out", [map_file] if map_file else [])
-    if map_file is not None:
+    if map_file is not None:  # drawn before the folder is made: a bad map writes nothing
         distance = 3.0 if gen["min_distance"] is None else gen["min_distance"]
         scenarios = map_scenarios(map_file, gen["n"], gen["seed"], min_distance=distance,
                                   prefix=gen["prefix"] or "map")  # fmt: skip
+        output_folder(out, "--out", [map_file])
         paths = write_all(scenarios, out, overwrite=overwrite)
         click.echo(f"{len(paths)} scenarios in {out}")
         return EXIT_OK
     spec = _spec(**gen)
+    output_folder(out, "--out")
     paths = write_scenarios(spec, out, overwrite=overwrite)
     click.echo(f"{len(paths)} scenarios in {out}")
     return EXIT_OK

@@ -152,21 +152,7 @@ class Scenario:
         c.in_range(margin, "robot.margin", (0.0, checks.COORDINATE_MAX))
         bounds = self._check_bounds(c, model)
 
-        points = [("start", start[:2]), ("goal", goal[:2])]
-        if waypoints is not None:
-            points += [(f"waypoints[{i}]", w) for i, w in enumerate(waypoints)]
-        grown = obstacles + np.array([0.0, 0.0, robot_radius])
-        for key, p in points:  # the footprint may not overlap an obstacle
-            c.outside(p, key, grown if robot_radius else obstacles)
-        if self.map is not None:
-            if not isinstance(self.map, ScenarioMap):
-                c.fail("map", f"expected a ScenarioMap, got {describe(self.map)}")
-            if exponent < 2:
-                c.fail("penalty.exponent", "must be at least 2 with a map")
-            if waypoints is not None:
-                c.fail("waypoints", "not supported with a map yet")
-            for key, p in points:
-                c._named(self.map.check_point, p, key, robot_radius)
+        self._check_ends(c, start, goal, waypoints, obstacles, robot_radius, exponent)
 
         values = {
             "name": name,
@@ -188,6 +174,30 @@ class Scenario:
         }
         for k, v in values.items():
             object.__setattr__(self, k, v)
+
+    def _check_ends(self, c, start, goal, waypoints, obstacles, robot_radius, exponent) -> None:
+        """The footprint at the start, the goal and the waypoints may not overlap an obstacle
+        (nor a blocked cell of the map)."""
+        points = [("start", start[:2]), ("goal", goal[:2])]
+        if waypoints is not None:
+            points += [(f"waypoints[{i}]", w) for i, w in enumerate(waypoints)]
+        grown = obstacles + np.array([0.0, 0.0, robot_radius])
+        for key, p in points:
+            c.outside(p, key, grown if robot_radius else obstacles)
+        if self.map is not None:
+            self._check_map(c, exponent, points, robot_radius)
+
+    def _check_map(self, c: ScenarioCheck, exponent: int, points, robot_radius: float) -> None:
+        """The map, and the ends on it (``points``: start, goal, and waypoints, which a map does
+        not take yet)."""
+        if not isinstance(self.map, ScenarioMap):
+            c.fail("map", f"expected a ScenarioMap, got {describe(self.map)}")
+        if exponent < 2:
+            c.fail("penalty.exponent", "must be at least 2 with a map")
+        if len(points) > 2:
+            c.fail("waypoints", "not supported with a map yet")
+        for key, p in points:
+            c._named(self.map.check_point, p, key, robot_radius)
 
     def _check_model(self, c: ScenarioCheck) -> tuple[str, dict[str, float]]:
         model = c.string(self.model, "robot.model")
