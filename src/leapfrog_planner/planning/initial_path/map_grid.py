@@ -319,9 +319,9 @@ def search_graph(d, blocked, f, T, H, W):
     """The graph the routes are searched on: a node per block of ``f x f`` map cells at its
     clearest cell (:func:`_block_reps`), joined to its eight neighbours by the straight segments
     that keep ``T`` (bit ``k`` of ``edges`` for move ``k``). With ``f = 1`` the nodes are the
-    cells that keep ``T``; a side move needs both cells, a diagonal one the four cells round the
-    corner it passes (then the segment keeps ``T`` exactly: the least distance along it is at a
-    centre), so no segment is measured."""
+    cells that keep ``T``; a side move keeps ``T`` when both cells do, and so does a diagonal
+    move when the two cells beside it do too (the least distance along these segments is at a
+    centre): only the other diagonal moves are measured."""
     nu, nv, ok = _block_reps(d, f, H, W, T)
     Hc, Wc = (H + f - 1) // f, (W + f - 1) // f
     edges = np.zeros((Hc, Wc), np.uint8)
@@ -336,9 +336,10 @@ def search_graph(d, blocked, f, T, H, W):
                 if a2 < 0 or a2 >= Hc or b2 < 0 or b2 >= Wc or not ok[a2 * Wc + b2]:
                     continue
                 v = a2 * Wc + b2
-                if f == 1:
-                    good = DI[k] == 0 or DJ[k] == 0 or (ok[a2 * Wc + b] and ok[a * Wc + b2])
-                else:
+                good = f == 1 and (
+                    DI[k] == 0 or DJ[k] == 0 or (ok[a2 * Wc + b] and ok[a * Wc + b2])
+                )
+                if not good:
                     good = segment_ok(d, blocked, nu[u], nv[u], nu[v], nv[v], T, zones)
                 if good:
                     edges[a, b] |= np.uint8(1 << k)

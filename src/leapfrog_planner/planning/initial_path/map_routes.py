@@ -72,7 +72,11 @@ from . import map_grid as mg
 from .geometry import homotopy_signature, segment_distance
 
 #: Maps with more cells than this are searched on blocks of cells (step 2).
-FINE_CELLS = 1 << 18
+#: The search graph has about this many nodes at most: blocks of ``f x f`` cells on larger maps.
+GRAPH_NODES = 1 << 16
+#: ... but the blocks are at most this fraction of the threshold wide (a passage just wider than
+#: the threshold's twice is then seldom missed by the blocks' segments).
+BLOCK_OF_THRESHOLD = 1 / 1.5
 #: At most this many obstacles cast barrier rays (step 5).
 MAX_RELEVANT = 6
 #: The first bound on the routes' lengths searched, times the shortest (step 5).
@@ -119,7 +123,6 @@ class _Prepared:
         self.H, self.W = clear.blocked.shape
         self.blocked = np.pad(clear.blocked, 1, constant_values=clear.unknown_is_occupied)
         self.d = mg.clearance_field(self.blocked)
-        self.f = max(1, math.ceil(math.sqrt(self.H * self.W / FINE_CELLS)))
         lab, n = ndimage.label(clear.blocked, np.ones((3, 3), bool))
         ri, rj, reach, edge = mg.component_reps(lab, n)
         keep = ~edge
@@ -128,8 +131,12 @@ class _Prepared:
         self._graphs: OrderedDict = OrderedDict()
         self._labels: OrderedDict = OrderedDict()
 
-    def graph(self, T: float, fine: bool = False) -> _Graph:
-        f = 1 if fine else self.f
+    def block(self, T: float) -> int:
+        """The block size ``f`` of the search graph for threshold ``T`` (step 2)."""
+        by_size = math.ceil(math.sqrt(self.H * self.W / GRAPH_NODES))
+        return max(1, min(by_size, math.floor(T * BLOCK_OF_THRESHOLD)))
+
+    def graph(self, T: float, f: int) -> _Graph:
         key = (T, f)
         if key not in self._graphs:
             built = mg.search_graph(self.d, self.blocked, f, T, self.H, self.W)
@@ -140,11 +147,13 @@ class _Prepared:
         return self._graphs[key]
 
     def labels(self, T: float) -> np.ndarray:
-        """The 4-connected components of the cells that keep ``T`` (padded, 0: none)."""
+        """The 8-connected components of the cells that keep ``T`` (padded, 0: none): cells
+        joined by a diagonal move only may be joined or not (:func:`.map_grid.search_graph`),
+        so the components may join what the graph does not, never the other way."""
         from scipy import ndimage
 
         if T not in self._labels:
-            lab = ndimage.label(self.d >= T - mg.EPS)[0]
+            lab = ndimage.label(self.d >= T - mg.EPS, np.ones((3, 3), bool))[0]
             lab[[0, -1], :] = 0
             lab[:, [0, -1]] = 0
             self._labels[T] = lab
@@ -293,7 +302,7 @@ def _search(prep: _Prepared, graph: _Graph, ends: _Ends, beta: float, both: bool
     bound = beta * min(best, direct) + mg.EPS
     dG, predG = np.full_like(dS, np.inf), np.full_like(predS, -1)
     if both:
-        dG, predG, _ = mg.path_field(*args, sG, cG, sS, cS, *ends.P[0], 1.0, bound)
+        dG, predG, _ = mg.path_field(*args, sG, cG, sS, cS, *ends.P[0], np.inf, bound)
     total = dS[sG] + cG
     via = int(sG[np.argmin(total)]) if sG.size and np.isfinite(total.min()) else -1
     return _Search(graph, windows, dS, predS, dG, predG, min(best, direct), via)
@@ -476,9 +485,12 @@ def map_routes(
         return []
     for m in _margins(margin):
         ends = _ends(prep, P, max((radius + m) / occ.resolution, MIN_THRESHOLD))
-        found = _plan(prep, prep.graph(ends.T), ends, k, max_detour)
-        if not found and prep.f > 1 and _connected(prep, ends):
-            found = _plan(prep, prep.graph(ends.T, fine=True), ends, k, max_detour)
+        found, f = [], prep.block(ends.T)
+        while True:
+            found = _plan(prep, prep.graph(ends.T, f), ends, k, max_detour)
+            if found or f == 1 or not _connected(prep, ends):
+                break
+            f //= 2  # the blocks may miss a passage: smaller ones
         if found:
             return [_route(prep, occ, c, (start, goal), radius, m) for c in found]
     return []
