@@ -88,7 +88,7 @@ PULL_PASSES = 8
 #: The least threshold (cells): a route never touches a blocked cell.
 MIN_THRESHOLD = 1e-6
 #: Search graphs and connected components kept per map (the most recently used).
-GRAPHS_KEPT, LABELS_KEPT = 4, 2
+GRAPHS_KEPT, LABELS_KEPT = 4, 4
 
 
 @dataclass(frozen=True)
@@ -124,10 +124,8 @@ class _Prepared:
         self.blocked = np.pad(clear.blocked, 1, constant_values=clear.unknown_is_occupied)
         self.d = mg.clearance_field(self.blocked)
         lab, n = ndimage.label(clear.blocked, np.ones((3, 3), bool))
-        ri, rj, reach, edge = mg.component_reps(lab, n)
-        keep = ~edge
-        self.reps = np.column_stack([rj[keep] + 1.5, ri[keep] + 1.5])  # padded coordinates
-        self.reach = reach[keep]
+        ri, rj, _, edge = mg.component_reps(lab, n)
+        self.reps = np.column_stack([rj, ri])[~edge] + 1.5  # padded coordinates of the centres
         self._graphs: OrderedDict = OrderedDict()
         self._labels: OrderedDict = OrderedDict()
 
@@ -152,15 +150,31 @@ class _Prepared:
         so the components may join what the graph does not, never the other way."""
         from scipy import ndimage
 
-        if T not in self._labels:
+        if ("free", T) not in self._labels:
             lab = ndimage.label(self.d >= T - mg.EPS, np.ones((3, 3), bool))[0]
             lab[[0, -1], :] = 0
             lab[:, [0, -1]] = 0
-            self._labels[T] = lab
-            if len(self._labels) > LABELS_KEPT:
-                self._labels.popitem(last=False)
-        self._labels.move_to_end(T)
-        return self._labels[T]
+            self._remember(("free", T), lab)
+        return self._labels[("free", T)]
+
+    def obstacles(self, T: float) -> tuple[np.ndarray, np.ndarray]:
+        """The obstacles as the search sees them at threshold ``T``: the 8-connected
+        components of the map's cells that do not keep ``T`` and do not touch the map's edge,
+        each a representative point (padded coordinates) and how far it reaches (cells).
+        Obstacles nearer each other than ``2 T`` are one here: no route passes between."""
+        from scipy import ndimage
+
+        if ("near", T) not in self._labels:
+            lab, n = ndimage.label(self.d[1:-1, 1:-1] < T - mg.EPS, np.ones((3, 3), bool))
+            ri, rj, reach, edge = mg.component_reps(lab, n)
+            keep = ~edge
+            self._remember(("near", T), (np.column_stack([rj, ri])[keep] + 1.5, reach[keep]))
+        return self._labels[("near", T)]
+
+    def _remember(self, key, value) -> None:
+        self._labels[key] = value
+        if len(self._labels) > LABELS_KEPT:
+            self._labels.popitem(last=False)
 
 
 _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -353,13 +367,13 @@ def _relevant(prep: _Prepared, ends: _Ends, poly: np.ndarray, shortest: float) -
     shortest route, the :data:`MAX_RELEVANT` closest (ties by index)."""
     S2, G2 = ends.P
     L = math.hypot(*(G2 - S2))
-    C = prep.reps
+    C, reach = prep.obstacles(ends.T)
     if L < 1e-9 or C.shape[0] == 0:
         return np.zeros(0, np.int64)
     proj = (C - S2) @ ((G2 - S2) / L)
     to_chord = segment_distance(S2[None, :], G2[None, :], C)[0]
     to_path = segment_distance(poly[:-1], poly[1:], C).min(axis=0)
-    relevance = np.minimum(to_chord, to_path) - prep.reach
+    relevance = np.minimum(to_chord, to_path) - reach
     pick = np.flatnonzero((proj > 0.0) & (proj < L) & (relevance < shortest))
     return pick[np.lexsort((pick, relevance[pick]))][:MAX_RELEVANT]
 
@@ -374,10 +388,11 @@ def _vias(prep: _Prepared, ends: _Ends, s: _Search, poly: np.ndarray) -> list[in
         return out
     nrm = np.array([-chord[1], chord[0]]) / L
     Wc = s.graph.edges.shape[1]
+    origins = prep.obstacles(ends.T)[0]
     for c in _relevant(prep, ends, poly, s.shortest).tolist():
         for side in (1.0, -1.0):
             q, _ = mg.ray_via(
-                s.dS, s.dG, s.graph.f, prep.H, prep.W, Wc, *prep.reps[c], *(side * nrm)
+                s.dS, s.dG, s.graph.f, prep.H, prep.W, Wc, *origins[c], *(side * nrm)
             )
             if q >= 0 and q not in out:
                 out.append(int(q))
