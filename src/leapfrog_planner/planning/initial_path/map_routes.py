@@ -79,8 +79,9 @@ GRAPH_NODES = 1 << 16
 BLOCK_OF_THRESHOLD = 1 / 1.5
 #: At most this many obstacles cast barrier rays (step 5).
 MAX_RELEVANT = 6
-#: The first bound on the routes' lengths searched, times the shortest (step 5).
-FIRST_DETOUR = 1.5
+#: The bounds on the routes' lengths searched first, times the shortest (step 5); then
+#: ``max_detour``. Each round searches an ellipse round start and goal about twice as large.
+DETOURS = (1.25, 1.6)
 #: Margins tried, as fractions of the requested one, before margin 0 (step 7).
 MARGIN_FALLBACK = (1.0, 0.5, 0.25, 0.125, 0.0625)
 #: Passes of :func:`.map_grid.pull`.
@@ -309,8 +310,10 @@ def _search(prep: _Prepared, graph: _Graph, ends: _Ends, beta: float, both: bool
     windows = tuple(_end_window(prep, ends, e, graph.f) for e in range(2))
     (sS, cS), (sG, cG) = (_seeds(prep, graph, w) for w in windows)
     direct = _reached(windows[0], _end_cells(ends)[1:])[0] + _last_leg(ends)
+    if not (sS.size and sG.size) and not np.isfinite(direct):
+        return None
     args = (graph.edges, graph.nu, graph.nv)
-    dS, predS, best = mg.path_field(*args, sS, cS, sG, cG, *ends.P[1], beta, np.inf)
+    dS, predS, best = mg.path_field(*args, sS, cS, sG, cG, *ends.P[1], beta, beta * direct)
     if not np.isfinite(min(best, direct)):
         return None
     bound = beta * min(best, direct) + mg.EPS
@@ -391,9 +394,7 @@ def _vias(prep: _Prepared, ends: _Ends, s: _Search, poly: np.ndarray) -> list[in
     origins = prep.obstacles(ends.T)[0]
     for c in _relevant(prep, ends, poly, s.shortest).tolist():
         for side in (1.0, -1.0):
-            q, _ = mg.ray_via(
-                s.dS, s.dG, s.graph.f, prep.H, prep.W, Wc, *origins[c], *(side * nrm)
-            )
+            q, _ = mg.ray_via(s.dS, s.dG, s.graph.f, prep.H, prep.W, Wc, *origins[c], *(side * nrm))
             if q >= 0 and q not in out:
                 out.append(int(q))
     return out
@@ -444,10 +445,10 @@ def _classes(prep: _Prepared, ends: _Ends, s: _Search, max_detour: float) -> lis
 
 
 def _plan(prep: _Prepared, graph: _Graph, ends: _Ends, k: int, max_detour: float) -> list:
-    """The classes found on ``graph`` (:func:`_classes`), searched first to
-    :data:`FIRST_DETOUR` times the shortest and then, with fewer than ``k``, to
-    ``max_detour``; empty when there is no route."""
-    betas = [1.0] if k == 1 else sorted({min(FIRST_DETOUR, max_detour), max_detour})
+    """The classes found on ``graph`` (:func:`_classes`), searched to :data:`DETOURS` times
+    the shortest and then, while fewer than ``k`` are found, to ``max_detour``; empty when
+    there is no route."""
+    betas = [1.0] if k == 1 else sorted({min(b, max_detour) for b in DETOURS} | {max_detour})
     found: list = []
     for beta in betas:
         s = _search(prep, graph, ends, beta, both=k > 1)
@@ -500,12 +501,14 @@ def map_routes(
         return []
     for m in _margins(margin):
         ends = _ends(prep, P, max((radius + m) / occ.resolution, MIN_THRESHOLD))
+        if not _connected(prep, ends):
+            continue
         found, f = [], prep.block(ends.T)
         while True:
             found = _plan(prep, prep.graph(ends.T, f), ends, k, max_detour)
-            if found or f == 1 or not _connected(prep, ends):
+            if found or f == 1:
                 break
-            f //= 2  # the blocks may miss a passage: smaller ones
+            f //= 2  # the blocks missed a passage: smaller ones
         if found:
             return [_route(prep, occ, c, (start, goal), radius, m) for c in found]
     return []
