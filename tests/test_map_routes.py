@@ -126,16 +126,18 @@ def exact_corridor_length() -> float:
 
 
 def fine_grid_length(clear: MapClearance, start, goal, keep: float, sub: int = 2) -> float:
-    """Dijkstra over points ``sub`` times finer than the cells, 16 neighbours, kept where the
+    """Dijkstra over points ``sub`` times finer than the cells, 32 neighbours, kept where the
     point, and the midpoint of a move, keep ``keep`` metres from the blocked cells."""
     occ = clear.occupancy
     rows, cols = occ.shape[0] * sub, occ.shape[1] * sub
-    fv, fu = (np.indices((2 * rows, 2 * cols)) + 0.5) / (2 * sub)  # half-steps for midpoints
+    fv, fu = (np.indices((2 * rows, 2 * cols)) / 2 + 0.5) / sub  # half-steps for midpoints
     ok2 = (clear.distance(*occ.grid_to_world(fu, fv)) >= keep).reshape(fu.shape)
     ok = ok2[::2, ::2]
     idx = np.arange(ok.size).reshape(ok.shape)
     src, dst, wgt = [], [], []
-    for dj, di in [(1, 0), (0, 1), (1, 1), (1, -1), (1, 2), (2, 1), (1, -2), (2, -1)]:
+    moves = [(1, 0), (0, 1), (1, 1), (1, -1), (1, 2), (2, 1), (1, -2), (2, -1), (1, 3), (3, 1)]
+    moves += [(1, -3), (3, -1), (2, 3), (3, 2), (2, -3), (3, -2)]
+    for dj, di in moves:
         a = np.s_[max(0, -di) : rows - max(0, di), 0 : cols - dj]
         b = np.s_[max(0, di) : rows + min(0, di), dj:cols]
         mid = ok2[max(0, -di) * 2 + di : 2 * rows - max(0, di) * 2 + di : 2, dj : 2 * cols - dj : 2]
@@ -155,6 +157,9 @@ def fine_grid_length(clear: MapClearance, start, goal, keep: float, sub: int = 2
 
 
 def test_the_maze_route_is_within_two_per_cent_of_a_fine_grid_dijkstra():
+    """32 neighbours: the grid's paths are at most 1.3 % longer than straight lines in any
+    direction (1 / cos of half the widest angle between two moves, atan(1/3)); the route is
+    exact (with its clearance measured), so it lies below the reference, by less than that."""
     occ = maze()
     clear = MapClearance(occ)
     start, goal = world(occ, 6.25, 6.25), world(occ, 6.25, 53.75)
@@ -163,9 +168,8 @@ def test_the_maze_route_is_within_two_per_cent_of_a_fine_grid_dijkstra():
     assert len(routes) == 1 and routes[0].margin == 0.05  # one way through, at the margin
     assert routes[0].clearance >= 0.05 - 1e-9
     reference = fine_grid_length(clear, start, goal, 0.2)
-    # the fine grid's paths are up to 2.7 % longer than straight ones; the route is exact
-    assert reference / 1.03 <= routes[0].length <= reference * 1.005
-    assert len(routes[0].points) <= 16  # a few vertices round each end of a wall
+    assert reference / 1.02 <= routes[0].length <= reference
+    assert len(routes[0].points) <= 24  # a few vertices round each end of a wall
 
 
 def test_no_route_between_parts_that_do_not_meet():

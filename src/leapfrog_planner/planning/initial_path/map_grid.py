@@ -493,24 +493,41 @@ def end_field(d, eu, ev, T, zones, reach, H, W):
 
 
 @njit(cache=True)
+def _seen(d, blocked, p, q, T, zones):
+    return segment_ok(d, blocked, p[0], p[1], q[0], q[1], T, zones)
+
+
+@njit(cache=True)
 def shortcut(d, blocked, poly, T, zones):
-    """Line-of-sight shortcuts: from each kept vertex, straight to the last of the following
-    vertices before the first that cannot be seen (:func:`segment_ok`). The next vertex is
-    always kept (the grid's moves keep the threshold), so the result is as clear as ``poly``.
-    Scanning on vertex by vertex sweeps the segment over the path in small steps, so it is not
-    carried across an obstacle: the homotopy class is kept."""
+    """Line-of-sight shortcuts, any-angle: from the current point, on to the last vertex
+    ``k`` seen before the first that is not (:func:`segment_ok`), then along the leg from
+    ``k`` to ``k + 1`` as far as it is seen (bisection to 1/256 of the leg); that point is the
+    next vertex and the next current point. Each step sweeps the sight line over the path a
+    little, so it never jumps an obstacle: the homotopy class is kept; the legs of ``poly``
+    keep the threshold, so the result does."""
     n = poly.shape[0]
-    keep = [0]
-    i = 0
-    while i < n - 1:
-        j = i + 1
-        while j + 1 < n and segment_ok(
-            d, blocked, poly[i, 0], poly[i, 1], poly[j + 1, 0], poly[j + 1, 1], T, zones
-        ):
-            j += 1
-        keep.append(j)
-        i = j
-    return poly[np.array(keep)]
+    out = [poly[0].copy()]
+    k = 0
+    while k < n - 1:
+        p = out[-1]
+        k += 1
+        while k + 1 < n and _seen(d, blocked, p, poly[k + 1], T, zones):
+            k += 1
+        if k == n - 1:
+            out.append(poly[k].copy())
+            break
+        lo, hi = 0.0, 1.0
+        for _ in range(8):
+            mid = 0.5 * (lo + hi)
+            if _seen(d, blocked, p, poly[k] + mid * (poly[k + 1] - poly[k]), T, zones):
+                lo = mid
+            else:
+                hi = mid
+        out.append(poly[k] + lo * (poly[k + 1] - poly[k]))
+    res = np.empty((len(out), 2))
+    for i in range(len(out)):
+        res[i] = out[i]
+    return res
 
 
 @njit(cache=True)

@@ -69,7 +69,7 @@ from ... import checks
 from ...errors import ScenarioError, require_integer
 from ...world import MapClearance
 from . import map_grid as mg
-from .geometry import homotopy_signature, segment_distance
+from .geometry import homotopy_signature, midpoints, segment_distance
 
 #: Maps with more cells than this are searched on blocks of cells (step 2).
 #: The search graph has about this many nodes at most: blocks of ``f x f`` cells on larger maps.
@@ -408,11 +408,14 @@ def _signature(prep: _Prepared, poly: np.ndarray) -> tuple[int, ...]:
 
 
 def _simplified(prep: _Prepared, ends: _Ends, raw: np.ndarray, want: tuple) -> np.ndarray:
-    """Step 6: the grid path ``raw`` shortcut, pulled taut, shortcut again; or, when that
-    changes its signature ``want``, the shortcuts alone; or the grid path itself."""
+    """Step 6: the grid path ``raw`` shortcut, pulled taut, given a vertex amid each segment
+    and pulled again (a vertex that rests on a corner can then move round it), shortcut
+    again; or, when that changes its signature ``want``, the shortcuts alone; or the grid path
+    itself."""
     args, thr = (prep.d, prep.blocked), (ends.T, ends.zones)
     cut = mg.shortcut(*args, raw, *thr)
-    taut = mg.shortcut(*args, mg.pull(*args, cut, *thr, PULL_PASSES), *thr)
+    taut = mg.pull(*args, cut, *thr, PULL_PASSES)
+    taut = mg.shortcut(*args, mg.pull(*args, midpoints(taut), *thr, PULL_PASSES), *thr)
     for poly in (taut, cut):
         if _signature(prep, poly) == want:
             return poly
