@@ -6,7 +6,9 @@ the indirect (shooting) solution's."""
 
 from __future__ import annotations
 
+import gc
 import math
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -118,6 +120,16 @@ def test_the_nlp_is_built_once_per_map_and_reused(depot, problem):
     assert result.success and cached_map_transcription(depot, 0, 100, model="unicycle") is first
     other = ObstacleMap(depot.occupancy, radius=0.2)  # the same map, another object
     assert cached_map_transcription(other, 0, 100, model="unicycle") is not first
+
+
+def test_a_dropped_map_frees_its_nlps():
+    world = ObstacleMap(load_ros_map(MAPS / "tiny_yaw.yaml"))
+    transcription = cached_map_transcription(world, 0, 4, model="unicycle")
+    assert transcription.obstacle_map is world
+    probe = weakref.ref(world)
+    del world
+    gc.collect()
+    assert probe() is None and transcription.obstacle_map is None
 
 
 def test_the_cost_converges_to_the_indirect_solutions(problem):

@@ -235,7 +235,11 @@ class MapTranscription(DirectTranscription):
     ``obstacle_map`` (of its ``window`` only, if given: then the nodes are kept in the window's
     box). Built (and IPOPT set up) once; every :meth:`solve` takes new ends, horizon, weight,
     exponent and discs. The result's ``min_clearance`` is the least of the discs' and the map's
-    (against the blocked cells, along the exact arcs of the controls)."""
+    (against the blocked cells, along the exact arcs of the controls).
+
+    The transcription holds the map weakly (so that the cache, which holds transcriptions,
+    does not keep dropped maps alive): keep the map while solving, or the map's clearance is
+    left out of ``min_clearance``."""
 
     def __init__(
         self,
@@ -248,9 +252,14 @@ class MapTranscription(DirectTranscription):
     ) -> None:
         if not isinstance(obstacle_map, ObstacleMap):
             raise ScenarioError(f"map: expected an ObstacleMap, got {obstacle_map!r:.60}")
-        self.obstacle_map, self.window = obstacle_map, window
+        self._map, self.window = weakref.ref(obstacle_map), window
         self._field, self._spline = shared_spline(obstacle_map, window)
         super().__init__(n_obstacles, intervals, **kw)
+
+    @property
+    def obstacle_map(self) -> ObstacleMap | None:
+        """The map (None once it has been dropped)."""
+        return self._map()
 
     def _rhs(self, ca, x, u, weight, exponent, obstacles):
         xdot, cost = super()._rhs(ca, x, u, weight, exponent, obstacles)
@@ -275,11 +284,10 @@ class MapTranscription(DirectTranscription):
         unicycle = result.controls
         if self.model == "diff-drive":
             unicycle = wheel_to_unicycle(unicycle, self.wheel_radius, self.axle_length)
-        points = arc_points(result.states, unicycle, case.horizon)
-        result = replace(
-            result,
-            min_clearance=min(result.min_clearance, self.obstacle_map.path_clearance(points)),
-        )
+        world = self.obstacle_map
+        if world is not None:
+            clear = world.path_clearance(arc_points(result.states, unicycle, case.horizon))
+            result = replace(result, min_clearance=min(result.min_clearance, clear))
         if self.window is not None and _touches(result.states, self.window.box):
             result = replace(
                 result,
