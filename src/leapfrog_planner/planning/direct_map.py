@@ -23,7 +23,8 @@ How it is built in CasADi:
   instead. A clamp has a kink, but not where it is used: the field is padded beyond the map
   with the map's outside policy, so on the outer six rows and columns of nodes (all that the
   spline reads near the clamp) either ``u <= 0`` (outside blocked: ``P = W`` exactly, flat) or
-  ``u >= far_u()`` (outside free: ``P < e^-60 W``). :func:`map_spline` checks this when it builds.
+  ``u >= far_u()`` (outside free: ``P < e^-60 W``). :func:`shared_spline` checks this
+  (:func:`flat_edges`) before it builds.
 * ``max(u, 0)`` is ``fmax`` and the power ``constpow`` (no ``log`` of the base in its
   derivative, so no NaN where ``u <= 0``). The reference also returns exactly 0 where
   ``u^(2n) > 60 + log W``; here that tail (below ``e^-60 W``) is kept: smooth, and far below any
@@ -57,6 +58,7 @@ from .direct import (
     _casadi,
     _Case,
     _distinct,
+    _guess,
     _horizon,
     _model,
     _obstacles,
@@ -443,15 +445,15 @@ def solve_direct_map(
     (``substeps``, ``tol``, ``max_iter``, ``slot``) go to :func:`cached_map_transcription`.
 
     ``crop=None`` builds the NLP on the whole map, once per map object: about 1 s for a
-    600 x 300 map, but 17 s and 1 GB for 2000 x 2000 (the B-spline's derivatives). With
+    600 x 300 map, but 17 s and 0.4 GB for 2000 x 2000 (the B-spline's derivatives). With
     ``crop`` (metres) the spline holds only the part of the map around the bounding box of
     start, goal and guesses grown by ``crop``, the path's nodes are kept in that box, and a
     result whose path touches it fails with status ``crop_too_small``; later queries reuse a
-    crop that holds them.
+    cached crop that holds their box grown by ``crop / 2`` (``crop`` is a least margin).
     """
     world, case, options = _task(task, start, goal, horizon, control_bounds)
     kw = {**options, **kw}
-    user = [np.asarray(g, dtype=float) for g in (guesses or ())]
+    user = [_guess(g, "guesses", (intervals + 1, 3)) for g in (guesses or ())]
     if crop is not None:
         points = [case.start[None], case.goal[None], *(g[:, :2] for g in user)]
         if multistart:
