@@ -23,6 +23,7 @@ from ..bvp.shooting import ShootingSettings, solve_shooting
 from ..compiled.kernels import model_info
 from ..errors import LeapfrogError, SettingsError, require_integer
 from ..planning.direct import solve_direct
+from ..planning.direct_map import solve_direct_map
 from ..planning.planner import Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate
 from ..planning.runs import END_STATE_TOLERANCE
@@ -269,17 +270,20 @@ def _run_shooting(sc: Scenario, options: dict) -> dict:
 
 def _run_direct(sc: Scenario, options: dict) -> dict:
     t = time.perf_counter()
-    if sc.map is not None:  # its transcription knows discs only: it would ignore the map
-        return {"status": "failed", "failure": "unsupported", "cost": None,
-                "message": "the direct method does not take maps yet", "min_clearance": None,
-                "end_state_error": None, "newton_iterations": 0, "f_evals": None, "sweeps": None,
-                "final_solver": None, "wall_time_s": time.perf_counter() - t}  # fmt: skip
     paths = max(3, int(options.get("initial_paths", 1)))
     planner = Planner(sc, **{**options, "initial_paths": paths})
     s = np.linspace(0.0, 1.0, DIRECT_INTERVALS + 1)
     guesses = [np.column_stack(path.curve(s)) for path in planner.initial_paths()]
     bounds = tuple(sc.control_bounds.get(c) for c in model_info(sc.model).controls)
-    r = solve_direct(
+    if sc.map is not None:  # the same penalty, the map's field included
+        r = solve_direct_map(sc, intervals=DIRECT_INTERVALS, guesses=guesses)
+    else:
+        r = _solve_direct(sc, guesses, bounds)
+    return _direct_record(sc, r, t)
+
+
+def _solve_direct(sc: Scenario, guesses, bounds):
+    return solve_direct(
         sc.start,
         sc.goal,
         sc.horizon,
@@ -292,6 +296,9 @@ def _run_direct(sc: Scenario, options: dict) -> dict:
         control_bounds=bounds if any(bounds) else None,
         **sc.model_parameters,
     )
+
+
+def _direct_record(sc: Scenario, r, t: float) -> dict:
     clear = r.min_clearance >= sc.margin
     ok = r.success and math.isfinite(r.cost) and clear
     message = r.message if clear else f"{r.message}; the path collides ({r.min_clearance:.3g})"
@@ -300,7 +307,7 @@ def _run_direct(sc: Scenario, options: dict) -> dict:
         "failure": "collides" if r.success and not clear else None,
         "message": message,
         "cost": _num(r.cost) if r.success else None,
-        "min_clearance": _num(r.min_clearance) if sc.obstacles.size else None,
+        "min_clearance": _num(r.min_clearance) if sc.obstacles.size or sc.map else None,
         "end_state_error": _num(r.end_state_error),
         "newton_iterations": int(r.iterations),
         "f_evals": None,
