@@ -1,0 +1,458 @@
+"""OMPL as a benchmark peer on occupancy-grid maps: sampling-based planners for a car that turns
+no tighter than a given radius, on the same maps and the same exact clearance as Leapfrog.
+
+OMPL (the Open Motion Planning Library, ``pip install ompl``) is what a robotics user would
+otherwise pick. It is optional: the package works without it, and :func:`ompl_available` says
+whether it is there. Nothing here imports it before a plan is asked for.
+
+- :class:`OmplSettings`: which planner (RRT*, BIT*, ...), which space (Reeds-Shepp: forward and
+  reverse; Dubins: forward only), the turning radius, the time limit, the seed, the resolution of
+  the collision checks and of the returned path.
+- :func:`ompl_plan`: one query on a :class:`~leapfrog_planner.world.MapClearance`; the answer is
+  an :class:`OmplPath`, densely sampled along the path OMPL found.
+- :func:`timed`: that path driven at constant speed over a horizon, to be scored like ours.
+- :func:`random_queries`, :func:`benchmark`, :func:`summarize`, :func:`main`: the measurement
+  (``python -m leapfrog_planner.experiments.ompl_peer MAP.yaml ...``).
+
+The problem OMPL is given. The state space is SE(2) with Reeds-Shepp or Dubins curves of the
+turning radius, bounded by the map's extent. A state is valid when the robot's disc footprint
+(``radius``) keeps ``margin`` beyond it: ``clear.clearance(x, y, radius) >= margin``, the exact
+clearance of the map. Motions are checked along their Reeds-Shepp (Dubins) curve at states at most
+``resolution`` apart in arclength. The objective is the path length. The default ``margin`` is
+``resolution / 2``: the distance to the blocked cells changes by at most 1 m per metre travelled,
+so a curve whose checked states keep that margin keeps a clearance >= 0 everywhere between them,
+not only at the checked states. (``margin=0`` is the bare rule ``clearance >= 0`` at the checked
+states, which lets the path graze a corner by up to ``resolution / 2`` between them.)
+
+The state check is fast without being approximate: the distance from each cell's centre to the
+blocked cells is computed once per map (cached while the ``MapClearance`` lives), and a point
+lies within half a cell diagonal of its cell's centre, so that distance settles the answer for
+every point but those within that band of the threshold, which are asked of the exact clearance.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import time
+import weakref
+from collections.abc import Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from .. import checks
+from ..errors import ScenarioError, SettingsError, describe, require_integer
+from ..world.clearance import HALF_DIAGONAL, MapClearance
+
+__all__ = [
+    "PLANNERS",
+    "SPACES",
+    "OmplPath",
+    "OmplSettings",
+    "benchmark",
+    "main",
+    "ompl_available",
+    "ompl_plan",
+    "random_queries",
+    "summarize",
+    "timed",
+]
+
+#: Planners by name (the classes of ``ompl.geometric``). The first four improve their path until
+#: the time limit; RRT and RRTConnect stop at their first path.
+PLANNERS = ("RRTstar", "InformedRRTstar", "BITstar", "AORRTC", "RRTConnect", "RRT")
+SPACES = ("reeds_shepp", "dubins")
+TIME_LIMIT_MAX = 3600.0  # seconds
+SLACK = 1e-9  # metres kept against rounding where the cell-centre bound decides a state
+OMPL_MISSING = "OMPL is not installed: pip install 'leapfrog-planner[ompl]'"
+
+
+def ompl_available() -> bool:
+    """Whether OMPL's Python bindings (the ``ompl`` package of PyPI) can be imported."""
+    try:
+        import ompl.base  # noqa: F401
+        import ompl.geometric  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _real(value, key: str, low: float, high: float) -> float:
+    x = checks.real(value, key, error=SettingsError)
+    return checks.in_range(x, key, low, high, error=SettingsError)
+
+
+@dataclass(frozen=True)
+class OmplSettings:
+    """How :func:`ompl_plan` runs OMPL. Construction checks every field (a
+    :class:`~leapfrog_planner.errors.SettingsError` with one line); :meth:`from_mapping` also
+    refuses unknown keys.
+
+    ``planner``: one of :data:`PLANNERS`. ``space``: ``"reeds_shepp"`` (forward and reverse) or
+    ``"dubins"`` (forward only). ``turning_radius`` (m): the tightest turn. ``time_limit`` (s):
+    the planner's time (the optimising planners use all of it). ``seed``: OMPL's random seed (see
+    :func:`ompl_plan` on determinism). ``resolution`` (m): the largest arclength between two
+    states checked along a motion. ``margin`` (m): the clearance each checked state must keep,
+    ``None`` for ``resolution / 2`` (module docstring). ``step`` (m): the largest arclength between
+    two poses of the returned path. ``simplify``: let OMPL shorten the path it found (shortcuts,
+    fewer states), checked again after."""
+
+    planner: str = "RRTstar"
+    space: str = "reeds_shepp"
+    turning_radius: float = 0.3
+    time_limit: float = 1.0
+    seed: int = 0
+    resolution: float = 0.01
+    margin: float | None = None
+    step: float = 0.02
+    simplify: bool = True
+
+    def __post_init__(self):
+        for key, known in (("planner", PLANNERS), ("space", SPACES)):
+            value = getattr(self, key)
+            if value not in known:
+                raise SettingsError(f"{key}: unknown {describe(value)} (known: {', '.join(known)})")
+        put = object.__setattr__
+        put(self, "turning_radius", _real(self.turning_radius, "turning_radius", 1e-3, 1e3))
+        put(self, "time_limit", _real(self.time_limit, "time_limit", 1e-3, TIME_LIMIT_MAX))
+        put(self, "seed", require_integer("seed", self.seed, 0, 2**31 - 2))
+        put(self, "resolution", _real(self.resolution, "resolution", 1e-4, 1.0))
+        if self.margin is not None:
+            put(self, "margin", _real(self.margin, "margin", 0.0, 10.0))
+        put(self, "step", _real(self.step, "step", 1e-3, 1.0))
+        if not isinstance(self.simplify, bool):
+            raise SettingsError(f"simplify: expected a boolean, got {describe(self.simplify)}")
+
+    @classmethod
+    def from_mapping(cls, options: dict) -> OmplSettings:
+        """Settings from a dict (a TOML table, command-line options): unknown keys are refused."""
+        known = [f.name for f in fields(cls)]
+        unknown = sorted(set(options) - set(known), key=str)
+        if unknown:
+            raise SettingsError(f"unknown option {unknown[0]!r} (known: {', '.join(known)})")
+        return cls(**options)
+
+    @property
+    def clearance_margin(self) -> float:
+        """The margin in force: ``margin``, or ``resolution / 2`` when it is ``None``."""
+        return self.resolution / 2 if self.margin is None else self.margin
+
+
+@dataclass(frozen=True, eq=False)
+class OmplPath:
+    """What :func:`ompl_plan` found.
+
+    ``solved``: OMPL found an exact solution (a path that ends at the goal pose) and the returned
+    poses keep a clearance >= 0 at ``radius``. ``poses``: ``(N, 3)`` ``x, y, theta`` along the
+    path, at most ``step`` apart in arclength, the first the start and the last the goal (empty
+    when not solved). ``arclength``: the distance travelled to each pose (``N``).
+    ``direction``: +1 forward, -1 reverse, for each of the ``N - 1`` pieces between two poses.
+    ``length``: the path length (m; ``nan`` when not solved). ``plan_time``: seconds of OMPL's
+    work (setup, solve, simplification). ``first_time``: seconds until the first exact solution
+    (``nan`` if none). ``max_curvature``: the largest ``|dtheta/ds|`` between two poses (1/m).
+    ``cusps``: the changes of direction (Reeds-Shepp). ``min_clearance``: the least
+    ``clear.clearance`` of the poses at ``radius`` (m). ``status``: OMPL's word (``Exact
+    solution``, ``Approximate solution``, ``Invalid start``, ...). ``message``: one line."""
+
+    solved: bool
+    poses: np.ndarray
+    arclength: np.ndarray
+    direction: np.ndarray
+    length: float
+    plan_time: float
+    first_time: float
+    max_curvature: float
+    cusps: int
+    min_clearance: float
+    status: str
+    message: str
+    settings: OmplSettings = field(repr=False)
+
+
+def _failure(settings: OmplSettings, status: str, message: str, plan_time=0.0) -> OmplPath:
+    empty = np.empty((0, 3))
+    return OmplPath(
+        False, empty, np.empty(0), np.empty(0, np.int8), math.nan, plan_time, math.nan, math.nan,
+        0, math.nan, status, message, settings,
+    )  # fmt: skip
+
+
+# --------------------------------------------------------------------------- the state check
+
+_CENTRES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _centre_distances(clear: MapClearance) -> np.ndarray:
+    """The exact distance (m) from each cell's centre to the blocked cells, row 0 at the bottom
+    (computed once per ``MapClearance``, read-only)."""
+    got = _CENTRES.get(clear)
+    if got is None:
+        rows, cols = clear.occupancy.shape
+        v, u = np.mgrid[0:rows, 0:cols] + 0.5
+        got = clear.grid_distance(u, v).reshape(rows, cols) * clear.occupancy.resolution
+        got.setflags(write=False)
+        _CENTRES[clear] = got
+    return got
+
+
+class _StateCheck:
+    """OMPL's state validity checker: ``clear.clearance(x, y, radius) >= margin`` (a callable of
+    an SE2 state). A byte per cell says whether the cell-centre bound settles its points (1: all
+    valid, 0: all invalid, 2: ask the exact clearance); off the map the exact clearance is asked."""
+
+    def __init__(self, clear: MapClearance, radius: float, margin: float):
+        occ = clear.occupancy
+        self.clear, self.radius, self.margin = clear, radius, margin
+        centre = _centre_distances(clear)
+        need, half = radius + margin, HALF_DIAGONAL * occ.resolution + SLACK
+        verdict = np.full(centre.shape, 2, np.uint8)
+        verdict[centre - half >= need] = 1
+        verdict[centre + half < need] = 0
+        self.verdict = verdict.tobytes()
+        self.rows, self.cols = occ.shape
+        x0, y0, yaw = occ.origin
+        self.x0, self.y0, self.res = x0, y0, occ.resolution
+        self.cos, self.sin = math.cos(yaw), math.sin(yaw)
+        self.exact_calls = 0
+
+    def exact(self, x: float, y: float) -> bool:
+        self.exact_calls += 1
+        return bool(self.clear.clearance(x, y, self.radius) >= self.margin)
+
+    def __call__(self, state) -> bool:
+        x, y = state.getX(), state.getY()
+        dx, dy = x - self.x0, y - self.y0
+        u = (self.cos * dx + self.sin * dy) / self.res
+        v = (self.cos * dy - self.sin * dx) / self.res
+        if 0.0 <= u < self.cols and 0.0 <= v < self.rows:
+            verdict = self.verdict[int(v) * self.cols + int(u)]
+            if verdict != 2:
+                return verdict == 1
+        return self.exact(x, y)
+
+
+# --------------------------------------------------------------------------- planning
+
+
+@contextmanager
+def _quiet():
+    """OMPL's log off (it prints at INFO and DEBUG by default), its level restored after."""
+    from ompl import util as ou
+
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    try:
+        yield
+    finally:
+        ou.setLogLevel(level)
+
+
+def _setup(clear: MapClearance, check: _StateCheck, settings: OmplSettings):
+    """OMPL's ``SimpleSetup``: the space, its bounds, the checks, the objective, the planner."""
+    from ompl import base as ob
+    from ompl import geometric as og
+
+    rs = settings.space == "reeds_shepp"
+    space = (ob.ReedsSheppStateSpace if rs else ob.DubinsStateSpace)(settings.turning_radius)
+    bounds = ob.RealVectorBounds(2)
+    xmin, xmax, ymin, ymax = clear.occupancy.extent
+    bounds.setLow(0, xmin)
+    bounds.setHigh(0, xmax)
+    bounds.setLow(1, ymin)
+    bounds.setHigh(1, ymax)
+    space.setBounds(bounds)
+    ss = og.SimpleSetup(space)
+    ss.setStateValidityChecker(check)
+    si = ss.getSpaceInformation()
+    motions = ob.ReedsSheppMotionValidator if rs else ob.DubinsMotionValidator
+    si.setMotionValidator(motions(si))
+    # A fraction of the space's extent: states along a motion at most `resolution` apart.
+    si.setStateValidityCheckingResolution(settings.resolution / space.getMaximumExtent())
+    ss.setOptimizationObjective(ob.PathLengthOptimizationObjective(si))
+    ss.setPlanner(getattr(og, settings.planner)(si))
+    return ss, space
+
+
+def _solution_seen(ss):
+    """A function that says whether the planner holds an exact solution yet: its best cost is
+    finite (RRT*, BIT*, AORRTC: they publish their path only at the end), or the problem has one.
+    PRM* says neither before it stops."""
+    planner, pdef = ss.getPlanner(), ss.getProblemDefinition()
+    if hasattr(planner, "bestCost"):
+        return lambda: math.isfinite(planner.bestCost().value())
+    return pdef.hasExactSolution
+
+
+def _state(space, pose):
+    s = space.allocState()
+    s.setX(float(pose[0]))
+    s.setY(float(pose[1]))
+    s.setYaw(float(pose[2]))
+    return s
+
+
+def _pose(value, key: str) -> np.ndarray:
+    pose = checks.vector(value, 3, key, " [x, y, theta]")
+    checks.magnitude(pose[:2], key, checks.COORDINATE_MAX)
+    if not abs(pose[2]) <= checks.HEADING_MAX:
+        raise ScenarioError(f"{key}[2]: must be at most {checks.HEADING_MAX:g} in size")
+    return pose
+
+
+def _check_ends(clear, check, start, goal, radius, settings) -> OmplPath | None:
+    """A failure when the start or the goal lies off the map's box or is not a valid state."""
+    xmin, xmax, ymin, ymax = clear.occupancy.extent
+    for key, pose in (("start", start), ("goal", goal)):
+        if not (xmin <= pose[0] <= xmax and ymin <= pose[1] <= ymax):
+            return _failure(settings, f"Invalid {key}", f"{key}: off the map's extent")
+        if not check.exact(pose[0], pose[1]):
+            c = float(clear.clearance(pose[0], pose[1], radius))
+            need = settings.clearance_margin
+            msg = f"{key}: clearance {c:.4g} m at radius {radius:g} m, below the margin {need:g} m"
+            return _failure(settings, f"Invalid {key}", msg)
+    return None
+
+
+def ompl_plan(
+    clear: MapClearance, start, goal, radius: float, settings: OmplSettings | None = None
+) -> OmplPath:
+    """Plan from ``start`` to ``goal`` (poses ``x, y, theta``) for a disc robot of ``radius`` (m)
+    with OMPL (module docstring: the space, the checks, the objective), within
+    ``settings.time_limit``; the path is simplified if ``settings.simplify``, checked again, and
+    sampled every ``settings.step`` metres or closer.
+
+    Never raises for a query OMPL cannot solve: ``solved`` is False and ``status``/``message``
+    say why (a start or goal in collision or off the map, no exact solution in time). Bad
+    arguments raise :class:`~leapfrog_planner.errors.ScenarioError` or ``SettingsError``, and a
+    missing OMPL raises ``ImportError``.
+
+    Determinism: OMPL's global seed is set to ``settings.seed + 1`` before every plan, so the
+    random draws repeat from one plan to the next; but a time-limited planner runs as many
+    iterations as fit in the time, so its answer depends on the machine's speed and load. Only
+    planners that stop at their first path (RRTConnect, RRT) repeat their answer exactly.
+    """
+    if not ompl_available():
+        raise ImportError(OMPL_MISSING)
+    from ompl import base as ob
+    from ompl import util as ou
+
+    settings = OmplSettings() if settings is None else settings
+    if not isinstance(clear, MapClearance):
+        raise ScenarioError(f"clear: expected a MapClearance, got {describe(clear)}")
+    start, goal = _pose(start, "start"), _pose(goal, "goal")
+    radius = checks.real(radius, "radius", ge=0)
+    check = _StateCheck(clear, radius, settings.clearance_margin)
+    failed = _check_ends(clear, check, start, goal, radius, settings)
+    if failed is not None:
+        return failed
+    with _quiet():
+        t0 = time.perf_counter()
+        ou.RNG.setSeed(settings.seed + 1)
+        ss, space = _setup(clear, check, settings)
+        ends = [_state(space, start), _state(space, goal)]  # alive while OMPL works
+        ss.setStartAndGoalStates(*ends)
+        first = []  # the time of the first exact solution
+        found = _solution_seen(ss)
+
+        def stop() -> bool:  # asked by the planner at every iteration
+            now = time.perf_counter() - t0
+            if not first and found():
+                first.append(now)
+            return now >= settings.time_limit
+
+        status = ss.solve(ob.PlannerTerminationCondition(stop)).asString()
+        exact = bool(ss.haveExactSolutionPath())
+        if exact and not first and settings.planner in ("RRTConnect", "RRT"):
+            first.append(time.perf_counter() - t0)  # they stop at their first solution
+        first.append(math.nan)
+        if exact and settings.simplify:
+            ss.simplifySolution()
+        path = ss.getSolutionPath() if exact else None
+        valid = path is not None and bool(path.check())
+        plan_time = time.perf_counter() - t0
+        if not exact:
+            return _failure(settings, status, f"no exact solution in {plan_time:.3g} s", plan_time)
+        poses, ds = _densify(space, path.getStates(), settings.step)
+    return _finish(clear, radius, settings, poses, ds, valid, plan_time, first[0], status)
+
+
+def _densify(space, states, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Poses along the curves between OMPL's ``states``, at most ``step`` apart, and the
+    arclength of each piece between two poses (the curves are parametrised by arclength)."""
+    out = [(states[0].getX(), states[0].getY(), states[0].getYaw())]
+    ds: list[float] = []
+    tmp = space.allocState()
+    for a, b in zip(states[:-1], states[1:], strict=True):
+        length = space.distance(a, b)
+        n = max(1, math.ceil(length / step))
+        for k in range(1, n + 1):
+            space.interpolate(a, b, k / n, tmp)
+            out.append((tmp.getX(), tmp.getY(), tmp.getYaw()))
+        ds += [length / n] * n
+    return np.array(out), np.array(ds)
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def _directions(poses: np.ndarray, ds: np.ndarray) -> np.ndarray:
+    """+1 or -1 per piece between two poses: the sign of the displacement along the mean
+    heading. A piece that holds a cusp moves little (its two parts cancel): below half its
+    arclength it takes the direction of the piece before (after, at the start). A reverse part
+    shorter than about a step may go unseen."""
+    d = np.diff(poses[:, :2], axis=0)
+    mid = poses[:-1, 2] + _wrap(np.diff(poses[:, 2])) / 2
+    along = d[:, 0] * np.cos(mid) + d[:, 1] * np.sin(mid)
+    sign = np.where(along >= 0, 1, -1).astype(np.int8)
+    clear_cut = np.abs(along) >= 0.5 * ds
+    if not clear_cut.any():
+        return sign
+    idx = np.where(clear_cut, np.arange(sign.size), -1)
+    idx = np.maximum.accumulate(idx)  # the last clear-cut piece at or before each piece
+    idx[idx < 0] = np.flatnonzero(clear_cut)[0]
+    return sign[idx]
+
+
+def _finish(clear, radius, settings, poses, ds, valid, plan_time, first, status) -> OmplPath:
+    """The :class:`OmplPath` of a densified exact solution, checked again against the map."""
+    arclength = np.concatenate([[0.0], np.cumsum(ds)])
+    direction = _directions(poses, ds)
+    curvature = np.abs(_wrap(np.diff(poses[:, 2]))) / np.maximum(ds, 1e-300)
+    min_clear = float(clear.clearance(poses[:, 0], poses[:, 1], radius).min())
+    cusps = int(np.count_nonzero(direction[1:] != direction[:-1]))
+    solved = valid and min_clear >= 0.0
+    if solved:
+        message = f"{settings.planner}: length {arclength[-1]:.4g} m, {cusps} cusps"
+    elif not valid:
+        message = "OMPL's check of the (simplified) path failed"
+    else:
+        message = f"the densified path's clearance is {min_clear:.3g} m at radius {radius:g} m"
+    for a in (poses, arclength, direction):
+        a.setflags(write=False)
+    return OmplPath(
+        solved, poses, arclength, direction, float(arclength[-1]), plan_time, first,
+        float(curvature.max()) if curvature.size else 0.0, cusps, min_clear, status, message,
+        settings,
+    )  # fmt: skip
+
+
+def timed(path: OmplPath, horizon: float):
+    """``path`` driven at constant speed ``length / horizon`` along its arclength, forward or in
+    reverse as the path goes: ``(t, poses, v, omega)``, ``t`` from 0 to ``horizon`` (``N``),
+    ``poses`` the path's (``N x 3``), and the speed ``v`` (negative in reverse) and turn rate
+    ``omega`` that hold from ``t[k]`` to ``t[k + 1]`` (``N``; the last repeats the one before),
+    so that the unicycle ``x' = v cos(theta), y' = v sin(theta), theta' = omega`` follows it."""
+    horizon = checks.real(horizon, "horizon", gt=0)
+    if not path.solved or path.poses.shape[0] < 2:
+        raise ScenarioError("path: not solved, nothing to time")
+    speed = path.length / horizon
+    t = path.arclength * (horizon / path.length)
+    t[-1] = horizon
+    dt = np.diff(t)
+    v = speed * path.direction.astype(float)
+    omega = _wrap(np.diff(path.poses[:, 2])) / np.where(dt > 0, dt, np.inf)
+    return t, path.poses.copy(), np.append(v, v[-1]), np.append(omega, omega[-1])
