@@ -143,40 +143,31 @@ class OmplSettings:
 
 @dataclass(frozen=True, eq=False)
 class OmplPath:
-    """What :func:`ompl_plan` found.
+    """What :func:`ompl_plan` found. The arrays are read-only and empty when not solved; the
+    poses are at most ``settings.step`` apart in arclength, the first the start, the last the
+    goal. ``plan_time`` may pass the time limit by ``simplify_time``."""
 
-    ``solved``: OMPL found an exact solution (a path that ends at the goal pose) and the returned
-    poses keep a clearance >= 0 at ``radius``. ``poses``: ``(N, 3)`` ``x, y, theta`` along the
-    path, at most ``step`` apart in arclength, the first the start and the last the goal (empty
-    when not solved). ``arclength``: the distance travelled to each pose (``N``).
-    ``direction``: +1 forward, -1 reverse, for each of the ``N - 1`` pieces between two poses.
-    ``length``: the path length (m; ``nan`` when not solved). ``plan_time``: seconds of OMPL's
-    work (setup, solve, simplification). ``first_time``: seconds until the first exact solution
-    (``nan`` if none). ``max_curvature``: the largest ``|dtheta/ds|`` between two poses (1/m).
-    ``cusps``: the changes of direction (Reeds-Shepp). ``min_clearance``: the least
-    ``clear.clearance`` of the poses at ``radius`` (m). ``status``: OMPL's word (``Exact
-    solution``, ``Approximate solution``, ``Invalid start``, ...). ``message``: one line."""
-
-    solved: bool
-    poses: np.ndarray
-    arclength: np.ndarray
-    direction: np.ndarray
-    length: float
-    plan_time: float
-    first_time: float
-    max_curvature: float
-    cusps: int
-    min_clearance: float
-    status: str
-    message: str
+    solved: bool  # an exact solution (it ends at the goal) whose poses all keep clearance >= 0
+    poses: np.ndarray  # (N, 3): x, y, theta along the path
+    arclength: np.ndarray  # (N,): the distance travelled to each pose (m)
+    direction: np.ndarray  # (N - 1,): +1 forward, -1 reverse, per piece between two poses
+    length: float  # m (nan when not solved)
+    plan_time: float  # s of OMPL's work: setup, solve, simplification
+    first_time: float  # s to the first exact solution (nan: none)
+    simplify_time: float  # s spent simplifying
+    max_curvature: float  # 1/m, the largest |dtheta/ds| between two poses
+    cusps: int  # changes of direction (Reeds-Shepp)
+    min_clearance: float  # m, the least clear.clearance of the poses at the robot's radius
+    status: str  # OMPL's word: "Exact solution", "Approximate solution", "Invalid start", ...
+    message: str  # one line
     settings: OmplSettings = field(repr=False)
 
 
 def _failure(settings: OmplSettings, status: str, message: str, plan_time=0.0) -> OmplPath:
     empty = np.empty((0, 3))
     return OmplPath(
-        False, empty, np.empty(0), np.empty(0, np.int8), math.nan, plan_time, math.nan, math.nan,
-        0, math.nan, status, message, settings,
+        False, empty, np.empty(0), np.empty(0, np.int8), math.nan, plan_time, math.nan, 0.0,
+        math.nan, 0, math.nan, status, message, settings,
     )  # fmt: skip
 
 
@@ -278,8 +269,8 @@ def _setup(clear: MapClearance, check: _StateCheck, settings: OmplSettings):
 
 def _solution_seen(ss):
     """A function that says whether the planner holds an exact solution yet: its best cost is
-    finite (RRT*, BIT*, AORRTC: they publish their path only at the end), or the problem has one.
-    PRM* says neither before it stops."""
+    finite (RRT*, BIT*, AORRTC: they publish their path only at the end), or the problem has one
+    (RRT, RRTConnect: they stop there)."""
     planner, pdef = ss.getPlanner(), ss.getProblemDefinition()
     if hasattr(planner, "bestCost"):
         return lambda: math.isfinite(planner.bestCost().value())
@@ -368,15 +359,18 @@ def ompl_plan(
         if exact and not first and settings.planner in ("RRTConnect", "RRT"):
             first.append(time.perf_counter() - t0)  # they stop at their first solution
         first.append(math.nan)
+        t1 = time.perf_counter()
         if exact and settings.simplify:
-            ss.simplifySolution()
+            ss.simplifySolution()  # to the end (no time limit): repeatable
+        simplify_time = time.perf_counter() - t1
         path = ss.getSolutionPath() if exact else None
         valid = path is not None and bool(path.check())
         plan_time = time.perf_counter() - t0
         if not exact:
             return _failure(settings, status, f"no exact solution in {plan_time:.3g} s", plan_time)
         poses, ds = _densify(space, path.getStates(), settings.step)
-    return _finish(clear, radius, settings, poses, ds, valid, plan_time, first[0], status)
+    times = (plan_time, first[0], simplify_time)
+    return _finish(clear, radius, settings, poses, ds, valid, times, status)
 
 
 def _densify(space, states, step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -417,7 +411,7 @@ def _directions(poses: np.ndarray, ds: np.ndarray) -> np.ndarray:
     return sign[idx]
 
 
-def _finish(clear, radius, settings, poses, ds, valid, plan_time, first, status) -> OmplPath:
+def _finish(clear, radius, settings, poses, ds, valid, times, status) -> OmplPath:
     """The :class:`OmplPath` of a densified exact solution, checked again against the map."""
     arclength = np.concatenate([[0.0], np.cumsum(ds)])
     direction = _directions(poses, ds)
@@ -434,7 +428,7 @@ def _finish(clear, radius, settings, poses, ds, valid, plan_time, first, status)
     for a in (poses, arclength, direction):
         a.setflags(write=False)
     return OmplPath(
-        solved, poses, arclength, direction, float(arclength[-1]), plan_time, first,
+        solved, poses, arclength, direction, float(arclength[-1]), *times,
         float(curvature.max()) if curvature.size else 0.0, cusps, min_clear, status, message,
         settings,
     )  # fmt: skip
@@ -456,3 +450,177 @@ def timed(path: OmplPath, horizon: float):
     v = speed * path.direction.astype(float)
     omega = _wrap(np.diff(path.poses[:, 2])) / np.where(dt > 0, dt, np.inf)
     return t, path.poses.copy(), np.append(v, v[-1]), np.append(omega, omega[-1])
+
+
+# --------------------------------------------------------------------------- the measurement
+
+
+def random_queries(
+    clear: MapClearance, n: int, seed: int, radius: float, clearance=0.3, min_distance=3.0
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``n`` seeded ``(start, goal)`` pose pairs on the map: each pose keeps ``clearance`` (m)
+    beyond the footprint ``radius``, start and goal lie ``min_distance`` (m) apart or more, in
+    one connected region of the cells whose centre keeps ``radius`` (a disc could drive between
+    them; the turning radius may still forbid it), headings uniform. Depends only on the map and
+    the arguments."""
+    from scipy import ndimage
+
+    n = require_integer("n", n, 0)
+    rng = np.random.default_rng(require_integer("seed", seed, 0))
+    occ = clear.occupancy
+    regions, _ = ndimage.label(_centre_distances(clear) >= radius)
+    xmin, xmax, ymin, ymax = occ.extent
+    pool = np.empty((0, 2))
+    for _ in range(100):  # points drawn in the map's box, kept where they are clear enough
+        pts = rng.uniform((xmin, ymin), (xmax, ymax), size=(4096, 2))
+        pool = np.vstack([pool, pts[clear.clearance(pts[:, 0], pts[:, 1], radius) >= clearance]])
+        if len(pool) >= 2000:
+            break
+    i, j = occ.cell_index(pool[:, 0], pool[:, 1])
+    region = regions[i, j]
+    out = []
+    for _ in range(100 * n + 100):
+        if len(out) == n or not len(pool):
+            break
+        a = rng.integers(len(pool))
+        far = np.hypot(*(pool - pool[a]).T) >= min_distance
+        ok = np.flatnonzero(far & (region == region[a]))
+        if ok.size:
+            b = ok[rng.integers(ok.size)]
+            heading = rng.uniform(-np.pi, np.pi, 2)
+            out.append((np.append(pool[a], heading[0]), np.append(pool[b], heading[1])))
+    if len(out) < n:
+        raise ScenarioError(f"{occ.name}: found only {len(out)} of {n} queries")
+    return out
+
+
+@dataclass(frozen=True)
+class OmplRun:
+    """One query of :func:`benchmark`: the map, the query's index, the planner, its time limit
+    and what :func:`ompl_plan` answered."""
+
+    map: str
+    query: int
+    planner: str
+    time_limit: float
+    solved: bool
+    length: float
+    plan_time: float
+    first_time: float
+    cusps: int
+    max_curvature: float
+    min_clearance: float
+    message: str
+
+
+def benchmark(
+    maps: Sequence[str],
+    planners: Sequence[str] = ("RRTstar", "BITstar"),
+    time_limits: Sequence[float] = (1.0, 5.0),
+    queries: int = 20,
+    seed: int = 0,
+    radius: float = 0.2,
+    progress=None,
+    **options,
+) -> list[OmplRun]:
+    """Every planner at every time limit on the same :func:`random_queries` (``queries`` per
+    map, ``seed``; a ROS map YAML path each) for a robot of ``radius``; ``options`` are further
+    :class:`OmplSettings` fields (``space``, ``turning_radius``, ...). OMPL's seed is ``seed +
+    k`` for query ``k``. ``progress(text)`` is called before each plan."""
+    from ..world import load_ros_map
+
+    runs = []
+    for path in maps:
+        clear = MapClearance(load_ros_map(path))
+        name = clear.occupancy.name
+        for k, (start, goal) in enumerate(random_queries(clear, queries, seed, radius)):
+            for planner in planners:
+                for limit in time_limits:
+                    s = OmplSettings.from_mapping(
+                        {**options, "planner": planner, "time_limit": limit, "seed": seed + k}
+                    )
+                    if progress is not None:
+                        progress(f"{name} query {k + 1}/{queries} {planner} {limit:g} s")
+                    p = ompl_plan(clear, start, goal, radius, s)
+                    runs.append(OmplRun(
+                        name, k, planner, s.time_limit, p.solved, p.length, p.plan_time,
+                        p.first_time, p.cusps, p.max_curvature, p.min_clearance, p.message,
+                    ))  # fmt: skip
+    return runs
+
+
+def summarize(runs: Sequence[OmplRun]) -> list[dict]:
+    """Per map, planner and time limit: queries, solved, success rate, the median length (m)
+    of the solved queries and of those every planner and limit solved on that map (``common``:
+    like for like), the median plan time and time to the first solution (s)."""
+
+    def median(values):
+        values = [v for v in values if math.isfinite(v)]
+        return statistics.median(values) if values else math.nan
+
+    keys = list(dict.fromkeys((r.map, r.planner, r.time_limit) for r in runs))
+    out = []
+    for m, planner, limit in keys:
+        on_map = [r for r in runs if r.map == m]
+        common = {r.query for r in on_map} - {r.query for r in on_map if not r.solved}
+        mine = [r for r in on_map if r.planner == planner and r.time_limit == limit]
+        solved = [r for r in mine if r.solved]
+        out.append({
+            "map": m, "planner": planner, "time_limit": limit, "queries": len(mine),
+            "solved": len(solved), "success": len(solved) / len(mine),
+            "median_length": median([r.length for r in solved]),
+            "median_length_common": median([r.length for r in solved if r.query in common]),
+            "common": len(common),
+            "median_time": median([r.plan_time for r in mine]),
+            "median_first_time": median([r.first_time for r in solved]),
+        })  # fmt: skip
+    return out
+
+
+def _table(rows: list[dict]) -> str:
+    head = "| map | planner | limit (s) | solved | median length (m) | median length, common " \
+        "(m) | median time (s) | median first solution (s) |"  # fmt: skip
+    lines = [head, "|" + " --- |" * 8]
+    for r in rows:
+        lines.append(
+            f"| {r['map']} | {r['planner']} | {r['time_limit']:g} | {r['solved']}/{r['queries']}"
+            f" | {r['median_length']:.3f} | {r['median_length_common']:.3f} (of {r['common']})"
+            f" | {r['median_time']:.3f} | {r['median_first_time']:.3f} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """The measurement from the command line: ``python -m
+    leapfrog_planner.experiments.ompl_peer MAP.yaml ... [--queries 20] [--csv FILE]``; prints
+    a Markdown table (progress on stderr)."""
+    import csv
+    import sys
+    from dataclasses import asdict
+
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("maps", nargs="+", help="ROS map YAML files")
+    ap.add_argument("--planners", default="RRTstar,BITstar")
+    ap.add_argument("--time-limits", default="1,5")
+    ap.add_argument("--queries", type=int, default=20)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--radius", type=float, default=0.2, help="the robot's disc (m)")
+    ap.add_argument("--space", default="reeds_shepp")
+    ap.add_argument("--turning-radius", type=float, default=0.3)
+    ap.add_argument("--csv", help="write every run to this file")
+    a = ap.parse_args(argv)
+    runs = benchmark(
+        a.maps, a.planners.split(","), [float(t) for t in a.time_limits.split(",")],
+        a.queries, a.seed, a.radius, lambda text: print(text, file=sys.stderr, flush=True),
+        space=a.space, turning_radius=a.turning_radius,
+    )  # fmt: skip
+    if a.csv:
+        with open(a.csv, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(asdict(runs[0])))
+            w.writeheader()
+            w.writerows(asdict(r) for r in runs)
+    print(_table(summarize(runs)))
+
+
+if __name__ == "__main__":
+    main()
