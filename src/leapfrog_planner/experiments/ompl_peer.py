@@ -248,12 +248,10 @@ def _setup(clear: MapClearance, check: _StateCheck, settings: OmplSettings):
 
     rs = settings.space == "reeds_shepp"
     space = (ob.ReedsSheppStateSpace if rs else ob.DubinsStateSpace)(settings.turning_radius)
-    bounds = ob.RealVectorBounds(2)
-    xmin, xmax, ymin, ymax = clear.occupancy.extent
-    bounds.setLow(0, xmin)
-    bounds.setHigh(0, xmax)
-    bounds.setLow(1, ymin)
-    bounds.setHigh(1, ymax)
+    bounds, extent = ob.RealVectorBounds(2), clear.occupancy.extent
+    for axis in (0, 1):
+        bounds.setLow(axis, extent[2 * axis])
+        bounds.setHigh(axis, extent[2 * axis + 1])
     space.setBounds(bounds)
     ss = og.SimpleSetup(space)
     ss.setStateValidityChecker(check)
@@ -327,7 +325,6 @@ def ompl_plan(
     """
     if not ompl_available():
         raise ImportError(OMPL_MISSING)
-    from ompl import base as ob
     from ompl import util as ou
 
     settings = OmplSettings() if settings is None else settings
@@ -345,20 +342,8 @@ def ompl_plan(
         ss, space = _setup(clear, check, settings)
         ends = [_state(space, start), _state(space, goal)]  # alive while OMPL works
         ss.setStartAndGoalStates(*ends)
-        first = []  # the time of the first exact solution
-        found = _solution_seen(ss)
-
-        def stop() -> bool:  # asked by the planner at every iteration
-            now = time.perf_counter() - t0
-            if not first and found():
-                first.append(now)
-            return now >= settings.time_limit
-
-        status = ss.solve(ob.PlannerTerminationCondition(stop)).asString()
+        status, first = _solve(ss, settings, t0)
         exact = bool(ss.haveExactSolutionPath())
-        if exact and not first and settings.planner in ("RRTConnect", "RRT"):
-            first.append(time.perf_counter() - t0)  # they stop at their first solution
-        first.append(math.nan)
         t1 = time.perf_counter()
         if exact and settings.simplify:
             ss.simplifySolution()  # to the end (no time limit): repeatable
@@ -369,8 +354,28 @@ def ompl_plan(
         if not exact:
             return _failure(settings, status, f"no exact solution in {plan_time:.3g} s", plan_time)
         poses, ds = _densify(space, path.getStates(), settings.step)
-    times = (plan_time, first[0], simplify_time)
+    times = (plan_time, first, simplify_time)
     return _finish(clear, radius, settings, poses, ds, valid, times, status)
+
+
+def _solve(ss, settings: OmplSettings, t0: float) -> tuple[str, float]:
+    """Run the planner until ``t0 + time_limit`` (or its own end): OMPL's status word, and the
+    time from ``t0`` to the first exact solution (``nan`` if none)."""
+    from ompl import base as ob
+
+    first = []
+    found = _solution_seen(ss)
+
+    def stop() -> bool:  # asked by the planner at every iteration
+        now = time.perf_counter() - t0
+        if not first and found():
+            first.append(now)
+        return now >= settings.time_limit
+
+    status = ss.solve(ob.PlannerTerminationCondition(stop)).asString()
+    if not first and ss.haveExactSolutionPath():  # RRT, RRTConnect: they stop at the first
+        first.append(time.perf_counter() - t0)
+    return status, first[0] if first else math.nan
 
 
 def _densify(space, states, step: float) -> tuple[np.ndarray, np.ndarray]:
