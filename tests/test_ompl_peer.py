@@ -76,6 +76,7 @@ def headings_close(a, b, tol=1e-6) -> bool:
         ({"step": 2.0}, "step"),
         ({"simplify": "yes"}, "simplify"),
         ({"plannr": "RRTstar"}, "plannr"),
+        ({"planner": "AORRTC", "space": "dubins"}, "AORRTC"),
     ],
 )
 def test_bad_settings_one_line(options, key):

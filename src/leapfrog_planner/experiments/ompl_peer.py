@@ -1,33 +1,28 @@
-"""OMPL as a benchmark peer on occupancy-grid maps: sampling-based planners for a car that turns
-no tighter than a given radius, on the same maps and the same exact clearance as Leapfrog.
+"""OMPL as a benchmark peer on occupancy-grid maps: sampling-based planners (RRT*, BIT*, ...)
+for a car that turns no tighter than a given radius, against the same exact map clearance as
+Leapfrog. OMPL (``pip install ompl``) is what a robotics user would otherwise pick; it is optional
+(:func:`ompl_available`) and imported only when a plan is asked for.
 
-OMPL (the Open Motion Planning Library, ``pip install ompl``) is what a robotics user would
-otherwise pick. It is optional: the package works without it, and :func:`ompl_available` says
-whether it is there. Nothing here imports it before a plan is asked for.
+- :class:`OmplSettings`: planner, space (Reeds-Shepp: forward and reverse; Dubins: forward),
+  turning radius, time limit, seed, resolution of the collision checks and of the path returned.
+- :func:`ompl_plan`: one query on a :class:`~leapfrog_planner.world.MapClearance`, answered by an
+  :class:`OmplPath` sampled densely along the path OMPL found; :func:`timed` drives that path at
+  constant speed over a horizon, to be scored like ours.
+- :func:`random_queries`, :func:`benchmark`, :func:`summarize`, :func:`main`: the measurement,
+  ``python -m leapfrog_planner.experiments.ompl_peer MAP.yaml ...``.
 
-- :class:`OmplSettings`: which planner (RRT*, BIT*, ...), which space (Reeds-Shepp: forward and
-  reverse; Dubins: forward only), the turning radius, the time limit, the seed, the resolution of
-  the collision checks and of the returned path.
-- :func:`ompl_plan`: one query on a :class:`~leapfrog_planner.world.MapClearance`; the answer is
-  an :class:`OmplPath`, densely sampled along the path OMPL found.
-- :func:`timed`: that path driven at constant speed over a horizon, to be scored like ours.
-- :func:`random_queries`, :func:`benchmark`, :func:`summarize`, :func:`main`: the measurement
-  (``python -m leapfrog_planner.experiments.ompl_peer MAP.yaml ...``).
+The problem OMPL is given: SE(2) with Reeds-Shepp or Dubins curves of the turning radius, bounded
+by the map's extent; a state is valid when ``clear.clearance(x, y, radius) >= margin`` (the disc
+footprint against the exact clearance); motions are checked along their curve at states at most
+``resolution`` apart in arclength; the objective is the path length. The default ``margin``,
+``resolution / 2``, makes the whole curve safe: the distance to the blocked cells changes by at
+most 1 m per metre travelled, so between two checked states the clearance stays >= 0
+(``margin=0`` is the bare rule at the checked states, which may graze a corner between them).
 
-The problem OMPL is given. The state space is SE(2) with Reeds-Shepp or Dubins curves of the
-turning radius, bounded by the map's extent. A state is valid when the robot's disc footprint
-(``radius``) keeps ``margin`` beyond it: ``clear.clearance(x, y, radius) >= margin``, the exact
-clearance of the map. Motions are checked along their Reeds-Shepp (Dubins) curve at states at most
-``resolution`` apart in arclength. The objective is the path length. The default ``margin`` is
-``resolution / 2``: the distance to the blocked cells changes by at most 1 m per metre travelled,
-so a curve whose checked states keep that margin keeps a clearance >= 0 everywhere between them,
-not only at the checked states. (``margin=0`` is the bare rule ``clearance >= 0`` at the checked
-states, which lets the path graze a corner by up to ``resolution / 2`` between them.)
-
-The state check is fast without being approximate: the distance from each cell's centre to the
-blocked cells is computed once per map (cached while the ``MapClearance`` lives), and a point
-lies within half a cell diagonal of its cell's centre, so that distance settles the answer for
-every point but those within that band of the threshold, which are asked of the exact clearance.
+The state check is exact and fast: each cell's centre distance to the blocked cells is computed
+once per map (cached while the ``MapClearance`` lives); a point lies within half a cell diagonal
+of its cell's centre, so that distance settles every point but those within that band of the
+threshold, which are asked of the exact clearance.
 """
 
 from __future__ import annotations
@@ -49,6 +44,7 @@ from ..world.clearance import HALF_DIAGONAL, MapClearance
 
 __all__ = [
     "PLANNERS",
+    "RUN_FIELDS",
     "SPACES",
     "OmplPath",
     "OmplSettings",
@@ -62,7 +58,9 @@ __all__ = [
 ]
 
 #: Planners by name (the classes of ``ompl.geometric``). The first four improve their path until
-#: the time limit; RRT and RRTConnect stop at their first path.
+#: the time limit; RRT and RRTConnect stop at their first path. Left out: PRM* (its roadmap
+#: thread waits for the Python state check while the solving thread holds the interpreter: it
+#: hangs); AORRTC on Dubins curves crashes OMPL 2.0.1 (a segmentation fault), so it is refused.
 PLANNERS = ("RRTstar", "InformedRRTstar", "BITstar", "AORRTC", "RRTConnect", "RRT")
 SPACES = ("reeds_shepp", "dubins")
 TIME_LIMIT_MAX = 3600.0  # seconds
@@ -115,6 +113,8 @@ class OmplSettings:
             value = getattr(self, key)
             if value not in known:
                 raise SettingsError(f"{key}: unknown {describe(value)} (known: {', '.join(known)})")
+        if self.planner == "AORRTC" and self.space == "dubins":  # OMPL 2.0.1 crashes on it
+            raise SettingsError("planner: AORRTC crashes OMPL 2.0.1 on Dubins curves")
         put = object.__setattr__
         put(self, "turning_radius", _real(self.turning_radius, "turning_radius", 1e-3, 1e3))
         put(self, "time_limit", _real(self.time_limit, "time_limit", 1e-3, TIME_LIMIT_MAX))
@@ -277,8 +277,7 @@ def _solution_seen(ss):
 
 def _state(space, pose):
     s = space.allocState()
-    s.setX(float(pose[0]))
-    s.setY(float(pose[1]))
+    s.setXY(float(pose[0]), float(pose[1]))
     s.setYaw(float(pose[2]))
     return s
 
@@ -477,12 +476,13 @@ def random_queries(
     xmin, xmax, ymin, ymax = occ.extent
     pool = np.empty((0, 2))
     for _ in range(100):  # points drawn in the map's box, kept where they are clear enough
-        pts = rng.uniform((xmin, ymin), (xmax, ymax), size=(4096, 2))
-        pool = np.vstack([pool, pts[clear.clearance(pts[:, 0], pts[:, 1], radius) >= clearance]])
+        x, y = rng.uniform((xmin, ymin), (xmax, ymax), size=(4096, 2)).T
+        keep = occ.contains(x, y) & (clear.clearance(x, y, radius) >= clearance)
+        pool = np.vstack([pool, np.column_stack([x, y])[keep]])
         if len(pool) >= 2000:
             break
     i, j = occ.cell_index(pool[:, 0], pool[:, 1])
-    region = regions[i, j]
+    region = regions[np.clip(i, 0, regions.shape[0] - 1), np.clip(j, 0, regions.shape[1] - 1)]
     out = []
     for _ in range(100 * n + 100):
         if len(out) == n or not len(pool):
@@ -499,23 +499,9 @@ def random_queries(
     return out
 
 
-@dataclass(frozen=True)
-class OmplRun:
-    """One query of :func:`benchmark`: the map, the query's index, the planner, its time limit
-    and what :func:`ompl_plan` answered."""
-
-    map: str
-    query: int
-    planner: str
-    time_limit: float
-    solved: bool
-    length: float
-    plan_time: float
-    first_time: float
-    cusps: int
-    max_curvature: float
-    min_clearance: float
-    message: str
+#: The fields of an :class:`OmplPath` that :func:`benchmark` keeps for each run.
+RUN_FIELDS = ("solved", "length", "plan_time", "first_time", "simplify_time", "cusps",
+              "max_curvature", "min_clearance", "message")  # fmt: skip
 
 
 def benchmark(
@@ -527,11 +513,12 @@ def benchmark(
     radius: float = 0.2,
     progress=None,
     **options,
-) -> list[OmplRun]:
+) -> list[dict]:
     """Every planner at every time limit on the same :func:`random_queries` (``queries`` per
     map, ``seed``; a ROS map YAML path each) for a robot of ``radius``; ``options`` are further
     :class:`OmplSettings` fields (``space``, ``turning_radius``, ...). OMPL's seed is ``seed +
-    k`` for query ``k``. ``progress(text)`` is called before each plan."""
+    k`` for query ``k``. ``progress(text)`` is called before each plan. A row per run: ``map``,
+    ``query`` (its index), ``planner``, ``time_limit`` and the :data:`RUN_FIELDS` of the path."""
     from ..world import load_ros_map
 
     runs = []
@@ -547,14 +534,12 @@ def benchmark(
                     if progress is not None:
                         progress(f"{name} query {k + 1}/{queries} {planner} {limit:g} s")
                     p = ompl_plan(clear, start, goal, radius, s)
-                    runs.append(OmplRun(
-                        name, k, planner, s.time_limit, p.solved, p.length, p.plan_time,
-                        p.first_time, p.cusps, p.max_curvature, p.min_clearance, p.message,
-                    ))  # fmt: skip
+                    row = {"map": name, "query": k, "planner": planner, "time_limit": limit}
+                    runs.append(row | {key: getattr(p, key) for key in RUN_FIELDS})
     return runs
 
 
-def summarize(runs: Sequence[OmplRun]) -> list[dict]:
+def summarize(runs: Sequence[dict]) -> list[dict]:
     """Per map, planner and time limit: queries, solved, success rate, the median length (m)
     of the solved queries and of those every planner and limit solved on that map (``common``:
     like for like), the median plan time and time to the first solution (s)."""
@@ -563,29 +548,31 @@ def summarize(runs: Sequence[OmplRun]) -> list[dict]:
         values = [v for v in values if math.isfinite(v)]
         return statistics.median(values) if values else math.nan
 
-    keys = list(dict.fromkeys((r.map, r.planner, r.time_limit) for r in runs))
+    keys = list(dict.fromkeys((r["map"], r["planner"], r["time_limit"]) for r in runs))
     out = []
     for m, planner, limit in keys:
-        on_map = [r for r in runs if r.map == m]
-        common = {r.query for r in on_map} - {r.query for r in on_map if not r.solved}
-        mine = [r for r in on_map if r.planner == planner and r.time_limit == limit]
-        solved = [r for r in mine if r.solved]
+        on_map = [r for r in runs if r["map"] == m]
+        common = {r["query"] for r in on_map} - {r["query"] for r in on_map if not r["solved"]}
+        mine = [r for r in on_map if (r["planner"], r["time_limit"]) == (planner, limit)]
+        solved = [r for r in mine if r["solved"]]
         out.append({
             "map": m, "planner": planner, "time_limit": limit, "queries": len(mine),
             "solved": len(solved), "success": len(solved) / len(mine),
-            "median_length": median([r.length for r in solved]),
-            "median_length_common": median([r.length for r in solved if r.query in common]),
+            "median_length": median([r["length"] for r in solved]),
+            "median_length_common": median([r["length"] for r in solved if r["query"] in common]),
             "common": len(common),
-            "median_time": median([r.plan_time for r in mine]),
-            "median_first_time": median([r.first_time for r in solved]),
+            "median_time": median([r["plan_time"] for r in mine]),
+            "median_first_time": median([r["first_time"] for r in solved]),
         })  # fmt: skip
     return out
 
 
 def _table(rows: list[dict]) -> str:
-    head = "| map | planner | limit (s) | solved | median length (m) | median length, common " \
-        "(m) | median time (s) | median first solution (s) |"  # fmt: skip
-    lines = [head, "|" + " --- |" * 8]
+    heads = (
+        "map|planner|limit (s)|solved|median length (m)|median length, common (m)"
+        "|median time (s)|median first solution (s)"
+    ).split("|")
+    lines = ["| " + " | ".join(heads) + " |", "|" + " --- |" * len(heads)]
     for r in rows:
         lines.append(
             f"| {r['map']} | {r['planner']} | {r['time_limit']:g} | {r['solved']}/{r['queries']}"
@@ -601,7 +588,6 @@ def main(argv: Sequence[str] | None = None) -> None:
     a Markdown table (progress on stderr)."""
     import csv
     import sys
-    from dataclasses import asdict
 
     ap = argparse.ArgumentParser(description=main.__doc__)
     ap.add_argument("maps", nargs="+", help="ROS map YAML files")
@@ -621,9 +607,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     )  # fmt: skip
     if a.csv:
         with open(a.csv, "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(asdict(runs[0])))
+            w = csv.DictWriter(f, fieldnames=list(runs[0]))
             w.writeheader()
-            w.writerows(asdict(r) for r in runs)
+            w.writerows(runs)
     print(_table(summarize(runs)))
 
 
