@@ -106,6 +106,37 @@ def test_random_queries_keep_clearance_and_distance(clear):
     assert np.array_equal(np.array(queries), np.array(again))
 
 
+class Pose:
+    """A stand-in for OMPL's SE2 state (what the state check reads of it)."""
+
+    def __init__(self, x, y):
+        self.x, self.y = x, y
+
+    def getX(self):  # noqa: N802 (OMPL's name)
+        return self.x
+
+    def getY(self):  # noqa: N802
+        return self.y
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.005, 0.3])
+@pytest.mark.parametrize("which", ["room", "tiny_yaw"])
+def test_state_check_agrees_with_the_exact_clearance(which, margin):
+    from leapfrog_planner.experiments.ompl_peer import _StateCheck
+
+    clear = room() if which == "room" else MapClearance(load_ros_map(MAPS / "tiny_yaw.yaml"))
+    check = _StateCheck(clear, RADIUS, margin)
+    xmin, xmax, ymin, ymax = clear.occupancy.extent
+    rng = np.random.default_rng(5)
+    x = rng.uniform(xmin - 0.2, xmax + 0.2, 3000)
+    y = rng.uniform(ymin - 0.2, ymax + 0.2, 3000)
+    exact = clear.clearance(x, y, RADIUS) >= margin
+    assert [check(Pose(*p)) for p in zip(x, y, strict=True)] == exact.tolist()
+    assert 0 < exact.sum() < exact.size
+    if which == "room":  # 5 cm cells: the cell-centre bound settles most points
+        assert check.exact_calls < exact.size / 4
+
+
 # --------------------------------------------------------------------------- planning
 
 
