@@ -133,8 +133,9 @@ def test_state_check_agrees_with_the_exact_clearance(which, margin):
     exact = clear.clearance(x, y, RADIUS) >= margin
     assert [check(Pose(*p)) for p in zip(x, y, strict=True)] == exact.tolist()
     assert 0 < exact.sum() < exact.size
-    if which == "room":  # 5 cm cells: the cell-centre bound settles most points
-        assert check.exact_calls < exact.size / 4
+    if which == "room":  # 5 cm cells: the cell-centre bound settles most points on the map
+        off = np.count_nonzero(~clear.occupancy.contains(x, y))
+        assert check.exact_calls - off < exact.size / 4
 
 
 # --------------------------------------------------------------------------- planning
