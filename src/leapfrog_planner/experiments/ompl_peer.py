@@ -91,7 +91,8 @@ class OmplSettings:
 
     ``planner``: one of :data:`PLANNERS`. ``space``: ``"reeds_shepp"`` (forward and reverse) or
     ``"dubins"`` (forward only). ``turning_radius`` (m): the tightest turn. ``time_limit`` (s):
-    the planner's time (the optimising planners use all of it). ``seed``: OMPL's random seed (see
+    the planner's time (the optimising planners use all of it, but BIT* stops once its path meets
+    its lower bound, as when the direct curve is free). ``seed``: OMPL's random seed (see
     :func:`ompl_plan` on determinism). ``resolution`` (m): the largest arclength between two
     states checked along a motion. ``margin`` (m): the clearance each checked state must keep,
     ``None`` for ``resolution / 2`` (module docstring). ``step`` (m): the largest arclength between
@@ -320,7 +321,8 @@ def ompl_plan(
     Determinism: OMPL's global seed is set to ``settings.seed + 1`` before every plan, so the
     random draws repeat from one plan to the next; but a time-limited planner runs as many
     iterations as fit in the time, so its answer depends on the machine's speed and load. Only
-    planners that stop at their first path (RRTConnect, RRT) repeat their answer exactly.
+    planners that stop at their first path (RRTConnect, RRT) repeat their answer exactly. The
+    seed and OMPL's log level (silenced during the plan) are the process's: plan in one thread.
     """
     if not ompl_available():
         raise ImportError(OMPL_MISSING)
