@@ -17,12 +17,9 @@ footprint against the exact clearance); motions are checked along their curve at
 ``resolution`` apart in arclength; the objective is the path length. The default ``margin``,
 ``resolution / 2``, makes the whole curve safe: the distance to the blocked cells changes by at
 most 1 m per metre travelled, so between two checked states the clearance stays >= 0
-(``margin=0`` is the bare rule at the checked states, which may graze a corner between them).
-
-The state check is exact and fast: each cell's centre distance to the blocked cells is computed
-once per map (cached while the ``MapClearance`` lives); a point lies within half a cell diagonal
-of its cell's centre, so that distance settles every point but those within that band of the
-threshold, which are asked of the exact clearance.
+(``margin=0``: the bare rule at the checked states; the path may graze a corner between them).
+The check is exact and fast: a point lies within half a cell diagonal of its cell's centre, whose
+distance to the blocked cells (computed once per map) settles it unless it lies in that band.
 """
 
 from __future__ import annotations
@@ -42,20 +39,8 @@ from .. import checks
 from ..errors import ScenarioError, SettingsError, describe, require_integer
 from ..world.clearance import HALF_DIAGONAL, MapClearance
 
-__all__ = [
-    "PLANNERS",
-    "RUN_FIELDS",
-    "SPACES",
-    "OmplPath",
-    "OmplSettings",
-    "benchmark",
-    "main",
-    "ompl_available",
-    "ompl_plan",
-    "random_queries",
-    "summarize",
-    "timed",
-]
+__all__ = ["PLANNERS", "RUN_FIELDS", "SPACES", "OmplPath", "OmplSettings", "benchmark", "main",
+           "ompl_available", "ompl_plan", "random_queries", "summarize", "timed"]  # fmt: skip
 
 #: Planners by name (the classes of ``ompl.geometric``). The first four improve their path until
 #: the time limit; RRT and RRTConnect stop at their first path. Left out: PRM* (its roadmap
@@ -85,9 +70,8 @@ def _real(value, key: str, low: float, high: float) -> float:
 
 @dataclass(frozen=True)
 class OmplSettings:
-    """How :func:`ompl_plan` runs OMPL. Construction checks every field (a
-    :class:`~leapfrog_planner.errors.SettingsError` with one line); :meth:`from_mapping` also
-    refuses unknown keys.
+    """How :func:`ompl_plan` runs OMPL. Construction checks every field (a ``SettingsError``
+    with one line); :meth:`from_mapping` also refuses unknown keys.
 
     ``planner``: one of :data:`PLANNERS`. ``space``: ``"reeds_shepp"`` (forward and reverse) or
     ``"dubins"`` (forward only). ``turning_radius`` (m): the tightest turn. ``time_limit`` (s):
@@ -267,9 +251,8 @@ def _setup(clear: MapClearance, check: _StateCheck, settings: OmplSettings):
 
 
 def _solution_seen(ss):
-    """A function that says whether the planner holds an exact solution yet: its best cost is
-    finite (RRT*, BIT*, AORRTC: they publish their path only at the end), or the problem has one
-    (RRT, RRTConnect: they stop there)."""
+    """Whether the planner holds an exact solution yet: its best cost is finite (RRT*, BIT*,
+    AORRTC publish their path only at the end), or the problem has one (RRT, RRTConnect)."""
     planner, pdef = ss.getPlanner(), ss.getProblemDefinition()
     if hasattr(planner, "bestCost"):
         return lambda: math.isfinite(planner.bestCost().value())
@@ -298,8 +281,7 @@ def _check_ends(clear, check, start, goal, radius, settings) -> OmplPath | None:
         if not (xmin <= pose[0] <= xmax and ymin <= pose[1] <= ymax):
             return _failure(settings, f"Invalid {key}", f"{key}: off the map's extent")
         if not check.exact(pose[0], pose[1]):
-            c = float(clear.clearance(pose[0], pose[1], radius))
-            need = settings.clearance_margin
+            c, need = float(clear.clearance(pose[0], pose[1], radius)), settings.clearance_margin
             msg = f"{key}: clearance {c:.4g} m at radius {radius:g} m, below the margin {need:g} m"
             return _failure(settings, f"Invalid {key}", msg)
     return None
@@ -313,10 +295,9 @@ def ompl_plan(
     ``settings.time_limit``; the path is simplified if ``settings.simplify``, checked again, and
     sampled every ``settings.step`` metres or closer.
 
-    Never raises for a query OMPL cannot solve: ``solved`` is False and ``status``/``message``
-    say why (a start or goal in collision or off the map, no exact solution in time). Bad
-    arguments raise :class:`~leapfrog_planner.errors.ScenarioError` or ``SettingsError``, and a
-    missing OMPL raises ``ImportError``.
+    A query OMPL cannot solve gives ``solved`` False, ``status`` and ``message`` saying why (a
+    start or goal in collision or off the map, no exact solution in time); bad arguments raise
+    ``ScenarioError`` or ``SettingsError``, and a missing OMPL ``ImportError``.
 
     Determinism: OMPL's global seed is set to ``settings.seed + 1`` before every plan, so the
     random draws repeat from one plan to the next; but a time-limited planner runs as many
@@ -570,11 +551,8 @@ def summarize(runs: Sequence[dict]) -> list[dict]:
 
 
 def _table(rows: list[dict]) -> str:
-    heads = (
-        "map|planner|limit (s)|solved|median length (m)|median length, common (m)"
-        "|median time (s)|median first solution (s)"
-    ).split("|")
-    lines = ["| " + " | ".join(heads) + " |", "|" + " --- |" * len(heads)]
+    head = "| map | planner | limit (s) | solved | median length (m) | median length, common (m) |"
+    lines = [head + " median time (s) | median first solution (s) |", "|" + " --- |" * 8]
     for r in rows:
         lines.append(
             f"| {r['map']} | {r['planner']} | {r['time_limit']:g} | {r['solved']}/{r['queries']}"
