@@ -219,18 +219,23 @@ def _piece_bound(d, mu, mv, half):
 @njit(cache=True)
 def segment_ok(d, blocked, au, av, bu, bv, T, zones):
     """Whether the segment keeps its threshold (``T``, less near an end: :func:`_cone`) from
-    every blocked square (module docstring)."""
+    every blocked square (module docstring). Where a point's lower bound exceeds ``T`` by
+    ``s``, the next ``s`` cells of the segment are clear too, and are skipped."""
     L = math.hypot(bu - au, bv - av)
-    n = max(1, int(math.ceil(L / PIECE)))
-    for k in range(n):
-        pu, pv = au + (bu - au) * k / n, av + (bv - av) * k / n
-        qu, qv = au + (bu - au) * (k + 1) / n, av + (bv - av) * (k + 1) / n
-        thr = _piece_threshold(pu, pv, qu, qv, T, zones)
-        low = _piece_bound(d, 0.5 * (pu + qu), 0.5 * (pv + qv), 0.5 * L / n)[0]
-        if low >= thr:
+    eu, ev = (bu - au) / max(L, 1e-300), (bv - av) / max(L, 1e-300)
+    t = 0.0
+    while t < L:
+        spare = _piece_bound(d, au + t * eu, av + t * ev, 0.0)[0] - T
+        if spare >= PIECE:
+            t += spare
             continue
-        if _near_squares(blocked, pu, pv, qu, qv, thr) < thr - EPS:
+        t1 = min(t + PIECE, L)
+        pu, pv, qu, qv = au + t * eu, av + t * ev, au + t1 * eu, av + t1 * ev
+        thr = _piece_threshold(pu, pv, qu, qv, T, zones)
+        low = _piece_bound(d, 0.5 * (pu + qu), 0.5 * (pv + qv), 0.5 * (t1 - t))[0]
+        if low < thr and _near_squares(blocked, pu, pv, qu, qv, thr) < thr - EPS:
             return False
+        t = t1
     return True
 
 

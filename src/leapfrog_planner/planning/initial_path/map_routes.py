@@ -76,7 +76,7 @@ from .geometry import homotopy_signature, midpoints, segment_distance
 GRAPH_NODES = 1 << 16
 #: ... but the blocks are at most this fraction of the threshold wide (a passage just wider than
 #: the threshold's twice is then seldom missed by the blocks' segments).
-BLOCK_OF_THRESHOLD = 1 / 1.5
+BLOCK_OF_THRESHOLD = 1 / 1.2
 #: At most this many obstacles cast barrier rays (step 5).
 MAX_RELEVANT = 6
 #: The bounds on the routes' lengths searched first, times the shortest (step 5); then
@@ -181,9 +181,20 @@ class _Prepared:
 _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def prepare_map(clear: MapClearance) -> None:
-    """Do the per-map work of :func:`map_routes` now (it is cached on ``clear``)."""
-    _prepared(clear)
+def prepare_map(clear: MapClearance, radius: float | None = None, margin: float = 0.0) -> None:
+    """Do the per-map work of :func:`map_routes` now (it is cached on ``clear``), and with a
+    ``radius``, the work for it and ``margin``: the connected components for both thresholds,
+    the obstacles and the search graph for ``radius + margin``."""
+    prep = _prepared(clear)
+    if radius is None:
+        return
+    radius = checks.real(radius, "radius", ge=0)
+    margin = checks.real(margin, "margin", ge=0)
+    for m in (0.0, margin):
+        T = max((radius + m) / clear.occupancy.resolution, MIN_THRESHOLD)
+        prep.labels(T)
+    prep.obstacles(T)
+    prep.graph(T, prep.block(T))
 
 
 def _prepared(clear: MapClearance) -> _Prepared:
@@ -407,28 +418,31 @@ def _signature(prep: _Prepared, poly: np.ndarray) -> tuple[int, ...]:
     return homotopy_signature(poly, obs, 1e-9 * (prep.H + prep.W))
 
 
-def _simplified(prep: _Prepared, ends: _Ends, raw: np.ndarray, want: tuple) -> np.ndarray:
-    """Step 6: the grid path ``raw`` shortcut, pulled taut, given a vertex amid each segment
-    and pulled again (a vertex that rests on a corner can then move round it), shortcut
-    again; or, when that changes its signature ``want``, the shortcuts alone; or the grid path
-    itself."""
+def _shortcut(prep: _Prepared, ends: _Ends, raw: np.ndarray, want: tuple) -> np.ndarray:
+    """Step 6, first part: the grid path ``raw`` shortcut (or, should that change its
+    signature ``want``, ``raw`` itself)."""
+    cut = mg.shortcut(prep.d, prep.blocked, raw, ends.T, ends.zones)
+    return cut if _signature(prep, cut) == want else raw
+
+
+def _taut(prep: _Prepared, ends: _Ends, cut: np.ndarray, want: tuple) -> np.ndarray:
+    """Step 6, second part: ``cut`` pulled taut, given a vertex amid each segment and pulled
+    again (a vertex resting on a corner can then move round it), shortcut again (or, should
+    that change its signature ``want``, ``cut`` itself)."""
     args, thr = (prep.d, prep.blocked), (ends.T, ends.zones)
-    cut = mg.shortcut(*args, raw, *thr)
     taut = mg.pull(*args, cut, *thr, PULL_PASSES)
     taut = mg.shortcut(*args, mg.pull(*args, midpoints(taut), *thr, PULL_PASSES), *thr)
-    for poly in (taut, cut):
-        if _signature(prep, poly) == want:
-            return poly
-    return raw
+    return taut if _signature(prep, taut) == want else cut
 
 
 def _length(poly: np.ndarray) -> float:
     return float(np.hypot(*np.diff(poly, axis=0).T).sum())
 
 
-def _classes(prep: _Prepared, ends: _Ends, s: _Search, max_detour: float) -> list[tuple]:
+def _classes(prep: _Prepared, ends: _Ends, s: _Search, k: int, max_detour: float) -> list:
     """The shortest candidate route of each signature, ``(length, order, polyline,
-    signature)``, none longer than ``max_detour`` times the shortest, shortest first."""
+    signature)``: the shortest grid path of each, shortcut; the ``k`` shortest of those pulled
+    taut; none longer than ``max_detour`` times the shortest, shortest first."""
     raws = [] if (direct := _direct_path(ends, s)) is None else [direct]
     if s.via >= 0:
         raws.append(_via_path(ends, s, s.via))
@@ -438,11 +452,10 @@ def _classes(prep: _Prepared, ends: _Ends, s: _Search, max_detour: float) -> lis
         cand = (_length(raw), order, raw, _signature(prep, raw))
         if cand[3] not in shortest_raw or cand[:2] < shortest_raw[cand[3]][:2]:
             shortest_raw[cand[3]] = cand
-    best = {}
-    for _, order, raw, sig in shortest_raw.values():
-        poly = _simplified(prep, ends, raw, sig)
-        best[sig] = (_length(poly), order, poly, sig)
-    out = sorted(best.values(), key=lambda c: c[:2])
+    cut = [(o, _shortcut(prep, ends, raw, sig), sig) for _, o, raw, sig in shortest_raw.values()]
+    cut.sort(key=lambda c: (_length(c[1]), c[0]))
+    out = [(o, _taut(prep, ends, poly, sig), sig) for o, poly, sig in cut[:k]]
+    out = sorted(((_length(p), o, p, sig) for o, p, sig in out), key=lambda c: c[:2])
     limit = max_detour * out[0][0] + 1e-9 * (prep.H + prep.W)
     return [c for c in out if c[0] <= limit]
 
@@ -457,7 +470,7 @@ def _plan(prep: _Prepared, graph: _Graph, ends: _Ends, k: int, max_detour: float
         s = _search(prep, graph, ends, beta, both=k > 1)
         if s is None:
             return []
-        found = _classes(prep, ends, s, max_detour)
+        found = _classes(prep, ends, s, k, max_detour)
         if len(found) >= k:
             break
     return found[:k]
