@@ -2,57 +2,64 @@
 homotopy classes, shortest first, as :func:`.initial_paths` finds them round discs.
 
 The robot is a disc of ``radius``; a route keeps ``radius + margin`` from every blocked cell
-(:class:`.MapClearance`'s closed squares) where it can. All the work is on the map's grid
-(:mod:`.map_grid`, compiled), in units of cells; a route comes back in world coordinates.
+(:class:`.MapClearance`'s closed squares) where it can. The work is done on the map's grid in
+units of cells (the compiled kernels are :mod:`.map_grid`); routes come back in world metres.
 
 Method
 ------
-1. Per map (cached on the :class:`.MapClearance`, about 0.3 s for 2000 x 2000 cells): the exact
+1. Per map (cached on the :class:`.MapClearance`; 0.1 s for 2000 x 2000 cells): the exact
    distance ``d`` from every cell's centre to the blocked squares (a separable distance
-   transform with the squares' own metric, :func:`.map_grid.clearance_field`), and the
-   obstacles: the 8-connected components of the blocked cells that do not touch the map's edge
-   (a route can only wind round those), each with a *representative* cell (the one nearest its
-   centroid).
-2. Per threshold ``T = (radius + margin) / resolution`` (cached): the search graph. A cell keeps
-   ``T`` when ``d >= T``; moves to the eight neighbours keep it exactly when both cells do (and,
-   for a diagonal move, the two cells beside it). Maps larger than :data:`FINE_CELLS` cells are
-   searched on blocks of ``f x f`` cells instead, each a node at its clearest cell, joined to
-   its neighbours by the straight segments that an exact test passes (:func:`.map_grid.
-   segment_ok`): 16 times fewer nodes for 2000 x 2000 cells, and every edge still clear.
-3. Ends. An end closer than ``T`` to a wall gets a *zone*: the threshold there starts at the
-   end's own clearance and grows by half a cell per cell away from it, up to ``T``, so that the
-   route may leave the wall gradually. A small Dijkstra over the cells round each end
-   (:func:`.map_grid.end_field`) joins the end to the graph's nodes near it.
-4. Shortest paths: A* from the start's nodes to the goal's, continued (as Dijkstra ordered by
-   the A* key) until the key exceeds ``beta`` times the shortest length, gives the distances
-   ``dS`` on every node that a route ``beta`` times the shortest could visit; the same from the
-   goal gives ``dG``. The shortest route goes through the node of least ``dS + dG``.
-5. Other homotopy classes, as the disc version's barrier rays: the obstacles nearest the chord
-   and the shortest route (their representative projecting inside the chord, at most
-   :data:`MAX_RELEVANT`) each cast two rays perpendicular to the chord; the node of least
-   ``dS + dG`` on a ray (:func:`.map_grid.ray_via`) is the shortest route that passes the
-   obstacle on that ray's side (through that node: the shortest path to it from the start, then
-   from it to the goal). ``beta`` is first :data:`FIRST_DETOUR`, then ``max_detour`` when that
-   gives fewer than ``k`` classes.
-6. Each route (grid path: the end's cells, the graph's nodes) is simplified: line-of-sight
-   shortcuts (:func:`.map_grid.shortcut`, kept when they keep the threshold), then pulled taut
-   like a string (:func:`.map_grid.pull`), then shortcut again; a simplification that changes
-   the signature is dropped for the shortcuts alone. Its clearance is measured exactly along
-   the segments (:func:`.map_grid.polyline_distance`); one route per signature is kept (the
-   shortest), none longer than ``max_detour`` times the shortest, sorted by length.
-7. Margins: with no route at ``margin``, the margin is halved four times, then 0 (as for discs);
-   when the blocks miss a route that the cells' connected components say exists, the cells
-   themselves are searched. Before all that, start and goal are looked up in the connected
-   components of the cells that keep ``radius`` (cached): not connected, no route at all.
+   transform in the squares' own metric, :func:`.map_grid.clearance_field`), and the obstacles
+   of the signature: the 8-connected components of the blocked cells that do not touch the
+   map's edge (a route winds round no other), each represented by its cell nearest its centroid.
+2. Per threshold ``T = (radius + margin) / resolution`` (cached; 0.2 s for 2000 x 2000 cells):
+   the connected components of the cells with ``d >= T``, and the search graph. Cells with
+   ``d >= T`` are its nodes; a move to one of the eight neighbours keeps ``T`` when both cells
+   do (a diagonal move when the two cells beside it do too; else it is measured). On larger maps
+   (more than :data:`GRAPH_NODES` cells) the nodes are blocks of ``f x f`` cells, each at its
+   clearest cell, joined to their neighbours by the straight segments that an exact test
+   passes (:func:`.map_grid.segment_ok`), so every edge is clear; ``f`` is at most
+   :data:`BLOCK_OF_THRESHOLD` times ``T``, so that a passage is seldom missed (on the
+   benchmark's map, blocks of 5 cells give the lengths of blocks of 2 within 1 %, 4 times faster).
+3. Ends. An end nearer a wall than ``T`` gets a *zone*: there the threshold starts at the end's
+   own clearance and grows by half a cell per cell away from the end, up to ``T``, so the route
+   may leave the wall at about 30 degrees. A small Dijkstra over the cells round each end
+   (:func:`.map_grid.end_field`) joins it to the graph's nodes near it.
+4. Shortest paths: A* from the start's nodes towards the goal's, continued (Dijkstra ordered by
+   the A* key) until the key exceeds ``beta`` times the shortest length, gives the exact
+   distances ``dS`` of every node that a route ``beta`` times the shortest could visit (an
+   ellipse round the ends); the same from the goal gives ``dG``. The shortest route passes the
+   node of least ``dS + dG``. ``beta`` is 1.25, then 1.6 and ``max_detour`` while fewer than
+   ``k`` classes are found (:data:`DETOURS`; each ellipse is about twice the last).
+5. Other homotopy classes, by the disc version's barrier rays: the obstacles as the search sees
+   them (components of the cells with ``d < T``: obstacles nearer each other than ``2 T`` are
+   one, no route passes between them) whose representative projects inside the chord, the
+   :data:`MAX_RELEVANT` nearest the chord or the shortest route, each cast two rays
+   perpendicular to the chord. The node of least ``dS + dG`` on a ray
+   (:func:`_ray_via`) gives the shortest route through that ray, which passes the
+   obstacle on that side: the shortest path from the start to it, then on to the goal. (A route
+   made of two shortest paths may miss the shortest of its class; the classes found are then
+   still distinct and each route clear, only "near-shortest".)
+6. Simplification. Of each signature's shortest grid path (the end's cells, the nodes, the
+   other end's cells): any-angle line-of-sight shortcuts (:func:`.map_grid.shortcut`); the
+   ``k`` shortest of these are then pulled taut like a string (:func:`.map_grid.pull`), given a
+   vertex amid each segment, pulled again and shortcut again. Each step keeps the thresholds
+   (exact tests); one that changes a route's signature is undone. The route's clearance is
+   then measured exactly along its segments (:func:`.map_grid.polyline_distance`). Routes
+   longer than ``max_detour`` times the shortest are dropped; the rest come sorted by length.
+7. Margins. Start and goal are first looked up in the connected components of the cells that
+   keep ``radius`` (cached): not connected, no route (in well under a millisecond once cached).
+   With no route at ``margin``, it is halved four times, then 0, as for discs; when the blocks
+   miss a route that the cells' components say exists, blocks half as large are searched.
 
 Signature: ``signature[j]`` is the winding number round obstacle ``j``'s representative point
-of the route closed by the straight chord from goal back to start (0: the route passes ``j`` on
-the same side as the chord), exactly as :func:`.geometry.homotopy_signature` computes it for
-disc centres. Equal signatures, same homotopy class (up to the obstacles left out: those
-touching the map's edge, round which no route winds).
+(step 1) of the route closed by the straight chord from goal back to start (0: the route passes
+``j`` on the same side as the chord, +-1 on the other; a point on the chord counts +-1), as
+:func:`.geometry.homotopy_signature` computes it for discs. Equal signatures, same class.
 
-Measured (``benchmarks/bench_map_routes.py``): routes within a few per cent of the exact
-shortest length; a 2000 x 2000 map in about 0.3 s of preparation, queries well under 0.2 s.
+Measured (``benchmarks/bench_map_routes.py``, ``tests/test_map_routes.py``): a maze's route
+within 1 % below a 32-neighbour fine-grid Dijkstra, a corridor's within 0.2 % of the exact
+length; queries on 2000 x 2000 cells in a few tens of milliseconds (the median).
 """
 
 from __future__ import annotations
@@ -71,7 +78,6 @@ from ...world import MapClearance
 from . import map_grid as mg
 from .geometry import homotopy_signature, midpoints, segment_distance
 
-#: Maps with more cells than this are searched on blocks of cells (step 2).
 #: The search graph has about this many nodes at most: blocks of ``f x f`` cells on larger maps.
 GRAPH_NODES = 1 << 16
 #: ... but the blocks are at most this fraction of the threshold wide (a passage just wider than
@@ -394,21 +400,33 @@ def _relevant(prep: _Prepared, ends: _Ends, poly: np.ndarray, shortest: float) -
 
 def _vias(prep: _Prepared, ends: _Ends, s: _Search, poly: np.ndarray) -> list[int]:
     """The nodes of the candidate routes: the shortest route's, then per relevant obstacle the
-    best node on each of its two rays (:func:`.map_grid.ray_via`), each node once."""
+    best node on each of its two rays (:func:`_ray_via`), each node once."""
     out = [s.via] if s.via >= 0 else []
     chord = ends.P[1] - ends.P[0]
     L = math.hypot(*chord)
     if L < 1e-9 or not np.isfinite(s.dG).any():
         return out
     nrm = np.array([-chord[1], chord[0]]) / L
-    Wc = s.graph.edges.shape[1]
     origins = prep.obstacles(ends.T)[0]
     for c in _relevant(prep, ends, poly, s.shortest).tolist():
         for side in (1.0, -1.0):
-            q, _ = mg.ray_via(s.dS, s.dG, s.graph.f, prep.H, prep.W, Wc, *origins[c], *(side * nrm))
+            q = _ray_via(prep, s, origins[c], side * nrm)
             if q >= 0 and q not in out:
-                out.append(int(q))
+                out.append(q)
     return out
+
+
+def _ray_via(prep: _Prepared, s: _Search, origin: np.ndarray, direction: np.ndarray) -> int:
+    """The node of least ``dS + dG`` among the blocks that the ray from ``origin`` along the
+    unit vector ``direction`` crosses inside the map, sampled every half block (the first on
+    ties); -1 when the fields reach none of them."""
+    f, Wc = s.graph.f, s.graph.edges.shape[1]
+    reach = math.hypot(prep.H, prep.W) + 2.0
+    p = origin + np.arange(0.0, reach, 0.5 * f)[:, None] * direction
+    p = p[np.all((p >= 1.0) & (p < np.array([prep.W, prep.H]) + 1.0), axis=1)]
+    nodes = ((p[:, 1].astype(np.int64) - 1) // f) * Wc + (p[:, 0].astype(np.int64) - 1) // f
+    total = s.dS[nodes] + s.dG[nodes]
+    return int(nodes[np.argmin(total)]) if total.size and np.isfinite(total.min()) else -1
 
 
 def _signature(prep: _Prepared, poly: np.ndarray) -> tuple[int, ...]:
