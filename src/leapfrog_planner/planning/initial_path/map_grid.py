@@ -453,9 +453,10 @@ def _cell_ok(d, i, j, T, zones):
 def end_field(d, eu, ev, T, zones, reach, H, W):
     """Dijkstra over the map cells within ``reach`` cells of an end ``(eu, ev)`` (a square
     window), from the end's own cell (at the end's distance from its centre), through the cells
-    that keep their threshold (``T``, less in the ends' zones), moves as in :func:`search_graph`.
-    Returns the window's first row and column, its distances ``(h, w)`` and predecessors
-    (flat window indices, -1 at the end's cell)."""
+    that keep their threshold (``T``, less in the ends' zones): side moves, and diagonal moves
+    past two such cells (:func:`search_graph` with ``f = 1``, unmeasured). Returns the window's
+    first row and column, its distances ``(h, w)`` and predecessors (flat window indices, -1
+    at the end's cell)."""
     ci, cj = int(math.floor(ev)), int(math.floor(eu))
     r = int(math.ceil(reach))
     i0, i1 = max(ci - r, 1), min(ci + r, H)
