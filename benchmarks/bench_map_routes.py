@@ -8,12 +8,13 @@ synthetic map of 2000 x 2000 cells at 5 cm (:func:`synthetic_map`: rooms of 12.5
 rows of shelves, 300 round pillars, an unknown corner; the origin turned by 0.3 rad).
 
 Per map: the clearance's build (:class:`MapClearance`), the per-map preparation of the routes
-(:func:`prepare_map`: the exact clearance field and the obstacles), the first query (which also
-builds the search graph for the threshold), then ``--n`` queries between random free points
-(start and goal uniform among the cells with at least ``radius`` clearance, at least 3 m apart,
-as navigation2's planner benchmark draws them), and queries between points that are not
-connected (an answer of ``[]``). Medians, 95th percentiles and maxima, in milliseconds, the
-routes found per query and the lengths of the second and third routes against the first. The
+(:func:`prepare_map`: the exact clearance field and the obstacles), the preparation for the
+radius and margin (connected components, obstacles, search graph), then ``--n`` queries between
+random free points (start and goal uniform among the cells with at least ``radius`` clearance,
+at least 3 m apart, as navigation2's planner benchmark draws them), and queries between points
+that are not connected (an answer of ``[]``). Medians, 95th percentiles and maxima in
+milliseconds, with the CPU time of the queries beside their wall time (the machine may be
+shared); the routes found per query; the lengths of the later routes against the first. The
 first call of a new process also compiles (or loads) the kernels: a warm-up query comes first.
 No assertions; the targets are a median <= 200 ms on 2000 x 2000 cells, preparation <= 1 s.
 """
@@ -21,6 +22,7 @@ No assertions; the targets are a median <= 200 ms on 2000 x 2000 cells, preparat
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -70,9 +72,13 @@ def synthetic_map(n: int = 2000, seed: int = 0) -> OccupancyMap:
     return OccupancyMap(data, 0.05, (-50.0, -50.0, 0.3), name="synthetic 2000 x 2000")
 
 
-def timed(f):
-    start = time.perf_counter()
+def timed(f, cpu: list | None = None):
+    """Wall time of ``f()`` and its result; its CPU time (this process's) appended to ``cpu``
+    (the machine may be shared: the CPU time shows the work itself)."""
+    start, start_cpu = time.perf_counter(), time.process_time()
     out = f()
+    if cpu is not None:
+        cpu.append(time.process_time() - start_cpu)
     return time.perf_counter() - start, out
 
 
@@ -117,11 +123,12 @@ def disconnected_pairs(clear: MapClearance, points: np.ndarray, radius: float, n
     return pairs
 
 
-def stats(times: list[float]) -> str:
-    ms = np.array(times) * 1e3
+def stats(times: list[float], cpu: list[float]) -> str:
+    ms, cpu_ms = np.array(times) * 1e3, np.array(cpu) * 1e3
     return (
-        f"median {statistics.median(ms):7.1f}  p95 {np.percentile(ms, 95):7.1f}  "
-        f"max {ms.max():7.1f} ms"
+        f"median {statistics.median(ms):6.1f}  p95 {np.percentile(ms, 95):6.1f}  "
+        f"max {ms.max():6.1f} ms (CPU: median {statistics.median(cpu_ms):6.1f}  "
+        f"p95 {np.percentile(cpu_ms, 95):6.1f})"
     )
 
 
@@ -129,21 +136,21 @@ def report(name: str, occ: OccupancyMap, args) -> None:
     rng = np.random.default_rng(args.seed)
     print(f"\n== {name}: {occ.shape[1]} x {occ.shape[0]} cells of {occ.resolution:g} m")
     t_clear, clear = timed(lambda: MapClearance(occ))
-    t_prep, _ = timed(lambda: prepare_map(clear))
+    t_map, _ = timed(lambda: prepare_map(clear))
+    t_radius, _ = timed(lambda: prepare_map(clear, args.radius, args.margin))
+    print(f"MapClearance {t_clear * 1e3:.0f} ms; preparation: per map {t_map * 1e3:.0f} ms, for")
+    print(f"the radius and margin (components, obstacles, search graph) {t_radius * 1e3:.0f} ms")
     points = free_points(clear, args.radius)
-    pairs = random_pairs(points, args.n + 1, rng)
+    pairs = random_pairs(points, args.n, rng)
     query = dict(radius=args.radius, margin=args.margin, k=args.k)
-    t_first, _ = timed(lambda: map_routes(clear, *pairs[0], **query))
-    print(f"MapClearance {t_clear * 1e3:.0f} ms, prepare_map {t_prep * 1e3:.0f} ms, first query")
-    print(f"(builds the search graph) {t_first * 1e3:.0f} ms")
-    times, counts, ratios, margins = [], [], [], []
-    for a, b in pairs[1:]:
-        dt, routes = timed(lambda a=a, b=b: map_routes(clear, a, b, **query))
+    times, cpu, counts, ratios, margins = [], [], [], [], []
+    for a, b in pairs:
+        dt, routes = timed(lambda a=a, b=b: map_routes(clear, a, b, **query), cpu)
         times.append(dt)
         counts.append(len(routes))
         ratios += [r.length / routes[0].length for r in routes[1:]]
         margins += [r.margin for r in routes[:1]]
-    print(f"{args.n} random queries: {stats(times)}")
+    print(f"{args.n} random queries: {stats(times, cpu)}")
     found = np.bincount(counts, minlength=args.k + 1)
     print("routes per query: " + ", ".join(f"{c}: {n}" for c, n in enumerate(found)))
     if ratios:
@@ -151,8 +158,9 @@ def report(name: str, occ: OccupancyMap, args) -> None:
     print(f"queries at a smaller margin than asked: {sum(m < args.margin for m in margins)}")
     apart = disconnected_pairs(clear, points, args.radius, max(args.n // 5, 5), rng)
     if apart:
-        times = [timed(lambda a=a, b=b: map_routes(clear, a, b, **query))[0] for a, b in apart]
-        print(f"{len(apart)} disconnected queries ([]): {stats(times)}")
+        cpu = []
+        times = [timed(lambda a=a, b=b: map_routes(clear, a, b, **query), cpu)[0] for a, b in apart]
+        print(f"{len(apart)} disconnected queries ([]): {stats(times, cpu)}")
 
 
 def main(argv=None) -> int:
@@ -164,6 +172,7 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--maps", default="depot,tb3_sandbox,synthetic")
     args = parser.parse_args(argv)
+    print(f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} (1 min)")
     warm = MapClearance(OccupancyMap(np.zeros((20, 20), np.int8), 0.05))
     map_routes(warm, (0.2, 0.2), (0.8, 0.8), 0.05, 0.05)  # compile or load the kernels
     for name in args.maps.split(","):

@@ -190,6 +190,21 @@ def test_no_route_between_parts_that_do_not_meet():
     assert routes[0].margin == 0.025 and routes[0].clearance >= 0.025 - 1e-9
 
 
+def test_unknown_cells_are_obstacles_or_not_as_the_clearance_says():
+    occ = corridor()
+    data = occ.data.copy()
+    data[1:-1, 20:24] = UNKNOWN  # across the corridor
+    occ = OccupancyMap(data, occ.resolution)
+    start, goal = world(occ, 5.5, 10.5), world(occ, 75.5, 10.5)
+    assert map_routes(MapClearance(occ), start, goal, 0.1, 0.05) == []
+    clear = MapClearance(occ, unknown_is_occupied=False)
+    routes = map_routes(clear, start, goal, 0.1, 0.05)
+    check_routes(clear, routes, start, goal, 0.1)
+    assert routes[0].length == pytest.approx(3.5)  # straight through the unknown cells
+    for r in routes:
+        assert np.all(occ.contains(*r.points.T))  # on the map, though the world off it is free
+
+
 def test_no_route_answer_is_at_once_on_a_map_of_2000_by_2000_cells():
     data = np.zeros((2000, 2000), np.int8)
     data[:, 1000:1004] = OCCUPIED

@@ -15,7 +15,7 @@ in pieces of at most :data:`PIECE` cells: a piece whose midpoint ``m`` lies in t
 is 1-Lipschitz); only where that bound is below the threshold are the blocked squares near the
 piece measured, exactly (a segment and a square are disjoint convex sets: their distance is met
 at a vertex of one of them, unless they meet). So :func:`segment_ok` never passes a segment that
-comes closer than its threshold, and :func:`segment_distance` is exact.
+comes closer than its threshold, and :func:`polyline_distance` is exact.
 """
 
 from __future__ import annotations
@@ -219,18 +219,23 @@ def _piece_bound(d, mu, mv, half):
 @njit(cache=True)
 def segment_ok(d, blocked, au, av, bu, bv, T, zones):
     """Whether the segment keeps its threshold (``T``, less near an end: :func:`_cone`) from
-    every blocked square (module docstring)."""
+    every blocked square (module docstring). Where a point's lower bound exceeds ``T`` by
+    ``s``, the next ``s`` cells of the segment are clear too, and are skipped."""
     L = math.hypot(bu - au, bv - av)
-    n = max(1, int(math.ceil(L / PIECE)))
-    for k in range(n):
-        pu, pv = au + (bu - au) * k / n, av + (bv - av) * k / n
-        qu, qv = au + (bu - au) * (k + 1) / n, av + (bv - av) * (k + 1) / n
-        thr = _piece_threshold(pu, pv, qu, qv, T, zones)
-        low = _piece_bound(d, 0.5 * (pu + qu), 0.5 * (pv + qv), 0.5 * L / n)[0]
-        if low >= thr:
+    eu, ev = (bu - au) / max(L, 1e-300), (bv - av) / max(L, 1e-300)
+    t = 0.0
+    while t < L:
+        spare = _piece_bound(d, au + t * eu, av + t * ev, 0.0)[0] - T
+        if spare >= PIECE:
+            t += spare
             continue
-        if _near_squares(blocked, pu, pv, qu, qv, thr) < thr - EPS:
+        t1 = min(t + PIECE, L)
+        pu, pv, qu, qv = au + t * eu, av + t * ev, au + t1 * eu, av + t1 * ev
+        thr = _piece_threshold(pu, pv, qu, qv, T, zones)
+        low = _piece_bound(d, 0.5 * (pu + qu), 0.5 * (pv + qv), 0.5 * (t1 - t))[0]
+        if low < thr and _near_squares(blocked, pu, pv, qu, qv, thr) < thr - EPS:
             return False
+        t = t1
     return True
 
 
@@ -448,9 +453,10 @@ def _cell_ok(d, i, j, T, zones):
 def end_field(d, eu, ev, T, zones, reach, H, W):
     """Dijkstra over the map cells within ``reach`` cells of an end ``(eu, ev)`` (a square
     window), from the end's own cell (at the end's distance from its centre), through the cells
-    that keep their threshold (``T``, less in the ends' zones), moves as in :func:`search_graph`.
-    Returns the window's first row and column, its distances ``(h, w)`` and predecessors
-    (flat window indices, -1 at the end's cell)."""
+    that keep their threshold (``T``, less in the ends' zones): side moves, and diagonal moves
+    past two such cells (:func:`search_graph` with ``f = 1``, unmeasured). Returns the window's
+    first row and column, its distances ``(h, w)`` and predecessors (flat window indices, -1
+    at the end's cell)."""
     ci, cj = int(math.floor(ev)), int(math.floor(eu))
     r = int(math.ceil(reach))
     i0, i1 = max(ci - r, 1), min(ci + r, H)
@@ -531,35 +537,28 @@ def shortcut(d, blocked, poly, T, zones):
 
 
 @njit(cache=True)
-def _moved_ok(d, blocked, a, x, c, yu, yv, T, zones):
-    """Whether vertex ``x`` between ``a`` and ``c`` may move to ``(yu, yv)``: the segments
-    ``a-y``, ``y-c`` and the move ``x-y`` itself keep their threshold."""
-    return (
-        segment_ok(d, blocked, x[0], x[1], yu, yv, T, zones)
-        and segment_ok(d, blocked, a[0], a[1], yu, yv, T, zones)
-        and segment_ok(d, blocked, yu, yv, c[0], c[1], T, zones)
-    )
-
-
-@njit(cache=True)
 def _pull_one(d, blocked, a, x, c, T, zones):
     """How far (a fraction in [0, 1]) vertex ``x`` between ``a`` and ``c`` can move towards its
-    nearest point on segment ``ac`` (:func:`_moved_ok`: all the way, else by bisection to
-    1/64), and the point it moves to."""
+    nearest point ``y`` on segment ``ac`` with the segments ``a-y``, ``y-c`` and the move
+    ``x-y`` clear (all the way, else by bisection to 1/64), and the point it moves to."""
     du, dv = c[0] - a[0], c[1] - a[1]
     den = du * du + dv * dv
     t = 0.0 if den == 0.0 else min(max(((x[0] - a[0]) * du + (x[1] - a[1]) * dv) / den, 0.0), 1.0)
     tu, tv = a[0] + t * du - x[0], a[1] + t * dv - x[1]
-    lo, hi = 0.0, 1.0
-    if _moved_ok(d, blocked, a, x, c, x[0] + tu, x[1] + tv, T, zones):
-        lo = 1.0
-    else:
-        for _ in range(6):
-            mid = 0.5 * (lo + hi)
-            if _moved_ok(d, blocked, a, x, c, x[0] + mid * tu, x[1] + mid * tv, T, zones):
-                lo = mid
-            else:
-                hi = mid
+    lo, hi, lam = 0.0, 1.0, 1.0
+    for _ in range(7):
+        yu, yv = x[0] + lam * tu, x[1] + lam * tv
+        if (
+            segment_ok(d, blocked, x[0], x[1], yu, yv, T, zones)
+            and segment_ok(d, blocked, a[0], a[1], yu, yv, T, zones)
+            and segment_ok(d, blocked, yu, yv, c[0], c[1], T, zones)
+        ):
+            lo = lam
+            if lam == 1.0:
+                break
+        else:
+            hi = lam
+        lam = 0.5 * (lo + hi)
     return lo, x[0] + lo * tu, x[1] + lo * tv
 
 
@@ -587,22 +586,3 @@ def pull(d, blocked, poly, T, zones, passes):
             keep.append(b)
     keep.append(n - 1)
     return p[np.array(keep)]
-
-
-@njit(cache=True)
-def ray_via(dS, dG, f, H, W, Wc, ou, ov, du, dv):
-    """The node of least ``dS + dG`` among the blocks that the ray from ``(ou, ov)`` along the
-    unit vector ``(du, dv)`` crosses inside the map (sampled every half block; the first on
-    ties), and that sum (``-1, inf``: none reached)."""
-    step = 0.5 * f
-    best, node = np.inf, -1
-    t = 0.0
-    while True:
-        u, v = ou + t * du, ov + t * dv
-        if not (1.0 <= u < W + 1.0 and 1.0 <= v < H + 1.0):
-            break
-        q = ((int(v) - 1) // f) * Wc + (int(u) - 1) // f
-        if dS[q] + dG[q] < best:
-            best, node = dS[q] + dG[q], q
-        t += step
-    return node, best

@@ -2,57 +2,65 @@
 homotopy classes, shortest first, as :func:`.initial_paths` finds them round discs.
 
 The robot is a disc of ``radius``; a route keeps ``radius + margin`` from every blocked cell
-(:class:`.MapClearance`'s closed squares) where it can. All the work is on the map's grid
-(:mod:`.map_grid`, compiled), in units of cells; a route comes back in world coordinates.
+(:class:`.MapClearance`'s closed squares) where it can. The work is done on the map's grid in
+units of cells (the compiled kernels are :mod:`.map_grid`); routes come back in world metres.
 
 Method
 ------
-1. Per map (cached on the :class:`.MapClearance`, about 0.3 s for 2000 x 2000 cells): the exact
+1. Per map (cached on the :class:`.MapClearance`; 0.2 s for 2000 x 2000 cells): the exact
    distance ``d`` from every cell's centre to the blocked squares (a separable distance
-   transform with the squares' own metric, :func:`.map_grid.clearance_field`), and the
-   obstacles: the 8-connected components of the blocked cells that do not touch the map's edge
-   (a route can only wind round those), each with a *representative* cell (the one nearest its
-   centroid).
-2. Per threshold ``T = (radius + margin) / resolution`` (cached): the search graph. A cell keeps
-   ``T`` when ``d >= T``; moves to the eight neighbours keep it exactly when both cells do (and,
-   for a diagonal move, the two cells beside it). Maps larger than :data:`FINE_CELLS` cells are
-   searched on blocks of ``f x f`` cells instead, each a node at its clearest cell, joined to
-   its neighbours by the straight segments that an exact test passes (:func:`.map_grid.
-   segment_ok`): 16 times fewer nodes for 2000 x 2000 cells, and every edge still clear.
-3. Ends. An end closer than ``T`` to a wall gets a *zone*: the threshold there starts at the
-   end's own clearance and grows by half a cell per cell away from it, up to ``T``, so that the
-   route may leave the wall gradually. A small Dijkstra over the cells round each end
-   (:func:`.map_grid.end_field`) joins the end to the graph's nodes near it.
-4. Shortest paths: A* from the start's nodes to the goal's, continued (as Dijkstra ordered by
-   the A* key) until the key exceeds ``beta`` times the shortest length, gives the distances
-   ``dS`` on every node that a route ``beta`` times the shortest could visit; the same from the
-   goal gives ``dG``. The shortest route goes through the node of least ``dS + dG``.
-5. Other homotopy classes, as the disc version's barrier rays: the obstacles nearest the chord
-   and the shortest route (their representative projecting inside the chord, at most
-   :data:`MAX_RELEVANT`) each cast two rays perpendicular to the chord; the node of least
-   ``dS + dG`` on a ray (:func:`.map_grid.ray_via`) is the shortest route that passes the
-   obstacle on that ray's side (through that node: the shortest path to it from the start, then
-   from it to the goal). ``beta`` is first :data:`FIRST_DETOUR`, then ``max_detour`` when that
-   gives fewer than ``k`` classes.
-6. Each route (grid path: the end's cells, the graph's nodes) is simplified: line-of-sight
-   shortcuts (:func:`.map_grid.shortcut`, kept when they keep the threshold), then pulled taut
-   like a string (:func:`.map_grid.pull`), then shortcut again; a simplification that changes
-   the signature is dropped for the shortcuts alone. Its clearance is measured exactly along
-   the segments (:func:`.map_grid.polyline_distance`); one route per signature is kept (the
-   shortest), none longer than ``max_detour`` times the shortest, sorted by length.
-7. Margins: with no route at ``margin``, the margin is halved four times, then 0 (as for discs);
-   when the blocks miss a route that the cells' connected components say exists, the cells
-   themselves are searched. Before all that, start and goal are looked up in the connected
-   components of the cells that keep ``radius`` (cached): not connected, no route at all.
+   transform in the squares' own metric, :func:`.map_grid.clearance_field`), and the obstacles
+   of the signature: the 8-connected components of the blocked cells that do not touch the
+   map's edge (a route winds round no other), each represented by its cell nearest its centroid.
+2. Per threshold ``T = (radius + margin) / resolution`` (cached; 0.1 s for 2000 x 2000 cells):
+   the connected components of the cells with ``d >= T``, and the search graph. Cells with
+   ``d >= T`` are its nodes; a move to one of the eight neighbours keeps ``T`` when both cells
+   do (a diagonal move when the two cells beside it do too; else it is measured). On larger maps
+   (more than :data:`GRAPH_NODES` cells) the nodes are blocks of ``f x f`` cells, each at its
+   clearest cell, joined to their neighbours by the straight segments that an exact test
+   passes (:func:`.map_grid.segment_ok`), so every edge is clear; ``f`` is at most
+   :data:`BLOCK_OF_THRESHOLD` times ``T`` (or 2), so that a passage is seldom missed (on the
+   benchmark's map, blocks of 5 cells give the lengths of blocks of 2 within 1 %, 4 times
+   faster; with ``T = 2`` cells, blocks of 2 those of single cells within 0.3 %).
+3. Ends. An end nearer a wall than ``T`` gets a *zone*: there the threshold starts at the end's
+   own clearance and grows by half a cell per cell away from the end, up to ``T``, so the route
+   may leave the wall at about 30 degrees. A small Dijkstra over the cells round each end
+   (:func:`.map_grid.end_field`) joins it to the graph's nodes near it.
+4. Shortest paths: A* from the start's nodes towards the goal's, continued (Dijkstra ordered by
+   the A* key) until the key exceeds ``beta`` times the shortest length, gives the exact
+   distances ``dS`` of every node that a route ``beta`` times the shortest could visit (an
+   ellipse round the ends); the same from the goal gives ``dG``. The shortest route passes the
+   node of least ``dS + dG``. ``beta`` is 1.25, then 1.6 and ``max_detour`` while fewer than
+   ``k`` classes are found (:data:`DETOURS`; each ellipse is about twice the last).
+5. Other homotopy classes, by the disc version's barrier rays: the obstacles as the search sees
+   them (components of the cells with ``d < T``: obstacles nearer each other than ``2 T`` are
+   one, no route passes between them) whose representative projects inside the chord, the
+   :data:`MAX_RELEVANT` nearest the chord or the shortest route, each cast two rays
+   perpendicular to the chord. The node of least ``dS + dG`` on a ray
+   (:func:`_ray_via`) gives the shortest route through that ray, which passes the
+   obstacle on that side: the shortest path from the start to it, then on to the goal. (A route
+   made of two shortest paths may miss the shortest of its class; the classes found are then
+   still distinct and each route clear, only "near-shortest".)
+6. Simplification. Of each signature's shortest grid path (the end's cells, the nodes, the
+   other end's cells): any-angle line-of-sight shortcuts (:func:`.map_grid.shortcut`); the
+   ``k`` shortest of these are then pulled taut like a string (:func:`.map_grid.pull`), given a
+   vertex amid each segment, pulled again and shortcut again. Each step keeps the thresholds
+   (exact tests); one that changes a route's signature is undone. The route's clearance is
+   then measured exactly along its segments (:func:`.map_grid.polyline_distance`). Routes
+   longer than ``max_detour`` times the shortest are dropped; the rest come sorted by length.
+7. Margins. Start and goal are first looked up in the connected components of the cells that
+   keep ``radius`` (cached): not connected, no route (in well under a millisecond once cached).
+   With no route at ``margin``, it is halved four times, then 0, as for discs; when the blocks
+   miss a route that the cells' components say exists, blocks half as large are searched.
 
 Signature: ``signature[j]`` is the winding number round obstacle ``j``'s representative point
-of the route closed by the straight chord from goal back to start (0: the route passes ``j`` on
-the same side as the chord), exactly as :func:`.geometry.homotopy_signature` computes it for
-disc centres. Equal signatures, same homotopy class (up to the obstacles left out: those
-touching the map's edge, round which no route winds).
+(step 1) of the route closed by the straight chord from goal back to start (0: the route passes
+``j`` on the same side as the chord, +-1 on the other; a point on the chord counts +-1), as
+:func:`.geometry.homotopy_signature` computes it for discs. Equal signatures, same class.
 
-Measured (``benchmarks/bench_map_routes.py``): routes within a few per cent of the exact
-shortest length; a 2000 x 2000 map in about 0.3 s of preparation, queries well under 0.2 s.
+Measured (``benchmarks/bench_map_routes.py``, ``tests/test_map_routes.py``): a maze's route
+within 1 % below a 32-neighbour fine-grid Dijkstra, a corridor's within 0.2 % of the exact
+length; queries on 2000 x 2000 cells in a few tens of milliseconds (the median).
 """
 
 from __future__ import annotations
@@ -71,12 +79,11 @@ from ...world import MapClearance
 from . import map_grid as mg
 from .geometry import homotopy_signature, midpoints, segment_distance
 
-#: Maps with more cells than this are searched on blocks of cells (step 2).
 #: The search graph has about this many nodes at most: blocks of ``f x f`` cells on larger maps.
 GRAPH_NODES = 1 << 16
 #: ... but the blocks are at most this fraction of the threshold wide (a passage just wider than
-#: the threshold's twice is then seldom missed by the blocks' segments).
-BLOCK_OF_THRESHOLD = 1 / 1.5
+#: the threshold's twice is then seldom missed by the blocks' segments), or 2 cells.
+BLOCK_OF_THRESHOLD = 1 / 1.2
 #: At most this many obstacles cast barrier rays (step 5).
 MAX_RELEVANT = 6
 #: The bounds on the routes' lengths searched first, times the shortest (step 5); then
@@ -92,12 +99,13 @@ MIN_THRESHOLD = 1e-6
 GRAPHS_KEPT, LABELS_KEPT = 4, 4
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MapRoute:
     """A route from start to goal: ``points`` ``(N, 2)`` world ``x, y`` (read-only, first the
     start, last the goal), its ``length`` (metres), homotopy ``signature`` (module docstring),
     ``clearance`` (the least distance of its segments to the blocked cells, less the radius:
-    metres) and the ``margin`` it was planned with."""
+    metres) and the ``margin`` it was planned with. (Compared by identity, as the package's
+    other records of arrays.)"""
 
     points: np.ndarray
     length: float
@@ -133,7 +141,7 @@ class _Prepared:
     def block(self, T: float) -> int:
         """The block size ``f`` of the search graph for threshold ``T`` (step 2)."""
         by_size = math.ceil(math.sqrt(self.H * self.W / GRAPH_NODES))
-        return max(1, min(by_size, math.floor(T * BLOCK_OF_THRESHOLD)))
+        return min(by_size, max(2, math.floor(T * BLOCK_OF_THRESHOLD)))
 
     def graph(self, T: float, f: int) -> _Graph:
         key = (T, f)
@@ -152,10 +160,8 @@ class _Prepared:
         from scipy import ndimage
 
         if ("free", T) not in self._labels:
-            lab = ndimage.label(self.d >= T - mg.EPS, np.ones((3, 3), bool))[0]
-            lab[[0, -1], :] = 0
-            lab[:, [0, -1]] = 0
-            self._remember(("free", T), lab)
+            inside = self.d[1:-1, 1:-1] >= T - mg.EPS  # routes stay on the map
+            self._remember(("free", T), np.pad(ndimage.label(inside, np.ones((3, 3), bool))[0], 1))
         return self._labels[("free", T)]
 
     def obstacles(self, T: float) -> tuple[np.ndarray, np.ndarray]:
@@ -181,9 +187,20 @@ class _Prepared:
 _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def prepare_map(clear: MapClearance) -> None:
-    """Do the per-map work of :func:`map_routes` now (it is cached on ``clear``)."""
-    _prepared(clear)
+def prepare_map(clear: MapClearance, radius: float | None = None, margin: float = 0.0) -> None:
+    """Do the per-map work of :func:`map_routes` now (it is cached on ``clear``), and with a
+    ``radius``, the work for it and ``margin``: the connected components for both thresholds,
+    the obstacles and the search graph for ``radius + margin``."""
+    prep = _prepared(clear)
+    if radius is None:
+        return
+    radius = checks.real(radius, "radius", ge=0)
+    margin = checks.real(margin, "margin", ge=0)
+    for m in (0.0, margin):
+        T = max((radius + m) / clear.occupancy.resolution, MIN_THRESHOLD)
+        prep.labels(T)
+    prep.obstacles(T)
+    prep.graph(T, prep.block(T))
 
 
 def _prepared(clear: MapClearance) -> _Prepared:
@@ -244,7 +261,7 @@ def _connected(prep: _Prepared, ends: _Ends) -> bool:
     lab = prep.labels(ends.T)
     seen = []
     for e in range(2):
-        i0, j0, dist, pred = window = _end_window(prep, ends, e, 1)
+        i0, j0, dist, _ = window = _end_window(prep, ends, e, 1)
         rows, cols = np.nonzero(np.isfinite(dist))
         seen.append(set(lab[rows + i0, cols + j0].tolist()) - {0})
         if e == 0 and np.isfinite(_reached(window, _end_cells(ends)[1:])[0]):
@@ -383,21 +400,33 @@ def _relevant(prep: _Prepared, ends: _Ends, poly: np.ndarray, shortest: float) -
 
 def _vias(prep: _Prepared, ends: _Ends, s: _Search, poly: np.ndarray) -> list[int]:
     """The nodes of the candidate routes: the shortest route's, then per relevant obstacle the
-    best node on each of its two rays (:func:`.map_grid.ray_via`), each node once."""
+    best node on each of its two rays (:func:`_ray_via`), each node once."""
     out = [s.via] if s.via >= 0 else []
     chord = ends.P[1] - ends.P[0]
     L = math.hypot(*chord)
     if L < 1e-9 or not np.isfinite(s.dG).any():
         return out
     nrm = np.array([-chord[1], chord[0]]) / L
-    Wc = s.graph.edges.shape[1]
     origins = prep.obstacles(ends.T)[0]
     for c in _relevant(prep, ends, poly, s.shortest).tolist():
         for side in (1.0, -1.0):
-            q, _ = mg.ray_via(s.dS, s.dG, s.graph.f, prep.H, prep.W, Wc, *origins[c], *(side * nrm))
+            q = _ray_via(prep, s, origins[c], side * nrm)
             if q >= 0 and q not in out:
-                out.append(int(q))
+                out.append(q)
     return out
+
+
+def _ray_via(prep: _Prepared, s: _Search, origin: np.ndarray, direction: np.ndarray) -> int:
+    """The node of least ``dS + dG`` among the blocks that the ray from ``origin`` along the
+    unit vector ``direction`` crosses inside the map, sampled every half block (the first on
+    ties); -1 when the fields reach none of them."""
+    f, Wc = s.graph.f, s.graph.edges.shape[1]
+    reach = math.hypot(prep.H, prep.W) + 2.0
+    p = origin + np.arange(0.0, reach, 0.5 * f)[:, None] * direction
+    p = p[np.all((p >= 1.0) & (p < np.array([prep.W, prep.H]) + 1.0), axis=1)]
+    nodes = ((p[:, 1].astype(np.int64) - 1) // f) * Wc + (p[:, 0].astype(np.int64) - 1) // f
+    total = s.dS[nodes] + s.dG[nodes]
+    return int(nodes[np.argmin(total)]) if total.size and np.isfinite(total.min()) else -1
 
 
 def _signature(prep: _Prepared, poly: np.ndarray) -> tuple[int, ...]:
@@ -407,28 +436,31 @@ def _signature(prep: _Prepared, poly: np.ndarray) -> tuple[int, ...]:
     return homotopy_signature(poly, obs, 1e-9 * (prep.H + prep.W))
 
 
-def _simplified(prep: _Prepared, ends: _Ends, raw: np.ndarray, want: tuple) -> np.ndarray:
-    """Step 6: the grid path ``raw`` shortcut, pulled taut, given a vertex amid each segment
-    and pulled again (a vertex that rests on a corner can then move round it), shortcut
-    again; or, when that changes its signature ``want``, the shortcuts alone; or the grid path
-    itself."""
+def _shortcut(prep: _Prepared, ends: _Ends, raw: np.ndarray, want: tuple) -> np.ndarray:
+    """Step 6, first part: the grid path ``raw`` shortcut (or, should that change its
+    signature ``want``, ``raw`` itself)."""
+    cut = mg.shortcut(prep.d, prep.blocked, raw, ends.T, ends.zones)
+    return cut if _signature(prep, cut) == want else raw
+
+
+def _taut(prep: _Prepared, ends: _Ends, cut: np.ndarray, want: tuple) -> np.ndarray:
+    """Step 6, second part: ``cut`` pulled taut, given a vertex amid each segment and pulled
+    again (a vertex resting on a corner can then move round it), shortcut again (or, should
+    that change its signature ``want``, ``cut`` itself)."""
     args, thr = (prep.d, prep.blocked), (ends.T, ends.zones)
-    cut = mg.shortcut(*args, raw, *thr)
     taut = mg.pull(*args, cut, *thr, PULL_PASSES)
     taut = mg.shortcut(*args, mg.pull(*args, midpoints(taut), *thr, PULL_PASSES), *thr)
-    for poly in (taut, cut):
-        if _signature(prep, poly) == want:
-            return poly
-    return raw
+    return taut if _signature(prep, taut) == want else cut
 
 
 def _length(poly: np.ndarray) -> float:
     return float(np.hypot(*np.diff(poly, axis=0).T).sum())
 
 
-def _classes(prep: _Prepared, ends: _Ends, s: _Search, max_detour: float) -> list[tuple]:
+def _classes(prep: _Prepared, ends: _Ends, s: _Search, k: int, max_detour: float) -> list:
     """The shortest candidate route of each signature, ``(length, order, polyline,
-    signature)``, none longer than ``max_detour`` times the shortest, shortest first."""
+    signature)``: the shortest grid path of each, shortcut; the ``k`` shortest of those pulled
+    taut; none longer than ``max_detour`` times the shortest, shortest first."""
     raws = [] if (direct := _direct_path(ends, s)) is None else [direct]
     if s.via >= 0:
         raws.append(_via_path(ends, s, s.via))
@@ -438,11 +470,10 @@ def _classes(prep: _Prepared, ends: _Ends, s: _Search, max_detour: float) -> lis
         cand = (_length(raw), order, raw, _signature(prep, raw))
         if cand[3] not in shortest_raw or cand[:2] < shortest_raw[cand[3]][:2]:
             shortest_raw[cand[3]] = cand
-    best = {}
-    for _, order, raw, sig in shortest_raw.values():
-        poly = _simplified(prep, ends, raw, sig)
-        best[sig] = (_length(poly), order, poly, sig)
-    out = sorted(best.values(), key=lambda c: c[:2])
+    cut = [(o, _shortcut(prep, ends, raw, sig), sig) for _, o, raw, sig in shortest_raw.values()]
+    cut.sort(key=lambda c: (_length(c[1]), c[0]))
+    out = [(o, _taut(prep, ends, poly, sig), sig) for o, poly, sig in cut[:k]]
+    out = sorted(((_length(p), o, p, sig) for o, p, sig in out), key=lambda c: c[:2])
     limit = max_detour * out[0][0] + 1e-9 * (prep.H + prep.W)
     return [c for c in out if c[0] <= limit]
 
@@ -457,7 +488,7 @@ def _plan(prep: _Prepared, graph: _Graph, ends: _Ends, k: int, max_detour: float
         s = _search(prep, graph, ends, beta, both=k > 1)
         if s is None:
             return []
-        found = _classes(prep, ends, s, max_detour)
+        found = _classes(prep, ends, s, k, max_detour)
         if len(found) >= k:
             break
     return found[:k]
