@@ -10,6 +10,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .heap import heap_pop, heap_push
+
 
 class _Edges(NamedTuple):
     """The graph as :func:`shortest_paths` reads it: the edges in CSR order (edges
@@ -79,11 +81,13 @@ def _dijkstra(edges, blocked, labels, heap):
     pred[:] = -1
     done[:] = False
     dist[0] = 0.0
-    heap.key[0] = edges.togo[0]
-    heap.node[0] = 0
+    hk, hn = heap.key, heap.node  # large enough: the heap never grows here
+    hk[0] = edges.togo[0]
+    hn[0] = 0
     size = 1
     while size > 0:
-        u, size = _heap_pop(heap, size)
+        u = heap_pop(hk, hn, size)
+        size -= 1
         if done[u]:
             continue
         done[u] = True
@@ -98,61 +102,8 @@ def _dijkstra(edges, blocked, labels, heap):
             if nd < dist[v]:
                 dist[v] = nd
                 pred[v] = u
-                size = _heap_push(heap, size, nd + edges.togo[v], v)
-
-
-@njit(cache=True, inline="always")
-def _precedes(key_a, node_a, key_b, node_b):
-    """The heap's order: by key, ties by node (the same pops on every machine)."""
-    return key_a < key_b or (key_a == key_b and node_a < node_b)
-
-
-@njit(cache=True)
-def _heap_pop(heap, size):
-    """Take the least pair out of the heap (its first ``size`` entries): its node, and the
-    heap's new size."""
-    hkey, hval = heap
-    u = hval[0]
-    size -= 1
-    if size > 0:  # the last pair sifts down from the root
-        key = hkey[size]
-        val = hval[size]
-        i = 0
-        while True:
-            c = 2 * i + 1
-            if c >= size:
-                break
-            if c + 1 < size and _precedes(hkey[c + 1], hval[c + 1], hkey[c], hval[c]):
-                c += 1
-            if _precedes(hkey[c], hval[c], key, val):
-                hkey[i] = hkey[c]
-                hval[i] = hval[c]
-                i = c
-            else:
-                break
-        hkey[i] = key
-        hval[i] = val
-    return u, size
-
-
-@njit(cache=True)
-def _heap_push(heap, size, key, v):
-    """Put the pair ``(key, v)`` into the heap (its first ``size`` entries): the heap's new
-    size."""
-    hkey, hval = heap
-    i = size
-    size += 1
-    while i > 0:
-        par = (i - 1) // 2
-        if _precedes(key, v, hkey[par], hval[par]):
-            hkey[i] = hkey[par]
-            hval[i] = hval[par]
-            i = par
-        else:
-            break
-    hkey[i] = key
-    hval[i] = v
-    return size
+                hk, hn = heap_push(hk, hn, size, nd + edges.togo[v], v)
+                size += 1
 
 
 @njit(cache=True)

@@ -25,6 +25,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .heap import heap_pop, heap_push
+
 #: The eight moves of the grid, ``(DI[k], DJ[k])`` (rows, columns); move ``k + 4`` undoes ``k``.
 DI = np.array([0, 1, 1, 1, 0, -1, -1, -1], np.int64)
 DJ = np.array([1, 1, 0, -1, -1, -1, 0, 1], np.int64)
@@ -352,52 +354,6 @@ def search_graph(d, blocked, f, T, H, W):
     return nu, nv, ok, edges
 
 
-@njit(cache=True, inline="always")
-def _before(key_a, node_a, key_b, node_b):
-    """The heaps' order: by key, ties by node (the same pops on every machine)."""
-    return key_a < key_b or (key_a == key_b and node_a < node_b)
-
-
-@njit(cache=True)
-def _push(hk, hn, size, key, v):
-    """Put ``(key, v)`` into the binary heap of the first ``size`` entries of ``hk, hn``
-    (doubled first when full); returns the arrays (the sift up is as in :mod:`.dijkstra`)."""
-    if size == hk.size:
-        hk = np.concatenate((hk, np.empty(size)))
-        hn = np.concatenate((hn, np.empty(size, np.int64)))
-    i = size
-    while i > 0:
-        par = (i - 1) >> 1
-        if not _before(key, v, hk[par], hn[par]):
-            break
-        hk[i], hn[i] = hk[par], hn[par]
-        i = par
-    hk[i], hn[i] = key, v
-    return hk, hn
-
-
-@njit(cache=True)
-def _pop(hk, hn, size):
-    """Take the least pair out of the heap of ``size`` entries: its node (the caller then
-    counts one entry fewer)."""
-    u = hn[0]
-    size -= 1
-    key, val = hk[size], hn[size]
-    i = 0
-    while True:
-        c = 2 * i + 1
-        if c >= size:
-            break
-        if c + 1 < size and _before(hk[c + 1], hn[c + 1], hk[c], hn[c]):
-            c += 1
-        if not _before(hk[c], hn[c], key, val):
-            break
-        hk[i], hn[i] = hk[c], hn[c]
-        i = c
-    hk[i], hn[i] = key, val
-    return u
-
-
 @njit(cache=True)
 def path_field(edges, nu, nv, seeds, scost, targets, tcost, hu, hv, beta, bound):
     """Shortest distances from the ``seeds`` (starting at ``scost``) over the graph, ordered by
@@ -418,11 +374,13 @@ def path_field(edges, nu, nv, seeds, scost, targets, tcost, hu, hv, beta, bound)
     for s in range(seeds.size):
         dist[seeds[s]] = min(dist[seeds[s]], scost[s])
     for v in seeds:
-        hk, hn = _push(hk, hn, size, dist[v] + math.sqrt((nu[v] - hu) ** 2 + (nv[v] - hv) ** 2), v)
+        hk, hn = heap_push(
+            hk, hn, size, dist[v] + math.sqrt((nu[v] - hu) ** 2 + (nv[v] - hv) ** 2), v
+        )
         size += 1
     best = np.inf
     while size > 0 and hk[0] <= bound:
-        u = _pop(hk, hn, size)
+        u = heap_pop(hk, hn, size)
         size -= 1
         if done[u]:
             continue
@@ -438,7 +396,7 @@ def path_field(edges, nu, nv, seeds, scost, targets, tcost, hu, hv, beta, bound)
             if nd < dist[v]:
                 dist[v], pred[v] = nd, u
                 key = nd + math.sqrt((nu[v] - hu) ** 2 + (nv[v] - hv) ** 2)
-                hk, hn = _push(hk, hn, size, key, v)
+                hk, hn = heap_push(hk, hn, size, key, v)
                 size += 1
     dist[~done] = np.inf
     return dist, pred, best
@@ -471,11 +429,11 @@ def end_field(d, eu, ev, T, zones, reach, H, W):
     hk, hn = np.empty(256), np.empty(256, np.int64)
     s = (ci - i0) * w + cj - j0
     dist[ci - i0, cj - j0] = math.hypot(eu - cj - 0.5, ev - ci - 0.5)
-    hk, hn = _push(hk, hn, 0, dist[ci - i0, cj - j0], s)
+    hk, hn = heap_push(hk, hn, 0, dist[ci - i0, cj - j0], s)
     size = 1
     while size > 0:
         key = hk[0]
-        u = _pop(hk, hn, size)
+        u = heap_pop(hk, hn, size)
         size -= 1
         a, b = u // w, u % w
         if key > dist[a, b]:  # a stale copy: the node was pushed again, nearer
@@ -490,7 +448,7 @@ def end_field(d, eu, ev, T, zones, reach, H, W):
             if nd < dist[a2, b2]:
                 dist[a2, b2] = nd
                 pred[a2 * w + b2] = u
-                hk, hn = _push(hk, hn, size, nd, a2 * w + b2)
+                hk, hn = heap_push(hk, hn, size, nd, a2 * w + b2)
                 size += 1
     return i0, j0, dist, pred
 
