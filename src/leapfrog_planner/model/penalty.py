@@ -139,8 +139,11 @@ def grid_penalty_terms(x, y, grid, weight, exponent, want_hessian):
     """The map's field plus :func:`penalty_terms` over the obstacles of ``(x, y)``'s grid cell:
     the discs' sum in the same order (the others are skipped there as negligible); all
     obstacles at a nan point."""
+    terms = _disc_terms(x, y, grid, weight, exponent, want_hessian)
+    if grid.field.coef.shape[0] == 0:  # no map: the discs alone
+        return terms
     P, Px, Py, Pxx, Pxy, Pyy = field_penalty_terms(x, y, grid.field, weight, exponent, want_hessian)
-    a, b, c, d, e, f = _disc_terms(x, y, grid, weight, exponent, want_hessian)
+    a, b, c, d, e, f = terms
     return P + a, Px + b, Py + c, Pxx + d, Pxy + e, Pyy + f
 
 

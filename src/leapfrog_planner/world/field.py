@@ -311,52 +311,84 @@ QUINTIC = (
 
 
 @njit(cache=True, inline="always")
-def _weights(m, t):
-    """Node ``m``'s weight at ``t`` and its first and second derivatives (Horner)."""
-    c = QUINTIC[m]
-    w = ((((c[5] * t + c[4]) * t + c[3]) * t + c[2]) * t + c[1]) * t + c[0]
-    d = (((5.0 * c[5] * t + 4.0 * c[4]) * t + 3.0 * c[3]) * t + 2.0 * c[2]) * t + c[1]
-    dd = ((20.0 * c[5] * t + 12.0 * c[4]) * t + 6.0 * c[3]) * t + 2.0 * c[2]
-    return w, d, dd
+def _weights(t):
+    """The six nodes' quintic B-spline weights at ``t`` (:data:`QUINTIC`, times 120)."""
+    m = 1.0 - t
+    t2 = t * t
+    t3 = t2 * t
+    t4 = t2 * t2
+    t5 = t4 * t
+    return (m * m * m * m * m,
+            26.0 - 50.0 * t + 20.0 * t2 + 20.0 * t3 - 20.0 * t4 + 5.0 * t5,
+            66.0 - 60.0 * t2 + 30.0 * t4 - 10.0 * t5,
+            26.0 + 50.0 * t + 20.0 * t2 - 20.0 * t3 - 20.0 * t4 + 10.0 * t5,
+            1.0 + 5.0 * t + 10.0 * t2 + 10.0 * t3 + 5.0 * t4 - 5.0 * t5,
+            t5)  # fmt: skip
 
 
 @njit(cache=True, inline="always")
-def _all_weights(t):
-    """The six nodes' weights at ``t``, their first and their second derivatives (tuples)."""
-    w0, d0, e0 = _weights(0, t)
-    w1, d1, e1 = _weights(1, t)
-    w2, d2, e2 = _weights(2, t)
-    w3, d3, e3 = _weights(3, t)
-    w4, d4, e4 = _weights(4, t)
-    w5, d5, e5 = _weights(5, t)
-    return (w0, w1, w2, w3, w4, w5), (d0, d1, d2, d3, d4, d5), (e0, e1, e2, e3, e4, e5)
+def _slopes(t):
+    """Their first derivatives (times 120)."""
+    m = 1.0 - t
+    t2 = t * t
+    t3 = t2 * t
+    t4 = t2 * t2
+    return (-5.0 * m * m * m * m,
+            -50.0 + 40.0 * t + 60.0 * t2 - 80.0 * t3 + 25.0 * t4,
+            -120.0 * t + 120.0 * t3 - 50.0 * t4,
+            50.0 + 40.0 * t - 60.0 * t2 - 80.0 * t3 + 50.0 * t4,
+            5.0 + 20.0 * t + 30.0 * t2 + 20.0 * t3 - 25.0 * t4,
+            5.0 * t4)  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _curvatures(t):
+    """Their second derivatives (times 120)."""
+    m = 1.0 - t
+    t2 = t * t
+    t3 = t2 * t
+    return (20.0 * m * m * m,
+            40.0 + 120.0 * t - 240.0 * t2 + 100.0 * t3,
+            -120.0 + 360.0 * t2 - 200.0 * t3,
+            40.0 - 120.0 * t - 240.0 * t2 + 200.0 * t3,
+            20.0 + 60.0 * t + 60.0 * t2 - 100.0 * t3,
+            20.0 * t3)  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _dot6(row, j, w):
+    """The weights ``w`` against the six coefficients of ``row`` from column ``j``."""
+    return (w[0] * row[j] + w[1] * row[j + 1] + w[2] * row[j + 2] + w[3] * row[j + 3]
+            + w[4] * row[j + 4] + w[5] * row[j + 5])  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _sum6(a, w):
+    return a[0] * w[0] + a[1] * w[1] + a[2] * w[2] + a[3] * w[3] + a[4] * w[4] + a[5] * w[5]
 
 
 @njit(cache=True)
 def _spline(coef, gx, gy, want_hessian):
     """``u`` and its derivatives in grid units at the grid point ``(gx, gy)`` (node ``(i, j)``
-    at ``(j, i)``), from the 6 x 6 coefficients around it."""
+    at ``(j, i)``), from the 6 x 6 coefficients around it (weights times 120 per axis)."""
     j0, i0 = int(math.floor(gx)), int(math.floor(gy))
     tx, ty = gx - j0, gy - i0
-    bx, dx, ddx = _all_weights(tx)
-    u = ux = uy = uxx = uxy = uyy = 0.0
-    for k in range(6):
-        row = coef[i0 - 2 + k]
-        v = g = gg = 0.0
-        for m in range(6):
-            c = row[j0 - 2 + m]
-            v += bx[m] * c
-            g += dx[m] * c
-            gg += ddx[m] * c
-        by, dy, ddy = _weights(k, ty)
-        u += by * v
-        ux += by * g
-        uy += dy * v
-        if want_hessian:
-            uxx += by * gg
-            uxy += dy * g
-            uyy += ddy * v
-    return u, ux, uy, uxx, uxy, uyy
+    wx, dx = _weights(tx), _slopes(tx)
+    wy, dy = _weights(ty), _slopes(ty)
+    j = j0 - 2
+    rows = (coef[i0 - 2], coef[i0 - 1], coef[i0], coef[i0 + 1], coef[i0 + 2], coef[i0 + 3])
+    v = (_dot6(rows[0], j, wx), _dot6(rows[1], j, wx), _dot6(rows[2], j, wx),
+         _dot6(rows[3], j, wx), _dot6(rows[4], j, wx), _dot6(rows[5], j, wx))  # fmt: skip
+    g = (_dot6(rows[0], j, dx), _dot6(rows[1], j, dx), _dot6(rows[2], j, dx),
+         _dot6(rows[3], j, dx), _dot6(rows[4], j, dx), _dot6(rows[5], j, dx))  # fmt: skip
+    s = 1.0 / 14400.0  # 120^2
+    u, ux, uy = _sum6(v, wy) * s, _sum6(g, wy) * s, _sum6(v, dy) * s
+    if not want_hessian:
+        return u, ux, uy, 0.0, 0.0, 0.0
+    cx, cy = _curvatures(tx), _curvatures(ty)
+    gg = (_dot6(rows[0], j, cx), _dot6(rows[1], j, cx), _dot6(rows[2], j, cx),
+          _dot6(rows[3], j, cx), _dot6(rows[4], j, cx), _dot6(rows[5], j, cx))  # fmt: skip
+    return u, ux, uy, _sum6(gg, wy) * s, _sum6(g, dy) * s, _sum6(v, cy) * s
 
 
 @njit(cache=True)
