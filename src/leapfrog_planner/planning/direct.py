@@ -45,7 +45,7 @@ _MODELS = ("unicycle", "diff-drive")  # the direct method writes its own dynamic
 _CASADI_MISSING = "the direct method needs casadi: pip install 'leapfrog-planner[dev]'"
 
 
-def _casadi():
+def load_casadi():
     """Import casadi lazily so that the rest of the library works without it."""
     try:
         import casadi
@@ -79,7 +79,7 @@ class DirectResult:
 
 
 @dataclass(frozen=True)
-class _Case:
+class DirectCase:
     """What a solve is given: end states, horizon, obstacle rows, penalty weight and exponent,
     and the control bounds (per control ``(lo, hi)`` or ``None``; ``None``: no bounds).
     :meth:`DirectTranscription.solve` checks them; :func:`solve_direct` checks the ends,
@@ -95,7 +95,7 @@ class _Case:
 
 
 @dataclass(frozen=True)
-class _StartPoint:
+class StartPoint:
     """IPOPT's start point ``x0`` and the bounds ``lbx``, ``ubx`` of the NLP's variables (the
     node states, then the controls, flat)."""
 
@@ -107,33 +107,33 @@ class _StartPoint:
 # --------------------------------------------------------------------------- validation
 
 
-def _state(value: Any, name: str) -> np.ndarray:
+def check_state(value: Any, name: str) -> np.ndarray:
     return checks.vector(value, 3, name, " [x, y, heading]")
 
 
-def _horizon(value: Any) -> float:
+def check_horizon(value: Any) -> float:
     return checks.real(value, "horizon", gt=0)
 
 
-def _obstacles(value: Any) -> np.ndarray:
+def check_obstacles(value: Any) -> np.ndarray:
     return checks.obstacles(value)
 
 
-def _positive(
+def check_positive(
     value: Any, name: str, *, allow_zero: bool = False, error: type[ValueError] = ScenarioError
 ) -> float:
     bound = {"ge": 0.0} if allow_zero else {"gt": 0.0}
     return checks.real(value, name, error=error, **bound)
 
 
-def _guess(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
+def check_guess(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
     arr = checks.rows(value, shape[1], name, ", ".join(["v"] * shape[1]), error=SettingsError)
     if arr.shape != shape:
         raise SettingsError(f"{name}: expected {shape[0]} rows, got {arr.shape[0]}")
     return arr
 
 
-def _model(value: Any) -> str:
+def check_model(value: Any) -> str:
     if value not in _MODELS:
         raise ModelError(f"the direct method has no model {value!r} (it has {', '.join(_MODELS)})")
     return value
@@ -170,11 +170,11 @@ class DirectTranscription:
     ) -> None:
         self.n_obstacles = require_integer("n_obstacles", n_obstacles, 0)
         self.intervals = require_integer("intervals", intervals, 1)
-        self.model = _model(model)
+        self.model = check_model(model)
         self.substeps = require_integer("substeps", substeps, 1)
-        self.wheel_radius = _positive(wheel_radius, "wheel_radius", error=SettingsError)
-        self.axle_length = _positive(axle_length, "axle_length", error=SettingsError)
-        self.tol = _positive(tol, "tol", error=SettingsError)
+        self.wheel_radius = check_positive(wheel_radius, "wheel_radius", error=SettingsError)
+        self.axle_length = check_positive(axle_length, "axle_length", error=SettingsError)
+        self.tol = check_positive(tol, "tol", error=SettingsError)
         self.max_iter = require_integer("max_iter", max_iter, 1)
         self._solver = self._build()
 
@@ -197,7 +197,7 @@ class DirectTranscription:
         return xdot, effort + penalty
 
     def _build(self):
-        ca = _casadi()
+        ca = load_casadi()
         n, m = self.intervals, self.n_obstacles
         horizon = ca.SX.sym("T")
         weight = ca.SX.sym("W")
@@ -287,13 +287,15 @@ class DirectTranscription:
         solve_time = time.perf_counter() - tic
         return self._result(case, sol, self._solver.stats(), solve_time)
 
-    def _case(self, start, goal, horizon, obstacles, weight, exponent, control_bounds) -> _Case:
+    def _case(
+        self, start, goal, horizon, obstacles, weight, exponent, control_bounds
+    ) -> DirectCase:
         """The scenario checked, with as many obstacles as this transcription was built for."""
-        start, goal = _state(start, "start"), _state(goal, "goal")
-        horizon, obstacles = _horizon(horizon), _obstacles(obstacles)
-        weight = _positive(weight, "weight", allow_zero=True)
-        exponent = _positive(exponent, "exponent")
-        case = _Case(start, goal, horizon, obstacles, weight, exponent, control_bounds)
+        start, goal = check_state(start, "start"), check_state(goal, "goal")
+        horizon, obstacles = check_horizon(horizon), check_obstacles(obstacles)
+        weight = check_positive(weight, "weight", allow_zero=True)
+        exponent = check_positive(exponent, "exponent")
+        case = DirectCase(start, goal, horizon, obstacles, weight, exponent, control_bounds)
         if len(case.obstacles) != self.n_obstacles:
             raise ScenarioError(
                 f"this transcription was built for {self.n_obstacles} obstacles, "
@@ -301,24 +303,26 @@ class DirectTranscription:
             )
         return case
 
-    def _first_guess(self, case: _Case, guess_states, guess_controls) -> tuple[np.ndarray, ...]:
+    def _first_guess(
+        self, case: DirectCase, guess_states, guess_controls
+    ) -> tuple[np.ndarray, ...]:
         """The guess's states, its end nodes replaced by start and goal (default: the straight
         line), and controls in the model's units (default: derived from the states)."""
         n = self.intervals
         if guess_states is None:
             states0, _ = straight_line_guess(case.start, case.goal, case.horizon, n)
         else:
-            states0 = _guess(guess_states, "guess_states", (n + 1, 3))
+            states0 = check_guess(guess_states, "guess_states", (n + 1, 3))
         states0[0], states0[-1] = case.start, case.goal
         if guess_controls is None:
             controls0 = controls_from_states(states0, case.horizon)
             if self.model == "diff-drive":
                 controls0 = unicycle_to_wheel(controls0, self.wheel_radius, self.axle_length)
         else:
-            controls0 = _guess(guess_controls, "guess_controls", (n, 2))
+            controls0 = check_guess(guess_controls, "guess_controls", (n, 2))
         return states0, controls0
 
-    def _start_point(self, case: _Case, states0, controls0) -> _StartPoint:
+    def _start_point(self, case: DirectCase, states0, controls0) -> StartPoint:
         """IPOPT's start point and bounds: the end nodes fixed to start and goal, the controls
         boxed by the case's control bounds (the guess's controls clipped into them)."""
         n = self.intervals
@@ -330,9 +334,9 @@ class DirectTranscription:
             if bound is not None:
                 lbx[3 * (n + 1) + i :: 2], ubx[3 * (n + 1) + i :: 2] = bound
                 controls0[:, i] = np.clip(controls0[:, i], *bound)
-        return _StartPoint(np.concatenate((states0.ravel(), controls0.ravel())), lbx, ubx)
+        return StartPoint(np.concatenate((states0.ravel(), controls0.ravel())), lbx, ubx)
 
-    def _result(self, case: _Case, sol, stats, solve_time: float) -> DirectResult:
+    def _result(self, case: DirectCase, sol, stats, solve_time: float) -> DirectResult:
         """IPOPT's solution ``sol`` and ``stats`` as a :class:`DirectResult`; the clearance and
         the end state's error are measured along the exact arcs of the controls."""
         n = self.intervals
@@ -394,9 +398,9 @@ def straight_line_guess(start, goal, horizon, intervals) -> tuple[np.ndarray, np
     heading is interpolated rather than taken from the chord, so the guess already meets both
     end headings without any wrapping.
     """
-    start = _state(start, "start")
-    goal = _state(goal, "goal")
-    horizon = _horizon(horizon)
+    start = check_state(start, "start")
+    goal = check_state(goal, "goal")
+    horizon = check_horizon(horizon)
     n = require_integer("intervals", intervals, 1)
     s = np.linspace(0.0, 1.0, n + 1)[:, None]
     states = start + s * (goal - start)
@@ -440,8 +444,8 @@ def multistart_guesses(start, goal, intervals) -> list[np.ndarray]:
     offsets are dense because which guess reaches which optimum shifts with the mesh; with only
     +-0.5 and +-1.0, paper cases 3 and 4 miss their best optimum on some meshes.
     """
-    start = _state(start, "start")
-    goal = _state(goal, "goal")
+    start = check_state(start, "start")
+    goal = check_state(goal, "goal")
     n = require_integer("intervals", intervals, 1)
     return [
         _arc(start, goal, n, offset, heading)
@@ -453,7 +457,7 @@ def multistart_guesses(start, goal, intervals) -> list[np.ndarray]:
 _OFFSETS = (0.0, 0.25, -0.25, 0.5, -0.5, 0.75, -0.75, 1.0, -1.0)
 
 
-def _resample(result: DirectResult, intervals: int) -> tuple[np.ndarray, np.ndarray]:
+def resample_guess(result: DirectResult, intervals: int) -> tuple[np.ndarray, np.ndarray]:
     """A coarse solution on a finer mesh: states linear in time, controls sampled at midpoints."""
     t = np.linspace(0.0, result.t[-1], intervals + 1)
     states = np.column_stack([np.interp(t, result.t, result.states[:, i]) for i in range(3)])
@@ -462,7 +466,7 @@ def _resample(result: DirectResult, intervals: int) -> tuple[np.ndarray, np.ndar
     return states, result.controls[index]
 
 
-def _distinct(results: list[DirectResult]) -> list[DirectResult]:
+def distinct_guesses(results: list[DirectResult]) -> list[DirectResult]:
     """Successful results, cheapest first, with repeats of the same local optimum dropped."""
     kept: list[DirectResult] = []
     for r in sorted((r for r in results if r.success), key=lambda r: r.cost):
@@ -509,10 +513,10 @@ def solve_direct(
     :class:`DirectTranscription`, built once per mesh and process (:func:`cached_transcription`)
     and reused for all guesses.
     """
-    _model(model)  # first: another model's states may hold more than three numbers
-    start, goal = _state(start, "start"), _state(goal, "goal")
-    horizon, obstacles = _horizon(horizon), _obstacles(obstacles)
-    case = _Case(start, goal, horizon, obstacles, weight, exponent, control_bounds)
+    check_model(model)  # first: another model's states may hold more than three numbers
+    start, goal = check_state(start, "start"), check_state(goal, "goal")
+    horizon, obstacles = check_horizon(horizon), check_obstacles(obstacles)
+    case = DirectCase(start, goal, horizon, obstacles, weight, exponent, control_bounds)
     n = require_integer("intervals", intervals, 1)
     if coarse_intervals is not None:
         coarse_intervals = require_integer("coarse_intervals", coarse_intervals, 1)
@@ -524,10 +528,10 @@ def solve_direct(
     if not starts:
         starts = [(straight_line_guess(case.start, case.goal, case.horizon, n)[0], None)]
     transcription = cached_transcription(len(case.obstacles), n, model=model, **kw)
-    return _best(_solve_all(transcription, case, starts))
+    return best_result(solve_all(transcription, case, starts))
 
 
-def _builtin_starts(case: _Case, n: int, coarse_intervals, model: str, kw: dict) -> list:
+def _builtin_starts(case: DirectCase, n: int, coarse_intervals, model: str, kw: dict) -> list:
     """The starts ``(states, controls or None)`` that the built-in guesses
     (:func:`multistart_guesses`) give a mesh of ``n`` intervals: each distinct local optimum of
     the guesses on the coarse mesh, resampled to the full one; the raw guesses themselves when
@@ -539,14 +543,14 @@ def _builtin_starts(case: _Case, n: int, coarse_intervals, model: str, kw: dict)
             len(case.obstacles), coarse_intervals, model=model, **coarse_kw
         )
         guesses = multistart_guesses(case.start, case.goal, coarse_intervals)
-        optima = _distinct(_solve_all(coarse, case, [(g, None) for g in guesses]))
+        optima = distinct_guesses(solve_all(coarse, case, [(g, None) for g in guesses]))
         if optima:
-            return [_resample(r, n) for r in optima]
+            return [resample_guess(r, n) for r in optima]
         # nothing converged on the coarse mesh: try the raw guesses on the full one
     return [(g, None) for g in multistart_guesses(case.start, case.goal, n)]
 
 
-def _solve_all(transcription: DirectTranscription, case: _Case, starts) -> list[DirectResult]:
+def solve_all(transcription: DirectTranscription, case: DirectCase, starts) -> list[DirectResult]:
     """One solve of ``case`` per start ``(states, controls or None)``, in order."""
     return [
         transcription.solve(
@@ -564,7 +568,7 @@ def _solve_all(transcription: DirectTranscription, case: _Case, starts) -> list[
     ]
 
 
-def _best(results: list[DirectResult]) -> DirectResult:
+def best_result(results: list[DirectResult]) -> DirectResult:
     """The best of ``results`` by :func:`_better` (the first of equals)."""
     best = None
     for result in results:

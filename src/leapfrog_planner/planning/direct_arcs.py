@@ -12,7 +12,7 @@ __all__ = ["arc_clearance", "arc_end_state", "controls_from_states", "unicycle_t
            "wheel_to_unicycle"]  # fmt: skip
 
 # Samples per interval used to measure clearance along the continuous path, not just at nodes.
-_CLEARANCE_SAMPLES = 8
+CLEARANCE_SAMPLES = 8
 
 
 def wheel_to_unicycle(controls: np.ndarray, radius: float, axle: float) -> np.ndarray:
@@ -64,7 +64,7 @@ def arc_clearance(
         return math.inf
     n = len(unicycle_controls)
     h = horizon / n
-    tau = h * np.arange(_CLEARANCE_SAMPLES) / _CLEARANCE_SAMPLES  # (S,)
+    tau = h * np.arange(CLEARANCE_SAMPLES) / CLEARANCE_SAMPLES  # (S,)
     x0, y0, th0 = (states[:-1, i, None] for i in range(3))  # (N, 1) each
     v, w = unicycle_controls[:, 0, None], unicycle_controls[:, 1, None]
     # Exact arc: integral of cos(th0 + w s) over [0, tau] = tau cos(th0 + w tau/2) sinc(w tau/2).

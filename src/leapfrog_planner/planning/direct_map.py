@@ -52,25 +52,25 @@ from ..errors import ScenarioError, SettingsError
 from ..world.field import MapField, far_u
 from ..world.obstacle_map import ObstacleMap
 from .direct import (
+    DirectCase,
     DirectResult,
     DirectTranscription,
-    _best,
-    _casadi,
-    _Case,
-    _distinct,
-    _guess,
-    _horizon,
-    _model,
-    _obstacles,
-    _positive,
-    _resample,
-    _solve_all,
-    _StartPoint,
-    _state,
+    StartPoint,
+    best_result,
+    check_guess,
+    check_horizon,
+    check_model,
+    check_obstacles,
+    check_positive,
+    check_state,
+    distinct_guesses,
+    load_casadi,
     multistart_guesses,
+    resample_guess,
+    solve_all,
     straight_line_guess,
 )
-from .direct_arcs import _CLEARANCE_SAMPLES, wheel_to_unicycle
+from .direct_arcs import CLEARANCE_SAMPLES, wheel_to_unicycle
 
 __all__ = [
     "MapTranscription",
@@ -120,7 +120,7 @@ def map_spline(field: MapField):
     field's coefficients, marked ``never_inline`` so that SX graphs call it (module docstring).
     CasADi derives its derivatives (B-splines of lower degree) on first use and keeps them with
     the Function: share it (:func:`shared_spline`)."""
-    ca = _casadi()
+    ca = load_casadi()
     ny, nx = field.coef.shape
     g = ca.MX.sym("g", 2)
     coef = ca.DM(np.ascontiguousarray(field.coef).ravel())  # gx fastest, as CasADi wants
@@ -144,7 +144,7 @@ def map_penalty_function(obstacle_map: ObstacleMap, window: Window | None = None
     """A CasADi Function ``(xy, W, n) -> (P, dP/dxy)`` of the map's penalty alone (of its
     ``window``, if given): what the transcription integrates, for checking it against
     ``field_penalty_terms``."""
-    ca = _casadi()
+    ca = load_casadi()
     field, spline = shared_spline(obstacle_map, window)
     xy, weight, exponent = ca.SX.sym("xy", 2), ca.SX.sym("W"), ca.SX.sym("n")
     p = map_penalty_expr(ca, spline, field, xy[0], xy[1], weight, exponent)
@@ -268,7 +268,7 @@ class MapTranscription(DirectTranscription):
         extra = map_penalty_expr(ca, self._spline, self._field, x[0], x[1], weight, exponent)
         return xdot, cost + extra
 
-    def _start_point(self, case: _Case, states0, controls0) -> _StartPoint:
+    def _start_point(self, case: DirectCase, states0, controls0) -> StartPoint:
         """The base class's start point, with the node positions boxed into the window's box
         (the guess clipped into it)."""
         point = super()._start_point(case, states0, controls0)
@@ -281,7 +281,7 @@ class MapTranscription(DirectTranscription):
                 point.x0[inner] = np.clip(point.x0[inner], lo, hi)
         return point
 
-    def _result(self, case: _Case, sol, stats, solve_time: float) -> DirectResult:
+    def _result(self, case: DirectCase, sol, stats, solve_time: float) -> DirectResult:
         result = super()._result(case, sol, stats, solve_time)
         unicycle = result.controls
         if self.model == "diff-drive":
@@ -312,9 +312,9 @@ def _touches(states: np.ndarray, box, tol: float = 1e-6) -> bool:
 
 def arc_points(states: np.ndarray, unicycle_controls: np.ndarray, horizon: float) -> np.ndarray:
     """Points ``(M, 2)`` along the exact arcs of piecewise-constant ``(v, omega)`` from the node
-    states: :data:`_CLEARANCE_SAMPLES` per interval and the end node."""
+    states: :data:`CLEARANCE_SAMPLES` per interval and the end node."""
     n = len(unicycle_controls)
-    tau = horizon / n * np.arange(_CLEARANCE_SAMPLES) / _CLEARANCE_SAMPLES
+    tau = horizon / n * np.arange(CLEARANCE_SAMPLES) / CLEARANCE_SAMPLES
     x0, y0, th0 = (states[:-1, i, None] for i in range(3))
     v, w = unicycle_controls[:, 0, None], unicycle_controls[:, 1, None]
     chord = v * tau * np.sinc(w * tau / (2.0 * np.pi))
@@ -378,7 +378,7 @@ def clear_map_transcriptions() -> None:
 _CONTROL_NAMES = {"unicycle": ("v", "omega"), "diff-drive": ("omega_R", "omega_L")}
 
 
-def _task(task, start, goal, horizon, control_bounds) -> tuple[Any, _Case, dict]:
+def _task(task, start, goal, horizon, control_bounds) -> tuple[Any, DirectCase, dict]:
     """From a problem or scenario: the map, the checked :class:`._Case` and the transcription's
     model options (``model``, and the wheel radius and axle length of a diff-drive)."""
     if hasattr(task, "robot_radius") and hasattr(task, "footprint_obstacles"):  # a Scenario
@@ -399,16 +399,16 @@ def _task(task, start, goal, horizon, control_bounds) -> tuple[Any, _Case, dict]
         params = dict(zip(task.model.parameters, task.parameters, strict=True))
         if world is None:
             raise ScenarioError("the problem has no map: use direct.solve_direct")
-    options = {"model": _model(model)}
+    options = {"model": check_model(model)}
     if model == "diff-drive":
         options.update(wheel_radius=params["wheel_radius"], axle_length=params["axle_length"])
     if start is None or goal is None or horizon is None:
         raise ScenarioError("start, goal and horizon are needed with a problem")
-    case = _Case(
-        _state(start, "start"),
-        _state(goal, "goal"),
-        _horizon(horizon),
-        _obstacles(obstacles),
+    case = DirectCase(
+        check_state(start, "start"),
+        check_state(goal, "goal"),
+        check_horizon(horizon),
+        check_obstacles(obstacles),
         weight,
         exponent,
         control_bounds,
@@ -453,30 +453,30 @@ def solve_direct_map(
     """
     world, case, options = _task(task, start, goal, horizon, control_bounds)
     kw = {**options, **kw}
-    user = [_guess(g, "guesses", (intervals + 1, 3)) for g in (guesses or ())]
+    user = [check_guess(g, "guesses", (intervals + 1, 3)) for g in (guesses or ())]
     if crop is not None:
         points = [case.start[None], case.goal[None], *(g[:, :2] for g in user)]
         if multistart:
             points += multistart_guesses(case.start, case.goal, coarse_intervals or intervals)
         box = query_box(np.vstack([p[:, :2] for p in points]), 0.0)
-        kw.update(box=box, crop=_positive(crop, "crop", error=SettingsError))
+        kw.update(box=box, crop=check_positive(crop, "crop", error=SettingsError))
     starts = [(g, None) for g in user]
     if multistart:
         starts += _coarse_starts(world, case, intervals, coarse_intervals, kw)
     if not starts:
         starts = [(straight_line_guess(case.start, case.goal, case.horizon, intervals)[0], None)]
     transcription = cached_map_transcription(world, len(case.obstacles), intervals, **kw)
-    return _best(_solve_all(transcription, case, starts))
+    return best_result(solve_all(transcription, case, starts))
 
 
-def _coarse_starts(world, case: _Case, n: int, coarse: int | None, kw: dict) -> list:
+def _coarse_starts(world, case: DirectCase, n: int, coarse: int | None, kw: dict) -> list:
     """The built-in guesses' starts on the mesh of ``n`` intervals: each distinct optimum on the
     coarse mesh (tolerance at most 1e-6), resampled; the raw guesses without one."""
     if coarse is not None and coarse < n:
         coarse_kw = {**kw, "tol": max(kw.get("tol", 1e-10), 1e-6)}
         solver = cached_map_transcription(world, len(case.obstacles), coarse, **coarse_kw)
         guesses = multistart_guesses(case.start, case.goal, coarse)
-        optima = _distinct(_solve_all(solver, case, [(g, None) for g in guesses]))
+        optima = distinct_guesses(solve_all(solver, case, [(g, None) for g in guesses]))
         if optima:
-            return [_resample(r, n) for r in optima]
+            return [resample_guess(r, n) for r in optima]
     return [(g, None) for g in multistart_guesses(case.start, case.goal, n)]
