@@ -8,12 +8,6 @@ from dataclasses import dataclass, fields, replace
 from ..errors import ScenarioError, SettingsError, require_integer
 from .leapfrog import LeapfrogSettings
 
-#: The final solve's tolerance with a map. The map's penalty is a spline over the cells: the
-#: integrator's error estimate misjudges its pieces, and the flow is reproducible to about
-#: 1e-9 only (its end point moves by 2e-10 to 5e-9 when the costate moves by 1e-13, where a
-#: disc or a straight wall give 3e-13), so Newton's iterates stall between 1e-9 and 3e-8.
-MAP_FINAL_TOL = 1e-8
-
 
 @dataclass(frozen=True)
 class PlannerSettings:
@@ -79,17 +73,7 @@ class PlannerSettings:
                     source = scenario.source or scenario.name
                     why = str(e).removeprefix(f"{name}: ")
                     raise ScenarioError(f"{source}: solver.{key}: {why}") from None
-        settings = cls.from_options(base, **{**from_file, **options})
-        return settings.for_map() if scenario.map is not None else settings
-
-    def for_map(self) -> PlannerSettings:
-        """These settings for a problem with a map: the final solve stops at ``|F| <=``
-        :data:`MAP_FINAL_TOL` (or its own tolerance, if looser)."""
-        final = self.leapfrog.final_shooting
-        root = replace(final.root, tol=max(final.root.tol, MAP_FINAL_TOL))
-        return replace(
-            self, leapfrog=replace(self.leapfrog, final_shooting=replace(final, root=root))
-        )
+        return cls.from_options(base, **{**from_file, **options})
 
 
 #: A scenario's ``[solver]`` keys, and the settings they set.

@@ -19,13 +19,11 @@ from the distance to its blocked cells so that it means the same:
     Undoing it, an isolated disc of radius ``l`` gives ``u = |p - c| / l`` exactly: the disc's
     penalty, with the length scale ``l`` in place of its radius;
 ``coef``
-    ``u`` at the cell centres becomes a tensor-product quintic B-spline (the interpolating
-    prefilter), so ``u`` is C4 everywhere and each evaluation reads 6 x 6 coefficients: O(1)
+    ``u`` at the cell centres are the coefficients of a tensor-product quintic B-spline (its
+    own smoothing, a variance of h^2 / 2 per axis, is counted in ``sigma`` above), so ``u`` is
+    C4 everywhere and each evaluation reads 6 x 6 coefficients: O(1)
     whatever the map's size. ``t -> exp(-t^n)`` at ``t = max(u, 0)^2`` is C2 for ``n >= 2``
-    (and C3 for the default ``n = 2``). A cubic spline (C2) is smooth enough for Newton's
-    method, but the integrator is not: along a path its Hessian's kinks at every line of nodes
-    cost the dop853 steps their order, and the flow's end point moved by 6e-9 when its costate
-    moved by 1e-13 (a kink per cell, 5 cm, at rtol 1e-12), above the final solve's tolerance.
+    (and C3 for the default ``n = 2``); the flow over it reproduces to 1e-13, as over discs.
 
 The field stores ``u`` only: the weight ``W`` and exponent ``n`` stay run-time arguments, so the
 continuation on the weight rebuilds nothing, and a new map compiles nothing. Distances are clipped
@@ -137,13 +135,13 @@ def rice_slope(r, sigma: float) -> np.ndarray:
 
 def polish_inverse(u: np.ndarray, dt: np.ndarray, length: float, table: RiceTable) -> None:
     """Two Newton steps on ``m_sigma(r) = length + dt`` from the table's ``r = length u``, in
-    place, where the table was used. The table's linear interpolation is off by up to 1e-7,
-    erratically from node to node: noise at the scale of the cells, whose high derivatives cost
-    the integrator its accuracy (the flow's end point moved by 1e-9 when its start moved by
-    1e-13). After the steps the nodes are exact to rounding."""
+    place, where the table was used and P matters. The table's linear interpolation is off by
+    up to 1e-7, erratically from node to node (noise at the scale of the cells); after the
+    steps the nodes are exact to rounding."""
     m = length + dt.astype(np.float64)
-    top = table.m0 + table.dm * (table.r.size - 1)
-    where = np.flatnonzero((m > table.m0) & (m < top))
+    # Where P matters (u below far_u: beyond it P < e^-60 W) and the table was used: the
+    # clipped plateau far from obstacles (most of a large map) is left as it is.
+    where = np.flatnonzero((m.ravel() > table.m0) & (u.ravel() < far_u() + 0.5))
     r = u.ravel()[where] * length
     target = m.ravel()[where]
     for _ in range(2):
