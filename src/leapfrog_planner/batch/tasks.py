@@ -274,15 +274,15 @@ def _run_direct(sc: Scenario, options: dict) -> dict:
     planner = Planner(sc, **{**options, "initial_paths": paths})
     s = np.linspace(0.0, 1.0, DIRECT_INTERVALS + 1)
     guesses = [np.column_stack(path.curve(s)) for path in planner.initial_paths()]
-    bounds = tuple(sc.control_bounds.get(c) for c in model_info(sc.model).controls)
     if sc.map is not None:  # the same penalty, the map's field included
         r = solve_direct_map(sc, intervals=DIRECT_INTERVALS, guesses=guesses)
     else:
-        r = _solve_direct(sc, guesses, bounds)
+        r = _solve_direct(sc, guesses)
     return _direct_record(sc, r, t)
 
 
-def _solve_direct(sc: Scenario, guesses, bounds):
+def _solve_direct(sc: Scenario, guesses):
+    bounds = tuple(sc.control_bounds.get(c) for c in model_info(sc.model).controls)
     return solve_direct(
         sc.start,
         sc.goal,
@@ -307,7 +307,7 @@ def _direct_record(sc: Scenario, r, t: float) -> dict:
         "failure": "collides" if r.success and not clear else None,
         "message": message,
         "cost": _num(r.cost) if r.success else None,
-        "min_clearance": _num(r.min_clearance) if sc.obstacles.size or sc.map else None,
+        "min_clearance": _num(r.min_clearance) if sc.obstacles.size or sc.map is not None else None,
         "end_state_error": _num(r.end_state_error),
         "newton_iterations": int(r.iterations),
         "f_evals": None,

@@ -261,14 +261,17 @@ def solve(
 
 
 def with_map(sc, map_file: str):
-    """``sc`` planned in the map of ``map_file`` (its unknown policy and length scale kept)."""
+    """``sc`` planned in the map of ``map_file`` (its unknown policy, length scale, polygons
+    and walls kept)."""
     from dataclasses import replace
 
     from ..planning.scenario_map import ScenarioMap
 
     old = sc.map
-    given = ScenarioMap(map_file) if old is None else ScenarioMap(map_file, old.unknown, old.length)
-    return replace(sc, map=given)
+    if old is None:
+        return replace(sc, map=ScenarioMap(map_file))
+    unknown = old.unknown if old.file is not None else "occupied"
+    return replace(sc, map=ScenarioMap(map_file, unknown, old.length, shapes=old.shapes))
 
 
 def _plan_with_progress(planner):

@@ -25,7 +25,7 @@ from ..errors import ScenarioError, describe, short
 from ..integrate.problem import ObstaclePenalty, OptimalControlProblem
 from ..model import MODELS
 from .scenario_checks import ScenarioCheck, key_path
-from .scenario_map import ScenarioMap, map_from_table
+from .scenario_map import ScenarioMap, map_from_tables
 from .scenario_toml import toml_key, toml_state, toml_value
 
 __all__ = [
@@ -58,6 +58,8 @@ TOP_LEVEL_KEYS = (
     "solver",
     "obstacles",
     "map",
+    "polygons",
+    "walls",
 )
 REQUIRED_KEYS = ("horizon", "start", "goal")
 #: The smoothing widths of bounded controls, relative to the narrowest range: Leapfrog at the
@@ -116,7 +118,7 @@ class Scenario:
     robot_radius: float = 0.0  # the footprint: a disc of this radius about (x, y)
     margin: float = 0.0  # clearance a converged path keeps beyond the footprint
     control_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)  # name: (lo, hi)
-    map: ScenarioMap | None = None  # a ROS map the robot plans in (planning/scenario_map.py)
+    map: ScenarioMap | None = None  # a ROS map, polygons, walls (planning/scenario_map.py)
 
     def __post_init__(self):
         source = None if self.source is None else str(self.source)
@@ -196,6 +198,9 @@ class Scenario:
             c.fail("penalty.exponent", "must be at least 2 with a map")
         if len(points) > 2:
             c.fail("waypoints", "not supported with a map yet")
+        if not self.map.placed:  # polygons and walls alone: a grid round them and the ends
+            placed = c._named(self.map.around, [p for _, p in points], robot_radius)
+            object.__setattr__(self, "map", placed)
         for key, p in points:
             c._named(self.map.check_point, p, key, robot_radius)
 
@@ -332,7 +337,9 @@ class Scenario:
             {"center": [float(cx), float(cy)], "radius": float(r)} for cx, cy, r in self.obstacles
         ]
         if self.map is not None:
-            data["map"] = self.map.to_dict()
+            if self.map.to_dict():
+                data["map"] = self.map.to_dict()
+            data.update(self.map.shapes_dict())
         return data
 
     def to_toml(self) -> str:
@@ -350,9 +357,10 @@ class Scenario:
             if table in d:
                 lines += ["", f"[{table}]"]
                 lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in d[table].items()]
-        for ob in d["obstacles"]:
-            lines += ["", "[[obstacles]]"]
-            lines += [f"{k} = {toml_value(v)}" for k, v in ob.items()]
+        for key in ("obstacles", "polygons", "walls"):
+            for item in d.get(key, ()):
+                lines += ["", f"[[{key}]]"]
+                lines += [f"{k} = {toml_value(v)}" for k, v in item.items()]
         return "\n".join(lines) + "\n"
 
 
@@ -398,9 +406,10 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
         obstacles[j, :2] = c.vector(ob["center"], 2, f"{key}.center", " [cx, cy]")
         obstacles[j, 2] = c.number(ob["radius"], f"{key}.radius", gt=0)
 
-    world = None
-    if "map" in data:
-        world = c._named(map_from_table, c.table(data["map"], "map"), _folder(source))
+    table = c.table(data["map"], "map") if "map" in data else None
+    world = c._named(
+        map_from_tables, table, data.get("polygons"), data.get("walls"), _folder(source)
+    )
     return Scenario(
         name=data.get("name", _default_name(source)),
         horizon=data["horizon"],

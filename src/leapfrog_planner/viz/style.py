@@ -78,11 +78,15 @@ def initial_junctions(result: PlanResult) -> np.ndarray | None:
 
 
 def view_extent(sc: Scenario, result: PlanResult) -> tuple[float, float, float, float]:
-    """Bounding box of everything drawn: end points, obstacles, junctions and the path."""
+    """Bounding box of everything drawn: end points, obstacles (not a map's cells: the view
+    follows the path), junctions and the path."""
     pts = [sc.start[None, :2], sc.goal[None, :2]]
     if sc.obstacles.shape[0]:
         c, r = sc.obstacles[:, :2], sc.obstacles[:, 2:3]
         pts += [c - r, c + r]
+    if sc.map is not None and sc.map.shapes is not None:
+        xmin, xmax, ymin, ymax = sc.map.shapes.box
+        pts.append(np.array([[xmin, ymin], [xmax, ymax]]))
     X = initial_junctions(result)
     if X is not None:
         pts.append(X[:, :2])
@@ -162,6 +166,9 @@ def draw_map(ax: Axes, sc: Scenario) -> None:
     it about its lower-left corner)."""
     if sc.map is None:
         return
+    draw_shapes(ax, sc.map.shapes)
+    if sc.map.file is None:  # polygons and walls alone: their grid is free, not drawn
+        return
     from matplotlib.transforms import Affine2D
 
     occ = sc.map.occupancy
@@ -173,6 +180,26 @@ def draw_map(ax: Axes, sc: Scenario) -> None:
         extent=(0.0, cols * h, 0.0, rows * h), transform=place, interpolation="nearest",
         zorder=0, gid=GID_MAP,
     )  # fmt: skip
+
+
+def draw_shapes(ax: Axes, shapes) -> None:
+    """Polygons as they are, walls as their points within half the thickness of the line (a
+    band per segment and a disc at each vertex), in the discs' grey."""
+    if shapes is None:
+        return
+    from matplotlib.patches import Polygon
+
+    style = {"facecolor": OBSTACLE_FACE, "edgecolor": "none", "zorder": 1, "gid": GID_OBSTACLE}
+    for ring in shapes.polygons:
+        ax.add_patch(Polygon(ring, closed=True, **{**style, "edgecolor": OBSTACLE_EDGE}))
+    for line, thickness in zip(shapes.walls, shapes.thickness, strict=True):
+        half = 0.5 * thickness
+        for a, b in zip(line[:-1], line[1:], strict=True):
+            t = b - a
+            n = np.array([-t[1], t[0]]) * (half / max(float(np.hypot(*t)), 1e-300))
+            ax.add_patch(Polygon([a + n, b + n, b - n, a - n], closed=True, **style))
+        for p in line:
+            ax.add_patch(Circle(p, half, **style))
 
 
 def draw_obstacles(ax: Axes, sc: Scenario, label: bool = True) -> None:

@@ -7,7 +7,8 @@ fields and the exact clearance against them.
   :mod:`.ros_map_write`: :func:`save_ros_map`, the other way.
 - :mod:`.clearance`: :class:`MapClearance`, the exact distance from points to the blocked cells
   (closed squares) less the robot's radius.
-- :mod:`.distance`: the exact signed distance transform of the blocked cells (squares).
+- :mod:`.distance`: the exact signed distance transform of the blocked cells (squares);
+  :mod:`.shapes`: :class:`Shapes`, polygons and walls and their exact signed distance.
 - :mod:`.field`: the map's penalty field (smoothed, calibrated distance as a quintic B-spline)
   and its compiled evaluator; :mod:`.obstacle_map`: :class:`ObstacleMap`, a map's field and
   clearance for a robot's footprint.
@@ -25,6 +26,7 @@ from .occupancy import FREE, MAX_CELLS, OCCUPIED, UNKNOWN, OccupancyMap
 from .queries import FreeSpace, MapQuery, random_queries
 from .ros_map import MapYaml, load_ros_map, read_map_yaml
 from .ros_map_write import save_ros_map
+from .shapes import Shapes
 from .synthetic import nonconvex_field, office_maze, warehouse
 
 __all__ = [
@@ -39,6 +41,7 @@ __all__ = [
     "ObstacleMap",
     "OccupancyMap",
     "PathClearance",
+    "Shapes",
     "load_ros_map",
     "nonconvex_field",
     "office_maze",

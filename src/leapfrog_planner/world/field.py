@@ -6,8 +6,9 @@ from the distance to its blocked cells so that it means the same:
 
 ``d``
     the exact signed distance from each cell centre to the blocked cells taken as closed squares
-    (:mod:`.distance`; positive outside, negative inside), less the robot's radius ``rho``: every
-    obstacle grows by the footprint, as each disc does;
+    (:mod:`.distance`; positive outside, negative inside), and to the polygons and walls by
+    their geometry (:mod:`.shapes`), less the robot's radius ``rho``: every obstacle grows by
+    the footprint, as each disc does;
 ``dt = G_sigma * d``
     a Gaussian smoothing of width ``sigma = max(0.1 l, 2 h)`` (``h`` the cell size). Without it
     the distance has a ridge (``|y|``) along the middle of every corridor, a kink that Newton's
@@ -41,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from .distance import signed_distance_squares
+from .shapes import Shapes, grid_distance
 
 #: The smoothing width: ``sigma = max(SMOOTH_FRACTION * l, SMOOTH_CELLS * h)``.
 SMOOTH_FRACTION = 0.1
@@ -170,50 +172,6 @@ def _calibrate(dt, length, m0, dm, table, slope, sigma, out):
         flat_out[k] = r / length
 
 
-# --------------------------------------------------------------------------- B-spline
-
-
-#: The poles of the quintic B-spline's interpolation filter (Unser, "Splines: a perfect fit for
-#: signal and image processing", IEEE Signal Processing Magazine 16, 1999).
-POLES = (-0.430575347099973791851434783493520, -0.043096288203264653822712376822550)
-
-
-@njit(cache=True)
-def _prefilter_rows(a, pole):
-    """In place, along each row: one pole's causal and anti-causal recursions of the
-    interpolating filter, mirror boundaries, with its gain ``(1 - z)(1 - 1/z)``; the causal
-    start is truncated where ``pole^k < 1e-12``."""
-    ny, nx = a.shape
-    terms = min(nx, int(math.log(1e-12) / math.log(-pole)) + 1)
-    end = pole / (pole * pole - 1.0)
-    gain = (1.0 - pole) * (1.0 - 1.0 / pole)
-    for i in range(ny):
-        row = a[i]
-        zk = 1.0
-        c0 = 0.0
-        for k in range(terms):
-            c0 += zk * row[k]
-            zk *= pole
-        row[0] = c0
-        for k in range(1, nx):
-            row[k] += pole * row[k - 1]
-        row[nx - 1] = end * (row[nx - 1] + pole * row[nx - 2])
-        for k in range(nx - 2, -1, -1):
-            row[k] = pole * (row[k + 1] - row[k])
-        for k in range(nx):
-            row[k] *= gain
-
-
-def spline_coefficients(values: np.ndarray) -> np.ndarray:
-    """The quintic B-spline coefficients that interpolate ``values`` at the nodes (both axes)."""
-    coef = np.ascontiguousarray(values, dtype=np.float64).copy()
-    for _ in range(2):  # rows, then (transposed) columns
-        for pole in POLES:
-            _prefilter_rows(coef, pole)
-        coef = np.ascontiguousarray(coef.T)
-    return coef
-
-
 # --------------------------------------------------------------------------- building
 
 
@@ -244,9 +202,11 @@ def build_field(
     origin: tuple[float, float, float],
     plan: FieldPlan,
     outside_blocked: bool,
+    shapes: Shapes | None = None,
 ) -> MapField:
     """The field of the ``blocked`` cells (row 0 at the bottom) of a map with ``resolution``
-    and ``origin`` ``(x, y, yaw)``, by the steps of the module docstring."""
+    and ``origin`` ``(x, y, yaw)``, and of the polygons and walls of ``shapes`` (their exact
+    distance, not their cells), by the steps of the module docstring."""
     from scipy.ndimage import gaussian_filter
 
     h, pad = float(resolution), plan.pad
@@ -259,10 +219,16 @@ def build_field(
     else:
         d = np.full((ny, nx), cap_out)
     d *= h
+    x0, y0, yaw = origin
+    c, s = math.cos(yaw), math.sin(yaw)
+    gx = gy = (0.5 - pad) * h  # node (0, 0): the centre of map cell (-pad, -pad)
+    nodes = (x0 + c * gx - s * gy, y0 + s * gx + c * gy, yaw)
+    if shapes is not None and len(shapes):
+        reach = plan.reach_out + plan.radius
+        np.minimum(d, grid_distance(shapes, nodes, h, d.shape, reach, reach), out=d)
     d -= plan.radius
     np.clip(d, -plan.reach_in, plan.reach_out, out=d)
     s_cells = plan.sigma / h
-    # float32 is ample for the smoothing (distances of at most ~100 cells) and twice as fast.
     dt = gaussian_filter(d, s_cells, mode="nearest", truncate=TRUNCATE)
     # What the kernel really does, and the B-spline's own smoothing (variance (5 + 1) / 12 h^2).
     sigma = math.sqrt(sampled_gaussian_variance(s_cells) + 0.5) * h
@@ -272,11 +238,8 @@ def build_field(
     polish_inverse(u, dt, plan.length, table)
     coef = np.ascontiguousarray(u)
     coef.setflags(write=False)
-    x0, y0, yaw = origin
-    c, s = math.cos(yaw), math.sin(yaw)
-    gx = gy = (0.5 - pad) * h  # node (0, 0): the centre of map cell (-pad, -pad)
     u_out = -1.0 if outside_blocked else 1e3
-    return MapField(coef, x0 + c * gx - s * gy, y0 + s * gx + c * gy, c, s, h, u_out)
+    return MapField(coef, nodes[0], nodes[1], c, s, h, u_out)
 
 
 def sampled_gaussian_variance(sigma_cells: float) -> float:
@@ -290,27 +253,11 @@ def sampled_gaussian_variance(sigma_cells: float) -> float:
 
 # --------------------------------------------------------------------------- evaluation
 
-#: The quintic B-spline's weights of the nodes ``j - 2 .. j + 3`` at ``j + t`` (``0 <= t < 1``):
-#: row ``m`` holds the coefficients of ``t^0 .. t^5`` of node ``j - 2 + m``, times 120.
-QUINTIC = (
-    np.array(
-        [
-            [1, -5, 10, -10, 5, -1],
-            [26, -50, 20, 20, -20, 5],
-            [66, 0, -60, 0, 30, -10],
-            [26, 50, 20, -20, -20, 10],
-            [1, 5, 10, 10, 5, -5],
-            [0, 0, 0, 0, 0, 1],
-        ],
-        dtype=np.float64,
-    )
-    / 120.0
-)
-
 
 @njit(cache=True, inline="always")
 def _weights(t):
-    """The six nodes' quintic B-spline weights at ``t`` (:data:`QUINTIC`, times 120)."""
+    """The quintic B-spline's weights of the nodes ``j - 2 .. j + 3`` at ``j + t``
+    (``0 <= t < 1``), times 120."""
     m = 1.0 - t
     t2 = t * t
     t3 = t2 * t

@@ -1,12 +1,14 @@
 """A map as the planner sees it: its smooth penalty field and the exact clearance of a motion.
 
 The penalty (:mod:`.field`) steers the optimisation; the clearance (:mod:`.clearance`) judges the
-answer against the cells themselves, never against the smoothed field.
+answer against the cells themselves and the polygons and walls (:mod:`.shapes`) by their
+geometry, never against the smoothed field.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,7 +17,8 @@ from .. import checks
 from ..errors import ScenarioError
 from .clearance import MapClearance
 from .field import FieldPlan, MapField, build_field, field_penalty_rows, field_plan
-from .occupancy import OccupancyMap
+from .occupancy import OCCUPIED, OccupancyMap
+from .shapes import Shapes, grid_distance
 
 #: The default length scale is this many times the robot's radius (small obstacles then still
 #: reach nearly the full weight)...
@@ -32,16 +35,22 @@ def default_length(radius: float, resolution: float) -> float:
 @dataclass(frozen=True, eq=False)
 class ObstacleMap:
     """The blocked cells of ``occupancy`` (occupied, and unknown ones and the world beyond the
-    map if ``unknown_is_occupied``) for a round robot of ``radius``: the penalty field with the
-    length scale ``length`` (metres; default :func:`default_length`) and the exact clearance."""
+    map if ``unknown_is_occupied``) and the polygons and walls of ``shapes``, for a round robot
+    of ``radius``: the penalty field with the length scale ``length`` (metres; default
+    :func:`default_length`) and the exact clearance.
+
+    ``cells`` is the exact clearance against the map's own cells; ``route_cells`` marks the
+    cells the shapes touch as occupied too (what the search for initial routes reads)."""
 
     occupancy: OccupancyMap
     radius: float = 0.0
     length: float | None = None
     unknown_is_occupied: bool = True
+    shapes: Shapes | None = None
     plan: FieldPlan = dataclasses.field(init=False, repr=False)
     field: MapField = dataclasses.field(init=False, repr=False)
     cells: MapClearance = dataclasses.field(init=False, repr=False)
+    route_cells: MapClearance = dataclasses.field(init=False, repr=False)
 
     def __post_init__(self):
         occ = self.occupancy
@@ -55,12 +64,17 @@ class ObstacleMap:
             raise ScenarioError(
                 f"map.length: {length:g} m is less than two cells ({2 * h:g} m) of the map"
             )
-        cells = MapClearance(occ, bool(self.unknown_is_occupied))
+        shapes = self.shapes if self.shapes is not None and len(self.shapes) else None
+        if shapes is not None and not isinstance(shapes, Shapes):
+            raise ScenarioError(f"shapes: expected Shapes, got {shapes!r:.60}")
+        unknown = bool(self.unknown_is_occupied)
+        cells = MapClearance(occ, unknown)
+        route_cells = cells if shapes is None else MapClearance(with_shapes(occ, shapes), unknown)
         plan = field_plan(length, radius, h)
-        values = build_field(cells.blocked, h, occ.origin, plan, cells.unknown_is_occupied)
+        values = build_field(cells.blocked, h, occ.origin, plan, unknown, shapes)
         for name, value in (("radius", radius), ("length", length), ("plan", plan),
-                            ("field", values), ("cells", cells),
-                            ("unknown_is_occupied", cells.unknown_is_occupied)):  # fmt: skip
+                            ("field", values), ("cells", cells), ("route_cells", route_cells),
+                            ("shapes", shapes), ("unknown_is_occupied", unknown)):  # fmt: skip
             object.__setattr__(self, name, value)
 
     def penalty(self, xy, weight: float, exponent: int) -> np.ndarray:
@@ -73,9 +87,12 @@ class ObstacleMap:
 
     def clearance_at(self, xy) -> np.ndarray:
         """The exact clearance of the robot centred at each point of ``xy`` (``(..., 2)``): the
-        distance to the nearest blocked cell less the radius (metres)."""
+        distance to the nearest blocked cell or shape less the radius (metres)."""
         xy = np.asarray(xy, dtype=float)
-        return self.cells.clearance(xy[..., 0], xy[..., 1], self.radius)
+        clear = self.cells.clearance(xy[..., 0], xy[..., 1], self.radius)
+        if self.shapes is not None:
+            clear = np.minimum(clear, self.shapes.distance(xy[..., 0], xy[..., 1]) - self.radius)
+        return clear
 
     def path_clearance(self, xy) -> float:
         """A lower bound of the clearance along the polyline through the points ``xy``
@@ -89,3 +106,15 @@ class ObstacleMap:
         seg = np.hypot(*np.diff(xy, axis=0).T)
         between = 0.5 * (c[:-1] + c[1:] - seg)
         return float(min(c.min(), between.min()))
+
+
+def with_shapes(occupancy: OccupancyMap, shapes: Shapes) -> OccupancyMap:
+    """``occupancy`` with every cell that a shape touches marked occupied: those whose centre
+    lies within half a cell's diagonal of a shape (a superset of the cells a shape overlaps)."""
+    h = occupancy.resolution
+    x0, y0 = occupancy.cell_center(0, 0)
+    reach = h * math.sqrt(0.5)
+    d = grid_distance(shapes, (float(x0), float(y0), occupancy.origin[2]), h, occupancy.shape,
+                      reach, np.inf)  # fmt: skip
+    data = np.where(d <= reach, np.int8(OCCUPIED), occupancy.data)
+    return OccupancyMap(data, h, occupancy.origin, occupancy.name)

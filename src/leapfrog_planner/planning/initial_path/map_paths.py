@@ -56,7 +56,7 @@ def map_initial_paths(
     where an end heading points away from the chord). Raises :class:`Unreachable` when start and
     goal are not connected for the robot's footprint."""
     S, G = end_state(start, "start"), end_state(goal, "goal")
-    routes = map_routes(world.cells, S[:2], G[:2], world.radius, margin, k=k)
+    routes = map_routes(world.route_cells, S[:2], G[:2], world.radius, margin, k=k)
     if not routes:
         raise Unreachable(
             f"start {_point(S)} and goal {_point(G)} are not connected on the map for a robot"
@@ -130,7 +130,7 @@ def _three_point_turns(S, G, world, discs, margin, tol) -> list[InitialPath]:
 
 def _cusp_path(S, G, C, off0, off1, world, discs, margin, tol, reverse) -> InitialPath | None:
     legs = [
-        map_routes(world.cells, a, b, world.radius, margin, k=1)
+        map_routes(world.route_cells, a, b, world.radius, margin, k=1)
         for a, b in ((S[:2], C), (C, G[:2]))
     ]
     if not (legs[0] and legs[1]):
