@@ -388,24 +388,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
     penalty = c.table(data.get("penalty", {}), "penalty")
     c.known_keys(penalty, PENALTY_KEYS, "penalty")
 
-    raw = data.get("obstacles", [])
-    if not isinstance(raw, list | tuple):
-        c.fail("obstacles", f"expected an array of tables ([[obstacles]]), got {describe(raw)}")
-    if len(raw) > checks.OBSTACLES_MAX:
-        c.fail("obstacles", f"at most {checks.OBSTACLES_MAX} obstacles, got {len(raw)}")
-    obstacles = np.zeros((len(raw), 3))
-    for j, ob in enumerate(raw):
-        key = f"obstacles[{j}]"
-        if not isinstance(ob, Mapping):
-            c.fail(key, f"expected a table with center and radius, got {describe(ob)}")
-        c.table(ob, key)
-        c.known_keys(ob, OBSTACLE_KEYS, key)
-        for k in OBSTACLE_KEYS:
-            if k not in ob:
-                c.fail(f"{key}.{k}", "missing required key")
-        obstacles[j, :2] = c.vector(ob["center"], 2, f"{key}.center", " [cx, cy]")
-        obstacles[j, 2] = c.number(ob["radius"], f"{key}.radius", gt=0)
-
+    obstacles = _discs_from_tables(c, data.get("obstacles", []))
     table = c.table(data["map"], "map") if "map" in data else None
     world = c._named(
         map_from_tables, table, data.get("polygons"), data.get("walls"), _folder(source)
@@ -428,6 +411,27 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
         control_bounds=bounds,
         map=world,
     )
+
+
+def _discs_from_tables(c: ScenarioCheck, raw) -> np.ndarray:
+    """The ``[[obstacles]]`` tables as ``(m, 3)`` rows ``[cx, cy, r]``."""
+    if not isinstance(raw, list | tuple):
+        c.fail("obstacles", f"expected an array of tables ([[obstacles]]), got {describe(raw)}")
+    if len(raw) > checks.OBSTACLES_MAX:
+        c.fail("obstacles", f"at most {checks.OBSTACLES_MAX} obstacles, got {len(raw)}")
+    obstacles = np.zeros((len(raw), 3))
+    for j, ob in enumerate(raw):
+        key = f"obstacles[{j}]"
+        if not isinstance(ob, Mapping):
+            c.fail(key, f"expected a table with center and radius, got {describe(ob)}")
+        c.table(ob, key)
+        c.known_keys(ob, OBSTACLE_KEYS, key)
+        for k in OBSTACLE_KEYS:
+            if k not in ob:
+                c.fail(f"{key}.{k}", "missing required key")
+        obstacles[j, :2] = c.vector(ob["center"], 2, f"{key}.center", " [cx, cy]")
+        obstacles[j, 2] = c.number(ob["radius"], f"{key}.radius", gt=0)
+    return obstacles
 
 
 def _folder(source: str) -> str:
