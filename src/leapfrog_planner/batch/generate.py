@@ -296,10 +296,20 @@ def map_scenarios(
             name=f"{prefix}-s{seed}-{i:05d}",
             horizon=max(q.shortest / speed, 1e-3),
             start=list(q.start),
-            goal=list(q.goal),
+            goal=nearest_turn(q.start, q.goal),
             weight=weight,
             robot_radius=radius,
             map=world,
         )  # fmt: skip
         for i, q in enumerate(queries)
     ]
+
+
+def nearest_turn(start, goal) -> list[float]:
+    """``goal`` with its heading moved by whole turns to within half a turn of the start's: the
+    same pose, the turn a robot means (headings are not wrapped: ``theta + 2 pi`` would be
+    another end state, one more loop)."""
+    out = [float(v) for v in goal]
+    turn = float(goal[2]) - float(start[2])
+    out[2] = float(start[2]) + (turn + math.pi) % (2.0 * math.pi) - math.pi
+    return out

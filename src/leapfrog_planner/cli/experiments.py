@@ -132,15 +132,31 @@ def paper(out, repeat, cases, quiet):
     " and solve_bvp over tolerances, on the paper cases and --random general scenarios",
 )
 @click.option("--targets", is_flag=True, help="also print each speed ratio and its target")
+@click.option(
+    "--map", "map_file", type=click.Path(dir_okay=False), default=None,
+    help="instead: Leapfrog beside OMPL on random queries of this ROS map (YAML)",
+)  # fmt: skip
+@click.option(
+    "--queries", type=click.IntRange(min=1), default=10, show_default=True,
+    help="with --map: how many queries",
+)  # fmt: skip
+@click.option(
+    "--ompl-time", type=click.FloatRange(min=1e-3, max=3600.0), default=1.0,
+    show_default=True, help="with --map: OMPL's time per query (s)",
+)  # fmt: skip
 @click.option("--quiet", is_flag=True, help="no progress bar and no summary")
 def bench(
-    out, repeat, cases, random_, seed, solvers, meshes, no_profile, work_precision, targets, quiet
-):
-    """Benchmark Leapfrog against plain shooting, solve_bvp and CasADi/IPOPT."""
+    out, repeat, cases, random_, seed, solvers, meshes, no_profile, work_precision, targets,
+    map_file, queries, ompl_time, quiet,
+):  # fmt: skip
+    """Benchmark Leapfrog against plain shooting, solve_bvp and CasADi/IPOPT (or, with --map,
+    against OMPL on a map)."""
     from ..experiments.bench import BenchSettings, run_bench, write_bench
 
     if work_precision:
         return _work_precision(out, repeat, cases, random_, seed, meshes, quiet)
+    if map_file is not None:
+        return _map_bench(out, map_file, queries, seed, ompl_time, quiet)
 
     options = {"cases": cases, "solvers": solvers, "meshes": meshes}
     settings = BenchSettings(
@@ -171,6 +187,39 @@ def bench(
             )
         console.print(f"written to {folder}/ (bench.md, bench.csv, bench.json, bench.png)",
                        markup=False, highlight=False)  # fmt: skip
+    return EXIT_OK
+
+
+def _map_bench(out, map_file, queries, seed, ompl_time, quiet):
+    from ..experiments.map_bench import MapBenchSettings, run_map_bench, summary, write_map_bench
+    from ..experiments.ompl_peer import OMPL_MISSING, ompl_available
+    from ..planning.scenario_map import ScenarioMap
+
+    if not ompl_available():
+        raise click.UsageError(OMPL_MISSING)
+    ScenarioMap(map_file)  # a bad map: one line and exit 2 before anything runs
+    settings = MapBenchSettings(queries=queries, seed=seed, ompl_time=ompl_time)
+    folder = _output_dir(out, "--out")
+    ensure_compiled(["unicycle"], show=not quiet)
+    result = _run_with_bar(
+        "bench --map", lambda cb: run_map_bench(map_file, settings, progress=cb), quiet
+    )
+    write_output(lambda f: write_map_bench(result, f), folder, "--out")
+    if not quiet:
+        head = summary(result)
+        lines = [
+            f"{solver}: {head[solver]['succeeded']}/{queries} succeeded, median"
+            f" {head[solver]['median_time_s']:.3g} s, largest curvature"
+            f" {head[solver]['max_curvature']:.3g} 1/m"
+            for solver in ("leapfrog", "ompl")
+        ]
+        lines.append(
+            f"both solved {head['both_solved']}: Leapfrog at most OMPL's cost on"
+            f" {head['leapfrog_cheaper']} (median cost ratio {head['median_cost_ratio']:.3g})"
+        )
+        lines.append(f"written to {folder}/ (bench_map.md, bench_map.csv, bench_map.json)")
+        for line in lines:
+            console.print(line, markup=False, highlight=False, soft_wrap=True)
     return EXIT_OK
 
 
