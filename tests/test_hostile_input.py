@@ -124,6 +124,19 @@ CASES: dict[str, Case] = {
     "solve --option partitions=8.0": Case(("solve", "s.toml", "--option", "partitions=8.0"), {"s.toml": BASE}, says="partitions: expected an integer >= 2, got number 8.0"),
     "solve --option partitions=true": Case(("solve", "s.toml", "--option", "partitions=true"), {"s.toml": BASE}, says="partitions: expected an integer >= 2, got boolean true"),
     "solve --option without =": Case(("solve", "s.toml", "--option", "partitions"), {"s.toml": BASE}),
+    "solve --option shooting=1": Case(("solve", "s.toml", "--option", "shooting=1"), {"s.toml": BASE}, says="shooting: expected a table"),
+    "solve --option shooting integrator a string": Case(("solve", "s.toml", "--option", 'shooting={"integrator": "x"}'), {"s.toml": BASE}, says="shooting.integrator: expected a table"),
+    "solve --option final_shooting root misspelt": Case(("solve", "s.toml", "--option", 'final_shooting={"rooot": {}}'), {"s.toml": BASE}, says="did you mean 'root'"),
+    "solve --option shooting root tol negative": Case(("solve", "s.toml", "--option", 'shooting={"root": {"tol": -1}}'), {"s.toml": BASE}, says="shooting.root.tol"),
+    "solve --option shooting rtol a string": Case(("solve", "s.toml", "--option", 'shooting={"integrator": {"rtol": "a"}}'), {"s.toml": BASE}, says="shooting.integrator.rtol"),
+    "solve --option initial_paths of 5000 digits": Case(("solve", "s.toml", "--option", "initial_paths=" + "9" * 5000), {"s.toml": BASE}, says="initial_paths"),
+    "solve --option partitons": Case(("solve", "s.toml", "--option", "partitons=16"), {"s.toml": BASE}, says="did you mean 'partitions'"),
+    "solve --option nested 5000 deep": Case(("solve", "s.toml", "--option", "shooting=" + "[" * 5000 + "]" * 5000), {"s.toml": BASE}, says="shooting"),
+    "name with markup": Case(("solve", "s.toml", "--quiet"), {"s.toml": 'name = "[/] [link=x]y[/link] :smile:"\n' + BASE}, codes=(0,)),
+    "name with an escape sequence": Case(("solve", "s.toml"), {"s.toml": 'name = "a\\u001b[2Jb"\n' + BASE}, says="name: control characters"),
+    "polygon of two points": Case(("solve", "s.toml"), {"s.toml": BASE + "[[polygons]]\npoints = [[3, 3], [4, 3]]\n"}, says="polygons[0].points"),
+    "wall without thickness": Case(("solve", "s.toml"), {"s.toml": BASE + "[[walls]]\npoints = [[3, 3], [4, 3]]\n"}, says="walls[0].thickness: missing"),
+    "goal inside a polygon": Case(("solve", "s.toml"), {"s.toml": BASE + "[[polygons]]\npoints = [[1.5, -1], [2.5, -1], [2, 1]]\n"}, says="goal: (2.0, 0.0) is inside a polygon"),
     "shoot --horizon inf": Case(("shoot", "--horizon", "inf")),
     "shoot --horizon nan": Case(("shoot", "--horizon", "nan")),
     "shoot --horizon -1": Case(("shoot", "--horizon", "-1")),
@@ -263,3 +276,27 @@ def test_the_corpus_covers_every_command():
     commands = {case.args[0] for case in CASES.values()}
     assert commands >= {"solve", "shoot", "sweep", "generate", "report", "paper", "bench"}
     assert len(CASES) >= 90
+
+
+def test_a_full_disk_after_a_plan_is_one_line_and_exit_1(tmp_path):
+    """The plan is done, its output cannot be written: a failure (exit 1), not bad input, and
+    no half-written file."""
+    full = tmp_path / "full"
+    full.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(full)],
+                             capture_output=True)  # fmt: skip
+    if mounted.returncode != 0:
+        pytest.skip("needs root to mount a small tmpfs")
+    try:
+        (full / "fill").write_bytes(b"\0" * 64 * 1024)
+        p = subprocess.run(
+            [sys.executable, "-m", "leapfrog_planner.cli", "solve", "paper-case-1", "--quiet",
+             "--json", str(full / "r.json")],
+            cwd=tmp_path, env=cli_env(), capture_output=True, text=True, timeout=TIMEOUT,
+        )  # fmt: skip
+        assert p.returncode == 1, p.stderr
+        (line,) = p.stderr.strip().splitlines()
+        assert line.startswith("error: --json: cannot write") and "No space left" in line
+        assert sorted(f.name for f in full.iterdir()) == ["fill"]
+    finally:
+        subprocess.run(["umount", str(full)], capture_output=True)

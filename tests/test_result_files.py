@@ -165,6 +165,55 @@ def test_a_bad_result_file_is_one_line_and_exit_2(tmp_path, content, says):
     assert says in p.stderr and not (tmp_path / "x.csv").exists()
 
 
+def _damage(d: dict, how: str) -> str:
+    """The text of the result ``d`` damaged one way (what a broken disk, a hand edit or another
+    tool may leave)."""
+    tr = d["trajectory"]
+    edits = {
+        "history [1]": lambda: d.update(history=[1]),
+        "history a string": lambda: d.update(history="abc"),
+        "null in the trajectory": lambda: tr["x"].__setitem__(3, None),
+        "time reversed": lambda: tr.update(t=tr["t"][::-1]),
+        "no cost": lambda: d.update(cost=None),
+        "settings null": lambda: d.update(settings=None),
+        "a count of 400 digits": lambda: d.update(newton_iterations=10**400),
+        "a negative count": lambda: d.update(f_evals=-1),
+        "one row": lambda: d.update(trajectory={k: v[:1] for k, v in tr.items()}),
+        "nested columns": lambda: tr.update(x=[[1.0, 2.0]] * len(tr["t"])),
+        "names a number": lambda: d.update(state_names=3),
+        "a junction null": lambda: d["history"][0]["junction_X"][1].__setitem__(0, None),
+    }
+    edits[how]()
+    return json.dumps(d)
+
+
+@pytest.mark.parametrize(
+    "how",
+    ["history [1]", "history a string", "null in the trajectory", "time reversed", "no cost",
+     "settings null", "a count of 400 digits", "a negative count", "one row", "nested columns",
+     "names a number", "a junction null", "inf in t", "nested 100000 deep"],
+)  # fmt: skip
+def test_a_damaged_result_file_is_refused_not_drawn(saved, tmp_path, how):
+    """The tool's own files, read back damaged: one line, exit 2, nothing drawn or written."""
+    text = (saved / "r.json").read_text()
+    if how == "inf in t":
+        text = text.replace('"t": [\n   0.0', '"t": [\n   1e999', 1)
+        assert "1e999" in text
+    elif how == "nested 100000 deep":
+        text = "[" * 100_000 + "]" * 100_000
+    else:
+        text = _damage(json.loads(text), how)
+    (tmp_path / "bad.json").write_text(text)
+    with pytest.raises(ResultFileError, match="bad.json: (damaged|not a leapfrog)"):
+        PlanResult.load(tmp_path / "bad.json")
+    if how not in ("history [1]", "inf in t", "nested columns"):
+        return  # the command line reads files by PlanResult.load: three cases show it
+    for args in (["plot", "bad.json", "--out", "x.png"], ["export", "bad.json", "--csv", "x.csv"]):
+        p = _cli(args, tmp_path)
+        assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+        assert not (tmp_path / "x.png").exists() and not (tmp_path / "x.csv").exists()
+
+
 def test_repr_is_short_and_the_notebook_view_shows_table_and_path(case4):
     text = repr(case4)
     assert len(text) < 200 and "converged" in text and "4.5852479" in text

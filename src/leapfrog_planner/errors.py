@@ -24,6 +24,14 @@ class SettingsError(LeapfrogError, ValueError):
     """An unknown option, or an option with a value outside its range."""
 
 
+def did_you_mean(word: str, allowed) -> str:
+    """``"did you mean 'x'? "`` for the nearest of ``allowed`` to ``word`` (``""`` if none)."""
+    import difflib
+
+    hint = difflib.get_close_matches(str(word), [str(a) for a in allowed], n=1)
+    return f"did you mean {hint[0]!r}? " if hint else ""
+
+
 def short(text: str, limit: int = 40) -> str:
     """``repr(text)``, cut to ``limit`` characters."""
     r = repr(text)

@@ -20,8 +20,10 @@ from rich.console import Console
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
-console = Console()
-err = Console(stderr=True)
+# User strings (scenario names, file names, messages) are printed as text: never as rich's
+# markup (a name "[/]" or "[link=...]"), emoji codes or highlighting.
+console = Console(markup=False, emoji=False, highlight=False)
+err = Console(stderr=True, markup=False, emoji=False, highlight=False)
 
 # An atomic write first creates ".<stem>.<8 random characters><suffix>" beside the file.
 _TEMP_EXTRA = 10
@@ -138,12 +140,20 @@ def refuse_inputs_in(folder: Path, names: Iterable[str], inputs: Iterable, optio
                 _fail(option, f"{str(folder / name)!r} would replace an input of this command")
 
 
+class OutputError(OSError):
+    """An output that could not be written after the work was done (a full disk, a folder
+    gone): one line and exit 1, as a failure, not exit 2: the input was good."""
+
+
 def write_output(write, path: Path, option: str) -> None:
-    """``write(path)``, with a failure (a full disk, a folder gone) as one line and exit 2."""
+    """``write(path)``, with a failure (a full disk, a folder gone) as one line and exit 1
+    (:class:`OutputError`); the file is written atomically, so nothing half-written stays."""
     try:
         write(path)
+    except OutputError:
+        raise
     except OSError as exc:
-        _fail(option, f"cannot write {str(path)!r} ({exc.strerror or exc})")
+        raise OutputError(f"{option}: cannot write {str(path)!r} ({exc.strerror or exc})") from None
 
 
 #: ``--option KEY=VALUE``: any planner or Leapfrog setting, repeatable (sweep and solve).
@@ -167,6 +177,6 @@ def planner_options(items) -> dict:
         k, v = item.split("=", 1)
         try:
             opts[k.strip().replace("-", "_")] = json.loads(v)
-        except json.JSONDecodeError:
+        except (ValueError, RecursionError):  # not JSON (or too deep, or too many digits)
             opts[k.strip().replace("-", "_")] = v  # a bare string, e.g. final=auto
     return opts

@@ -71,11 +71,11 @@ def trajectory_columns(tr: Trajectory | None, states, controls) -> dict[str, np.
 def trajectory_from_columns(cols: dict, states, controls) -> Trajectory | None:
     if not cols:
         return None
-    t = np.asarray(cols["t"], dtype=float)
+    t = _column(cols, "t")
     nx = len(states)
-    x = np.column_stack([np.asarray(cols[n], dtype=float) for n in states])
-    u = np.column_stack([np.asarray(cols[n], dtype=float) for n in controls])
-    lam = np.column_stack([np.asarray(cols[f"lambda_{i + 1}"], dtype=float) for i in range(nx)])
+    x = np.column_stack([_column(cols, n) for n in states])
+    u = np.column_stack([_column(cols, n) for n in controls])
+    lam = np.column_stack([_column(cols, f"lambda_{i + 1}") for i in range(nx)])
     nan = np.full(t.size, np.nan)
     return Trajectory(
         t=t,
@@ -87,6 +87,13 @@ def trajectory_from_columns(cols: dict, states, controls) -> Trajectory | None:
         dH_du=np.full_like(u, np.nan),  # not saved: max_dH_du holds its check
         at_step=np.zeros(t.size, dtype=bool),
     )
+
+
+def _column(cols: dict, name: str) -> np.ndarray:
+    a = np.asarray(cols[name], dtype=float)
+    if a.ndim != 1:
+        raise ValueError(f"trajectory column {name!r} is not a list of numbers")
+    return a
 
 
 def _columns_json(cols: dict[str, np.ndarray]) -> dict[str, list]:
@@ -206,31 +213,86 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
             "the scenario again to get a file it can read)"
         )
     try:
-        names = (tuple(d["state_names"]), tuple(d["control_names"]))
-        task, ij = d["scenario_file"], d["initial_junctions"]
-        return dict(
-            status=PlanStatus(d["status"]),
-            **{k: d[k] for k in _PLAIN if k != "sweeps"},
-            state_names=names[0],
-            control_names=names[1],
-            **{k: _float(d.get(k)) for k in _NUMBERS if k != "min_clearance"},
-            costate0=None if d["costate0"] is None else np.array(d["costate0"], dtype=float),
-            trajectory=trajectory_from_columns(d["trajectory"], *names),
-            clearance=np.array([_float(c) for c in d["clearance"]]),
-            history=tuple(_history(h) for h in d["history"]),
-            initial_junctions=(np.array(ij["t"], dtype=float), np.array(ij["X"], dtype=float)),
-            **{name: d["timing"][k] for k, name in _TIMING.items()},
-            alternatives=tuple(_alternative(a, names) for a in d["alternatives"]),
-            task=None if task is None else scenario_from_dict(task, source),
-            settings=d["settings"],
-            search=tuple(_record(rec) for rec in d.get("search", ())),  # absent before
-        )
-    except (KeyError, TypeError, ValueError) as exc:
+        out = _fields(d, source)
+    except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
         if isinstance(exc, LeapfrogError):
             raise
         raise ResultFileError(
             f"{source}: damaged result file ({type(exc).__name__}: {exc})"
         ) from None
+    _check_fields(out, source)
+    return out
+
+
+def _fields(d: dict, source: str) -> dict[str, Any]:
+    names = (tuple(_names(d["state_names"])), tuple(_names(d["control_names"])))
+    task, ij = d["scenario_file"], d["initial_junctions"]
+    return dict(
+        status=PlanStatus(d["status"]),
+        **{k: d[k] for k in _PLAIN if k != "sweeps"},
+        state_names=names[0],
+        control_names=names[1],
+        **{k: _float(d.get(k)) for k in _NUMBERS if k != "min_clearance"},
+        costate0=None if d["costate0"] is None else np.array(d["costate0"], dtype=float),
+        trajectory=trajectory_from_columns(d["trajectory"], *names),
+        clearance=np.array([_float(c) for c in d["clearance"]]),
+        history=tuple(_history(h) for h in d["history"]),
+        initial_junctions=(np.array(ij["t"], dtype=float), np.array(ij["X"], dtype=float)),
+        **{name: d["timing"][k] for k, name in _TIMING.items()},
+        alternatives=tuple(_alternative(a, names) for a in d["alternatives"]),
+        task=None if task is None else scenario_from_dict(task, source),
+        settings=d["settings"],
+        search=tuple(_record(rec) for rec in d.get("search", ())),  # absent before
+    )
+
+
+def _names(value) -> list[str]:
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise TypeError(f"expected a list of names, got {type(value).__name__}")
+    return value
+
+
+#: The largest count a result holds (sweeps, iterations, evaluations).
+_COUNT_MAX = 2**53
+
+
+def _check_fields(out: dict, source: str) -> None:
+    """What a result file says must make sense before anything is drawn or exported from it:
+    finite trajectories whose time runs forward, a cost for a converged answer, counts that
+    are counts, settings that are a table."""
+
+    def bad(what: str):
+        raise ResultFileError(f"{source}: damaged result file ({what})")
+
+    if out["status"] is PlanStatus.CONVERGED and not math.isfinite(out["cost"]):
+        bad("a converged result without a finite cost")
+    for key in ("sweeps", "newton_iterations", "f_evals", "cost_increases"):
+        v = out.get(key)
+        if v is not None and (
+            not isinstance(v, int) or isinstance(v, bool) or not 0 <= v <= _COUNT_MAX
+        ):
+            bad(f"{key} is not a count")
+    if not isinstance(out["settings"], dict):
+        bad("settings is not a table")
+    for label, tr in [("trajectory", out["trajectory"])] + [
+        (f"alternative {a.label}", a.trajectory) for a in out["alternatives"]
+    ]:
+        if tr is not None:
+            _check_trajectory(tr, label, bad)
+    junctions = [(h.t, h.X) for h in out["history"]] + [out["initial_junctions"]]
+    for t, X in junctions:
+        if not (np.isfinite(t).all() and np.isfinite(X).all()):
+            bad("junctions that are not finite")
+
+
+def _check_trajectory(tr: Trajectory, label: str, bad) -> None:
+    n = tr.t.shape[0]
+    if tr.t.ndim != 1 or n < 2 or any(a.shape[0] != n for a in (tr.x, tr.u, tr.lam)):
+        bad(f"{label}: columns of different lengths, or fewer than 2 rows")
+    if not all(np.isfinite(a).all() for a in (tr.t, tr.x, tr.u, tr.lam)):
+        bad(f"{label}: a value that is not a finite number")
+    if np.any(np.diff(tr.t) < 0.0):
+        bad(f"{label}: time runs backwards")
 
 
 # --------------------------------------------------------------------------- files
@@ -280,4 +342,6 @@ def load_result(path) -> dict[str, Any]:
         raise ResultFileError(f"{name}: cannot read file: {exc.strerror or exc}") from None
     except (ValueError, UnicodeDecodeError, zipfile.BadZipFile) as exc:  # JSON, zip, arrays
         raise ResultFileError(f"{name}: not a leapfrog result file ({exc})") from None
+    except RecursionError:
+        raise ResultFileError(f"{name}: not a leapfrog result file (nested too deeply)") from None
     return result_fields(d, name)

@@ -126,6 +126,8 @@ class Scenario:
         name = c.string(self.name, "name")
         if not name:
             c.fail("name", "expected a non-empty string")
+        if not name.isprintable():
+            c.fail("name", f"control characters are not allowed, got {short(name)}")
         horizon = c.number(self.horizon, "horizon", gt=0)
         c.in_range(horizon, "horizon", checks.HORIZON_RANGE)
         model, parameters = self._check_model(c)

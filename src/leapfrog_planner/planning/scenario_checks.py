@@ -3,14 +3,13 @@ the file and the key, ``<source>: <key>: <problem>``."""
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Mapping
 from typing import Any, NoReturn
 
 import numpy as np
 
 from .. import checks
-from ..errors import ScenarioError, describe, require_integer, short
+from ..errors import ScenarioError, describe, did_you_mean, require_integer, short
 from .scenario_toml import BARE_KEY
 
 
@@ -80,8 +79,7 @@ class ScenarioCheck:
     def known_keys(self, table: Mapping, allowed, prefix: str, what: str = "") -> None:
         for k in table:
             if k not in allowed:
-                hint = difflib.get_close_matches(k, list(allowed), n=1)
-                did = f"did you mean {hint[0]!r}? " if hint else ""
+                did = did_you_mean(k, allowed)
                 self.fail(
                     key_path(prefix, k),
                     f"unknown key{what} ({did}allowed: {', '.join(allowed) or 'none'})",

@@ -3,9 +3,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, fields, is_dataclass, replace
 
-from ..errors import ScenarioError, SettingsError, require_integer
+from ..errors import ScenarioError, SettingsError, describe, did_you_mean, require_integer, short
 from .leapfrog import LeapfrogSettings
 
 
@@ -48,17 +49,15 @@ class PlannerSettings:
         base = base or cls()
         own = {f.name for f in fields(cls)} - {"leapfrog"}
         lf = {f.name for f in fields(LeapfrogSettings)}
-        unknown = sorted(set(options) - own - lf)
+        unknown = sorted(set(options) - own - lf, key=str)
         if unknown:
             raise SettingsError(
-                f"unknown option {unknown[0]!r} (known: {', '.join(sorted(own | lf))})"
+                f"unknown option {short(unknown[0])} ({did_you_mean(unknown[0], own | lf)}"
+                f"known: {', '.join(sorted(own | lf))})"
             )
         lf_opts = {k: v for k, v in options.items() if k in lf}
-        return replace(
-            base,
-            leapfrog=replace(base.leapfrog, **lf_opts),
-            **{k: v for k, v in options.items() if k in own},
-        )
+        leapfrog = updated(base.leapfrog, lf_opts, "")
+        return updated(base, {k: v for k, v in options.items() if k in own}, "", leapfrog=leapfrog)
 
     @classmethod
     def of_scenario(cls, scenario, base: PlannerSettings | None = None, **options):
@@ -74,6 +73,39 @@ class PlannerSettings:
                     why = str(e).removeprefix(f"{name}: ")
                     raise ScenarioError(f"{source}: solver.{key}: {why}") from None
         return cls.from_options(base, **{**from_file, **options})
+
+
+def updated(base, options: Mapping, prefix: str, **ready):
+    r"""The settings dataclass ``base`` with ``options`` (a mapping of its fields) put in: a
+    nested settings field takes a table of its own fields, put into its value in ``base``
+    (``shooting={"root": {"tol": 1e-6}}`` changes that tolerance only); ``ready`` are values
+    already checked. Unknown keys, wrong types and values out of range are one-line
+    :class:`SettingsError`\ s named by their path (``shooting.root.tol``)."""
+    known = {f.name for f in fields(base)}
+    values = dict(ready)
+    for key, value in options.items():
+        path = f"{prefix}{key}"
+        if key not in known:
+            raise SettingsError(
+                f"{path}: unknown option ({did_you_mean(key, known)}"
+                f"known: {', '.join(sorted(known))})"
+            )
+        inner = getattr(base, key)
+        if is_dataclass(inner) and not isinstance(value, type(inner)):
+            if not isinstance(value, Mapping):
+                raise SettingsError(
+                    f"{path}: expected a table of {', '.join(f.name for f in fields(inner))},"
+                    f" got {describe(value)}"
+                )
+            value = updated(inner, value, f"{path}.")
+        values[key] = value
+    try:
+        return replace(base, **values)
+    except SettingsError as e:
+        raise SettingsError(f"{prefix}{e}" if prefix else str(e)) from None
+    except (TypeError, ValueError, OverflowError) as e:  # a value of the wrong kind
+        what = ", ".join(f"{prefix}{k} = {describe(v)}" for k, v in options.items())
+        raise SettingsError(f"{what}: not accepted ({type(e).__name__})") from None
 
 
 #: A scenario's ``[solver]`` keys, and the settings they set.

@@ -29,7 +29,6 @@ nav2's. Every fault raises :class:`~leapfrog_planner.errors.ScenarioError` with 
 
 from __future__ import annotations
 
-import difflib
 import os
 import re
 import stat
@@ -41,7 +40,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from .. import checks
-from ..errors import ScenarioError, describe, short
+from ..errors import ScenarioError, describe, did_you_mean, short
 from .images import Pixels, read_pixels
 from .occupancy import FREE, OCCUPIED, RESOLUTION_MAX, UNKNOWN, OccupancyMap
 
@@ -134,8 +133,7 @@ def _known_keys(doc: Mapping, source: str) -> None:
             _fail(source, "", f"keys must be strings, got {describe(k)}")
     for k in doc:
         if k not in MAP_KEYS:
-            hint = difflib.get_close_matches(k, MAP_KEYS, n=1)
-            did = f"did you mean {hint[0]!r}? " if hint else ""
+            did = did_you_mean(k, MAP_KEYS)
             name = k if BARE_KEY.fullmatch(k) else short(k)
             _fail(source, name, f"unknown key ({did}allowed: {', '.join(MAP_KEYS)})")
     for k in REQUIRED_KEYS:
@@ -163,8 +161,7 @@ def _mode(value: Any, source: str) -> str:
         _fail(source, "mode", f"expected one of {', '.join(MODES)}, got {describe(value)}")
     mode = value.lower()
     if mode not in MODES:
-        hint = difflib.get_close_matches(mode, MODES, n=1)
-        did = f"did you mean {hint[0]!r}? " if hint else ""
+        did = did_you_mean(mode, MODES)
         _fail(source, "mode", f"unknown mode {short(value)} ({did}known: {', '.join(MODES)})")
     return mode
 
