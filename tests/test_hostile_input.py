@@ -132,6 +132,8 @@ CASES: dict[str, Case] = {
     "solve --option initial_paths of 5000 digits": Case(("solve", "s.toml", "--option", "initial_paths=" + "9" * 5000), {"s.toml": BASE}, says="initial_paths"),
     "solve --option partitons": Case(("solve", "s.toml", "--option", "partitons=16"), {"s.toml": BASE}, says="did you mean 'partitions'"),
     "solve --option nested 5000 deep": Case(("solve", "s.toml", "--option", "shooting=" + "[" * 5000 + "]" * 5000), {"s.toml": BASE}, says="shooting"),
+    "generate --prefix of 300 characters": Case(("generate", "--n", "2", "--out", "g", "--prefix", "p" * 300), says="prefix: at most 200"),
+    "generate --prefix with a slash": Case(("generate", "--n", "2", "--out", "g", "--prefix", "../x"), says="prefix must be"),
     "name with markup": Case(("solve", "s.toml", "--quiet"), {"s.toml": 'name = "[/] [link=x]y[/link] :smile:"\n' + BASE}, codes=(0,)),
     "name with an escape sequence": Case(("solve", "s.toml"), {"s.toml": 'name = "a\\u001b[2Jb"\n' + BASE}, says="name: control characters"),
     "polygon of two points": Case(("solve", "s.toml"), {"s.toml": BASE + "[[polygons]]\npoints = [[3, 3], [4, 3]]\n"}, says="polygons[0].points"),

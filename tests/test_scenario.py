@@ -231,9 +231,16 @@ def test_direct_construction_validates():
 
 
 def test_tricky_name_round_trip():
-    name = 'a "quoted" \\ name\twith\nnewline, \x7f DEL, \x01 and ünïcödé 🚗'
+    name = 'a "quoted" \\ name [/] [link=x] with ünïcödé 🚗'
     s = Scenario(name, 1.0, [0, 0, 0], [1, 0, 0])
     assert load_scenario_text(s.to_toml()).name == name
+
+
+@pytest.mark.parametrize("bad", ["tab\there", "new\nline", "esc\x1b[2J", "del\x7f", "\x01"])
+def test_a_name_with_control_characters_is_refused(bad):
+    """A name reaches terminals, file names and plots: no escape sequences or line breaks."""
+    with pytest.raises(ScenarioError, match="name: control characters are not allowed"):
+        Scenario(bad, 1.0, [0, 0, 0], [1, 0, 0])
 
 
 # Anything within the documented bounds (checks.py) round-trips.
@@ -270,7 +277,7 @@ def scenarios(draw):
         st.fixed_dictionaries({}, optional={k: values[t] for k, t in SOLVER_KEYS.items()})
     )
     return Scenario(
-        name=draw(st.text(st.characters(blacklist_categories=("Cs",)), min_size=1, max_size=20)),
+        name=draw(st.text(st.characters(blacklist_categories=("Cs", "Cc")), min_size=1, max_size=20)),
         horizon=draw(st.floats(*checks.HORIZON_RANGE)),
         start=start,
         goal=goal,

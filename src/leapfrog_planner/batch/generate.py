@@ -70,6 +70,21 @@ def parse_range(text: str, kind=int) -> tuple:
     return lo, hi
 
 
+#: The longest name prefix: its files' names (``<prefix>-s<seed>-<index>.toml``) then stay
+#: within the 255 bytes a file name may have.
+PREFIX_MAX = 200
+
+
+def check_prefix(prefix) -> str:
+    """A scenario name prefix: letters, digits, ``_``, ``-`` or ``.``, at most
+    :data:`PREFIX_MAX` of them."""
+    if not isinstance(prefix, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", prefix):
+        raise SettingsError(f"prefix must be letters, digits, '_', '-' or '.', got {prefix!r:.60}")
+    if len(prefix) > PREFIX_MAX:
+        raise SettingsError(f"prefix: at most {PREFIX_MAX} characters, got {len(prefix)}")
+    return prefix
+
+
 @dataclass(frozen=True)
 class GeneratorSpec:
     """A reproducible set of random scenarios. Every field is validated on construction."""
@@ -142,10 +157,7 @@ class GeneratorSpec:
             if pace[0] > pace[1]:
                 raise SettingsError(f"pace: min {pace[0]} > max {pace[1]}")
             set_("pace", pace)
-        if not isinstance(self.prefix, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", self.prefix):
-            raise SettingsError(
-                f"prefix must be letters, digits, '_', '-' or '.', got {self.prefix!r}"
-            )
+        check_prefix(self.prefix)
         set_("max_attempts", require_integer("max_attempts", self.max_attempts))
 
     def name(self, i: int) -> str:
@@ -288,6 +300,7 @@ def map_scenarios(
     from ..planning.scenario_map import ScenarioMap
     from ..world.queries import random_queries
 
+    check_prefix(prefix)
     world = ScenarioMap(str(map_file))
     clear = world.obstacles(radius).cells
     queries = random_queries(clear, n, seed, radius, clearance, min_distance)

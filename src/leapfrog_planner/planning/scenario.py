@@ -11,6 +11,7 @@ import os
 import re
 import stat
 import tomllib
+import unicodedata
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -83,12 +84,19 @@ def _fresh_readonly(arr: np.ndarray) -> np.ndarray:
     return arr
 
 
+def has_control_characters(text: str) -> bool:
+    """Whether ``text`` holds a control character (tab, line break, escape, DEL, C1) or a lone
+    surrogate (which no file can hold)."""
+    return any(unicodedata.category(ch) in ("Cc", "Cs") for ch in text)
+
+
 def _default_name(source: str) -> str:
     if source.startswith(_BUILTIN_PREFIX):
         return source[len(_BUILTIN_PREFIX) :]
     if source.startswith("<") or not source.strip():
         return "scenario"
-    return Path(source).stem or "scenario"
+    stem = "".join("_" if has_control_characters(ch) else ch for ch in Path(source).stem)
+    return stem or "scenario"
 
 
 # --------------------------------------------------------------------------- the scenario
@@ -126,7 +134,7 @@ class Scenario:
         name = c.string(self.name, "name")
         if not name:
             c.fail("name", "expected a non-empty string")
-        if not name.isprintable():
+        if has_control_characters(name):
             c.fail("name", f"control characters are not allowed, got {short(name)}")
         horizon = c.number(self.horizon, "horizon", gt=0)
         c.in_range(horizon, "horizon", checks.HORIZON_RANGE)
