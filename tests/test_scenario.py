@@ -277,7 +277,9 @@ def scenarios(draw):
         st.fixed_dictionaries({}, optional={k: values[t] for k, t in SOLVER_KEYS.items()})
     )
     return Scenario(
-        name=draw(st.text(st.characters(blacklist_categories=("Cs", "Cc")), min_size=1, max_size=20)),
+        name=draw(
+            st.text(st.characters(blacklist_categories=("Cs", "Cc")), min_size=1, max_size=20)
+        ),
         horizon=draw(st.floats(*checks.HORIZON_RANGE)),
         start=start,
         goal=goal,
