@@ -129,3 +129,47 @@ def test_a_warm_read_only_installation_and_cache_are_used_as_they_are(warm, tmp_
     assert copies, "nothing was copied from the read-only cache"
     recompiled = [f.name for f in copies if originals.get(f.name) != f.read_bytes()]
     assert not recompiled, f"compiled again: {recompiled[:5]}"
+
+
+def test_the_fallback_folder_is_private_to_the_user(tmp_path, monkeypatch):
+    """Where the cache cannot be written, compiled code goes to a folder of the temporary
+    directory that only this user may write or enter (code found there is imported)."""
+    import stat
+    import tempfile
+
+    from leapfrog_planner import _cache
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setenv("LEAPFROG_CACHE_DIR", "/proc/no-such-folder")
+    d = _cache.writable_dir("models")
+    root = tmp_path / f"leapfrog-planner-{os.getuid()}"
+    assert d == root / "models"
+    assert stat.S_IMODE(root.stat().st_mode) == 0o700
+    assert _cache.writable_dir("models") == d  # the same folder next time: compiled once
+
+
+def test_a_fallback_folder_planted_by_another_user_is_not_used(tmp_path, monkeypatch):
+    """The attack: another user creates the predictable folder first (open to all, or their
+    own) with a module in it. It is neither used nor imported: a fresh private folder is."""
+    import stat
+    import tempfile
+
+    from leapfrog_planner import _cache
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    planted = tmp_path / f"leapfrog-planner-{os.getuid()}"
+    (planted / "models").mkdir(parents=True)
+    (planted / "models" / "unicycle.py").write_text("raise SystemExit('planted code ran')\n")
+    planted.chmod(0o777)
+    fresh = _cache.private_temp_root()
+    assert fresh != planted and stat.S_IMODE(fresh.stat().st_mode) == 0o700
+    assert not any(fresh.iterdir())
+    if os.geteuid() == 0:  # a folder of another owner, however private
+        planted.chmod(0o700)
+        os.chown(planted, 65534, 65534)
+        assert _cache.private_temp_root() != planted
+    link = tmp_path / "elsewhere"
+    link.mkdir(mode=0o700)
+    planted.rename(tmp_path / "moved")
+    planted.symlink_to(link)  # a link to a private folder is not the folder itself
+    assert _cache.private_temp_root() != planted

@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import os
 import shutil
+import stat
 import sys
 import tempfile
 from pathlib import Path
@@ -29,6 +30,7 @@ __all__ = [
     "copy_atomic",
     "copy_compiled",
     "numba_cache_of",
+    "private_temp_root",
     "use_writable_numba_cache",
     "writable_dir",
 ]
@@ -45,7 +47,8 @@ def cache_dir() -> Path:
 
 def writable_dir(name: str) -> Path:
     """``cache_dir() / name``, created; where that cannot be written (a read-only home), the
-    same name in a folder of the temporary directory."""
+    same name in a folder of the temporary directory that is the user's alone
+    (:func:`private_temp_root`): code found there is imported, so no other user may write it."""
     d = cache_dir() / name
     try:
         d.mkdir(parents=True, exist_ok=True)
@@ -54,9 +57,33 @@ def writable_dir(name: str) -> Path:
         probe.unlink()
         return d
     except OSError:
-        d = Path(tempfile.gettempdir()) / "leapfrog-planner" / name
-        d.mkdir(parents=True, exist_ok=True)
+        d = private_temp_root() / name
+        d.mkdir(mode=0o700, parents=True, exist_ok=True)
         return d
+
+
+def private_temp_root() -> Path:
+    """``<tmp>/leapfrog-planner-<uid>``, created with mode 0700, and used only if it is a real
+    folder (not a link) that this user owns and nobody else may write or enter; otherwise (a
+    folder planted by another user, or opened to others) a fresh private folder of this
+    process (``tempfile.mkdtemp``), whose code is compiled again."""
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    root = Path(tempfile.gettempdir()) / f"leapfrog-planner-{uid}"
+    try:
+        root.mkdir(mode=0o700)
+    except FileExistsError:
+        pass
+    except OSError:
+        return Path(tempfile.mkdtemp(prefix="leapfrog-planner-"))
+    try:
+        st = os.lstat(root)
+    except OSError:
+        return Path(tempfile.mkdtemp(prefix="leapfrog-planner-"))
+    private = stat.S_ISDIR(st.st_mode) and st.st_uid == uid and not st.st_mode & 0o077
+    if not private:
+        log.warning("%s is not private to this user: not used, compiling in a fresh folder", root)
+        return Path(tempfile.mkdtemp(prefix="leapfrog-planner-"))
+    return root
 
 
 def copy_atomic(source: Path, target: Path) -> None:
