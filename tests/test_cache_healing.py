@@ -173,3 +173,26 @@ def test_a_fallback_folder_planted_by_another_user_is_not_used(tmp_path, monkeyp
     planted.rename(tmp_path / "moved")
     planted.symlink_to(link)  # a link to a private folder is not the folder itself
     assert _cache.private_temp_root() != planted
+
+
+@pytest.mark.parametrize(
+    "damage",
+    ["", "MODEL_NAME = 'x'\n", "cut", "edited", "seal only"],
+)
+def test_a_generated_module_is_imported_only_with_its_seal(tmp_path, damage):
+    """A generated module's last line seals the text above it: an empty, cut, edited or
+    hand-written module is refused (and so built again), never imported."""
+    from leapfrog_planner.compiled.kernels import DamagedModule, _check_integrity, sealed
+
+    text = sealed("MODEL_NAME = 'unicycle'\nSTATES = ('x', 'y', 'theta')\n")
+    path = tmp_path / "m.py"
+    path.write_text(text)
+    _check_integrity(path)  # the sealed text passes
+    bad = {
+        "cut": text[: len(text) // 2],
+        "edited": text.replace("unicycle", "planted"),
+        "seal only": text.splitlines(keepends=True)[-1],
+    }.get(damage, damage)
+    path.write_text(bad)
+    with pytest.raises(DamagedModule):
+        _check_integrity(path)

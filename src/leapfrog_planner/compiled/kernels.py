@@ -8,6 +8,7 @@ loads the module without importing SymPy at all.
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 import logging
 import sys
@@ -50,6 +51,7 @@ def load_kernels(model) -> ModuleType:
     if not path.exists() and not _copy_read_only(path):
         _generate(model, path)
     try:
+        _check_integrity(path)
         return _import(mod_name, path)
     except Exception as exc:  # a damaged cache entry: report it, build it again, once
         log.warning(
@@ -81,12 +83,37 @@ def _copy_read_only(path: Path) -> bool:
     return True
 
 
+#: The last line of a generated module: the SHA-256 of the text before it.
+_SEAL = "# sha256 of the text above: "
+
+
 def _generate(model, path: Path) -> None:
     from .codegen import module_text  # SymPy only when generating
 
-    text = module_text(get_model(model))
+    text = sealed(module_text(get_model(model)))
     # atomic: concurrent processes write identical text; an interrupt leaves no temporary file
-    write_atomic(path, lambda tmp: Path(tmp).write_text(text))
+    write_atomic(path, lambda tmp: Path(tmp).write_bytes(text.encode()))
+
+
+def sealed(text: str) -> str:
+    """``text`` with its seal as the last line (:func:`_check_integrity`)."""
+    text = text.rstrip("\n") + "\n"
+    return f"{text}{_SEAL}{hashlib.sha256(text.encode()).hexdigest()}\n"
+
+
+class DamagedModule(ValueError):
+    """A generated module whose text is not what was generated (empty, cut, edited)."""
+
+
+def _check_integrity(path: Path) -> None:
+    """Refuse a generated module whose last line is not the seal of the text before it: a
+    file cut short, emptied or edited is built again, never imported."""
+    data = path.read_bytes()
+    body, _, seal = data.rstrip(b"\n").rpartition(b"\n")
+    body += b"\n"
+    expected = f"{_SEAL}{hashlib.sha256(body).hexdigest()}".encode()
+    if seal != expected:
+        raise DamagedModule(f"{path.name}: its seal does not match its text")
 
 
 def _import(mod_name: str, path: Path) -> ModuleType:

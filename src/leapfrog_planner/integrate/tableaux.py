@@ -94,7 +94,7 @@ def _coefficients() -> dict[str, np.ndarray]:
             cached = {k: _arr(f[k]) for k in f.files}
         if set(cached) >= _KEYS:
             return cached
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # not built yet, or no cache folder
         pass
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
         log.warning(
