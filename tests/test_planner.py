@@ -707,3 +707,27 @@ def test_an_atomic_write_never_replaces_a_special_file_or_a_folder(tmp_path, kin
         write_atomic(path, lambda tmp: open(tmp, "w").write("x"))
     assert os.listdir(tmp_path) == ["target"]
     assert path.is_fifo() if kind == "fifo" else path.is_dir()
+
+
+def test_a_time_limit_ends_the_plan_with_what_was_found_and_says_so():
+    """Past the limit no run or sweep starts: the plan ends with the best answer of the runs
+    made (here the first batch, stopped before its first sweep), explicitly."""
+    from leapfrog_planner.planning.planner import plan as plan_
+
+    full = plan_("paper-case-4")
+    r = plan_("paper-case-4", time_limit=1e-6)
+    assert "the time limit of 1e-06 s cut the search short" in r.message
+    assert len(r.search) < len(full.search) and r.sweeps == 0
+    assert r.trajectory is not None
+    if r.success:  # a converged answer is still a checked extremal, never cheaper than the best
+        assert r.min_clearance >= 0.0 and r.cost >= full.cost - 1e-9
+    assert "time limit" not in full.message
+
+
+@pytest.mark.parametrize("bad", [0, -1.0, float("nan"), "10", True, 1e8])
+def test_a_bad_time_limit_is_refused(bad):
+    from leapfrog_planner.errors import SettingsError
+    from leapfrog_planner.planning.settings import PlannerSettings
+
+    with pytest.raises(SettingsError, match="time_limit"):
+        PlannerSettings(time_limit=bad)

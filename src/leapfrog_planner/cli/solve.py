@@ -193,6 +193,13 @@ def scenarios():
     default=None,
     help="plan in this ROS map (its map_server YAML), in place of the scenario's [map]",
 )
+@click.option(
+    "--time-limit",
+    type=click.FloatRange(min=0.0, min_open=True, max=1e7),
+    default=None,
+    help="seconds after which no new run or sweep starts: the plan ends with the best answer"
+    " found so far (the final solves under way finish)",
+)
 @click.option("--json", "json_path", default=None, help="write the result as JSON")
 @click.option("--npz", "npz_path", default=None, help="write the trajectory arrays as NPZ")
 @click.option("--plot", "plot_path", default=None, help="write the path figure (PNG, PDF or SVG)")
@@ -205,6 +212,7 @@ def solve(
     initial_paths,
     final,
     map_file,
+    time_limit,
     json_path,
     npz_path,
     plot_path,
@@ -232,6 +240,7 @@ def solve(
         ("partitions", partitions),
         ("initial_paths", initial_paths),
         ("final", final),
+        ("time_limit", time_limit),
     ]
     settings = {**planner_options(options), **{k: v for k, v in named if v is not None}}
     planner = Planner(sc, **settings)  # settings errors surface here, before any display
@@ -338,6 +347,7 @@ def _summary(r) -> Table:
             ("its cost", cost),
             ("its clearance", clearance),
         ]
+    rows += [("time limit", part) for part in r.message.split("; ") if "time limit" in part]
     rows += [
         ("sweeps", str(r.sweeps)),
         ("Newton iterations", f"{r.newton_iterations}  ({r.f_evals} F evaluations)"),

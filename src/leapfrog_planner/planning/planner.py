@@ -9,6 +9,7 @@ no stage of the last round asks for more, the answer is chosen among all the run
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 
@@ -122,6 +123,8 @@ class Planner:
 
     def _plan(self) -> PlanResult:
         t_begin = time.perf_counter()
+        limit = self.settings.time_limit
+        self.runner.deadline = t_begin + limit if limit is not None else float("inf")
         try:
             paths = self.path_selection()
         except Unreachable as exc:
@@ -136,22 +139,32 @@ class Planner:
         runs: list[PathRun] = []
         t_runs = 0.0
         rnd = self.first_round
-        while rnd is not None:
+        cut = False  # whether the time limit left work undone
+        while rnd is not None and not cut:
             for stage in STAGES:
                 while requests := stage(search, rnd, [r for r in runs if r.request.round is rnd]):
                     t0 = time.perf_counter()
                     runs += self.runner.run_all(requests)
                     t_runs += time.perf_counter() - t0
-            rnd = next_round(search, rnd, runs)
+                    cut = time.perf_counter() >= self.runner.deadline
+                    if cut:
+                        break
+                if cut:
+                    break
+            rnd = None if cut else next_round(search, rnd, runs)
         chosen = self.choose(runs)
         self.runner.emit(PlanEvent("final", len(paths[0]) - 1, len(paths[0]), ""))
         wall = time.perf_counter() - t_begin
         problem = self.runner.problem_of(self.first_round, chosen.run.weight)
         timing = Timing(paths_s=wall - t_runs, runs_s=t_runs, wall_s=wall)
         method = self.settings.leapfrog.method
-        return plan_result(
+        result = plan_result(
             self.scenario, plain(self.settings), method, runs, chosen, problem, timing
         )
+        if cut:  # said in the message, whatever the answer
+            note = f"the time limit of {limit:g} s cut the search short"
+            result = dataclasses.replace(result, message=f"{result.message}; {note}")
+        return result
 
     def choose(self, runs: list[PathRun]) -> Chosen:
         """The answer ``runs`` give (:func:`.answer.choose_answer`)."""

@@ -62,6 +62,8 @@ class Runner:
         self._lock = threading.Lock()
         self._progress_lock = threading.Lock()
         self._flows: dict[tuple, tuple[OptimalControlProblem, Flow]] = {}
+        # A plan's time limit as a time.perf_counter() value: no sweep starts after it.
+        self.deadline = float("inf")
 
     def problem_of(self, rnd: Round, weight: float | None = None) -> OptimalControlProblem:
         """The problem Leapfrog solves in round ``rnd``, at obstacle weight ``weight`` (by
@@ -119,7 +121,7 @@ class Runner:
         with held_by_parent():
             run = leapfrog(
                 problem, t, X, guide=guide, settings=lf, flow=flow, progress=on_sweep,
-                stop_above=request.stop_above,
+                stop_above=request.stop_above, deadline=self.deadline,
             )  # fmt: skip
             iterate_problem = problem
             if s.control_bounds or self.aid is not None:  # on to the problem itself

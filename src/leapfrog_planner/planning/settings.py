@@ -28,6 +28,9 @@ class PlannerSettings:
     # cheaper than the best extremal) runs its stages again with the partitions doubled, this
     # many times at most: at long horizons the arcs of q = 8 are too long for a stiff penalty.
     finer_doublings: int = 1
+    # Seconds a plan may take (None: no limit). Past it no new run or sweep starts: the plan
+    # ends with the best answer found so far, and says that the limit cut it short.
+    time_limit: float | None = None
     leapfrog: LeapfrogSettings = LeapfrogSettings()
 
     def __post_init__(self):
@@ -39,6 +42,16 @@ class PlannerSettings:
         if not 0 <= self.margin <= 1e6:
             raise SettingsError(f"margin must be between 0 and 1e6, got {self.margin!r}")
         require_integer("samples", self.samples, 2, 1_000_000)
+        if self.time_limit is not None:
+            limit = self.time_limit
+            if (
+                isinstance(limit, bool)
+                or not isinstance(limit, int | float)
+                or not 0 < limit <= 1e7
+            ):
+                raise SettingsError(
+                    f"time_limit: expected seconds, > 0 and at most 1e7, got {describe(limit)}"
+                )
 
     @classmethod
     def from_options(cls, base: PlannerSettings | None = None, **options) -> PlannerSettings:

@@ -103,6 +103,7 @@ def leapfrog(
     flow: Flow | None = None,
     progress: Callable[[SweepRecord], None] | None = None,
     stop_above: float = np.inf,
+    deadline: float = np.inf,
 ) -> LeapfrogSolution:
     """Run Leapfrog from the junctions ``(t, X)`` of a feasible path from ``X[0]`` to ``X[-1]``.
 
@@ -110,7 +111,9 @@ def leapfrog(
     start the initial segments' shooting, and its states split a segment whose two-point
     problem fails. ``flow`` is reused for the stage it was built for (the final solves or the
     local problems). ``progress`` is called after each sweep. A sweep that leaves the piecewise
-    cost above ``stop_above`` ends the run (``abandoned``).
+    cost above ``stop_above`` ends the run (``abandoned``). Past ``deadline`` (a
+    ``time.perf_counter()`` value) no further sweep starts: the final solves run from the
+    level reached (a plan's time limit).
     """
     settings = settings or LeapfrogSettings()
     t, X = np.asarray(t, dtype=float), np.asarray(X, dtype=float)
@@ -120,7 +123,7 @@ def leapfrog(
     if not fit.success:
         return _failed(fit, local, time.perf_counter() - t_start)
     state = init(fit)
-    while not terminate(state, settings):
+    while not terminate(state, settings) and time.perf_counter() < deadline:
         step(state, local, settings, progress)
         if state.last_cost() > stop_above:
             return _abandoned(state, local, time.perf_counter() - t_start, stop_above)
