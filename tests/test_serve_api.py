@@ -5,13 +5,17 @@ by a newer one of the same session (409)."""
 
 from __future__ import annotations
 
+import base64
 import csv
 import io
 import json
 import threading
 import time
+from pathlib import Path
 
+import numpy as np
 import pytest
+from PIL import Image
 
 pytest.importorskip("starlette")
 pytest.importorskip("httpx2")
@@ -19,7 +23,10 @@ pytest.importorskip("httpx2")
 from starlette.testclient import TestClient  # noqa: E402
 
 from leapfrog_planner.planning.scenario import load_scenario  # noqa: E402
+from leapfrog_planner.planning.scenario_map import ScenarioMap  # noqa: E402
 from leapfrog_planner.web.app import create_app  # noqa: E402
+from leapfrog_planner.web.maps import MAX_UPLOAD_BYTES  # noqa: E402
+from leapfrog_planner.world import load_ros_map  # noqa: E402
 
 CASE4 = load_scenario("paper-case-4").to_dict()
 #: Options that make paper case 4 take seconds (16 initial paths, 256 junctions each).
@@ -278,3 +285,162 @@ def test_requests_beyond_the_pool_get_503(tight):
     assert r.status_code == 503
     assert r.json()["error"].startswith("busy: 1 requests are being solved or waiting (at most 1)")
     assert a["r"].status_code == 504
+
+
+# ------------------------------------------------------------------ maps opened on the page
+
+MAPS = Path(__file__).parent / "data" / "maps"
+#: Between two rows of the TurtleBot3 arena's pillars (1.1 m apart about the origin).
+ARENA = {
+    "name": "arena",
+    "horizon": 6.4,
+    "start": [-1.6, -0.55, 0.0],
+    "goal": [1.6, -0.55, 0.0],
+    "robot": {"radius": 0.2},
+    "penalty": {"weight": 1.0, "exponent": 2},
+}
+
+
+def _file(name: str, data: bytes | None = None) -> dict:
+    raw = (MAPS / name).read_bytes() if data is None else data
+    return {"name": name, "data": base64.b64encode(raw).decode()}
+
+
+def _open_map(client, yaml="tb3_sandbox.yaml", image="tb3_sandbox.pgm"):
+    return client.post("/api/maps", json={"yaml": _file(yaml), "image": _file(image)})
+
+
+@pytest.fixture(scope="module")
+def arena(client):
+    r = _open_map(client)
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+def test_a_map_is_opened_and_drawn_as_ros_shows_it(client, arena):
+    assert arena["name"] == "tb3_sandbox.yaml"
+    assert (arena["columns"], arena["rows"], arena["resolution"]) == (384, 384, 0.05)
+    assert arena["origin"] == [-10.0, -10.0, 0.0]
+    assert arena["extent"] == pytest.approx([-10.0, 9.2, -10.0, 9.2])
+    xmin, xmax, ymin, ymax = arena["known"]  # the arena, not the unknown square about it
+    assert -3.5 < xmin < -2.5 < 2.5 < xmax < 3.5 and -3.5 < ymin < -2.5 < 2.5 < ymax < 3.5
+    assert arena["radius"] == 0.2 and arena["speed"] == 0.5
+    r = client.get(arena["image"])
+    assert r.status_code == 200 and r.headers["content-type"] == "image/png"
+    image = Image.open(io.BytesIO(r.content))
+    assert image.size == (384, 384) and image.mode == "L"
+    assert {v for _, v in image.getcolors()} == {0, 205, 254}  # occupied, unknown, free
+    occ = load_ros_map(MAPS / "tb3_sandbox.yaml")
+    rows = np.asarray(image)[::-1]  # the image's top row is the map's last
+    assert np.array_equal(rows == 0, occ.data == 100) and np.array_equal(rows == 205, occ.data < 0)
+    assert client.get("/api/maps/nothing.png").status_code == 404
+    # the suggested ends: in free cells with room for the robot, a few metres apart
+    world = ScenarioMap(str(MAPS / "tb3_sandbox.yaml"), occupancy=occ).obstacles(0.2)
+    start, goal = np.array(arena["start"]), np.array(arena["goal"])
+    assert (world.clearance_at(np.array([start[:2], goal[:2]])) > 0.2).all()
+    assert 2.0 < np.hypot(*(goal - start)[:2]) < 4.0
+
+
+def test_a_plan_on_the_map_converges_clear_of_its_cells(client, arena):
+    sc = dict(ARENA, map={"id": arena["id"]})
+    t0 = time.perf_counter()
+    r = client.post("/api/plan", json={"scenario": sc})
+    assert r.status_code == 200, r.text
+    assert time.perf_counter() - t0 < 10.0
+    v = r.json()
+    assert v["status"] == "converged" and v["optimal"] and v["min_clearance"] > 0
+    occ = load_ros_map(MAPS / "tb3_sandbox.yaml")
+    x, y = np.array(v["path"]["x"]), np.array(v["path"]["y"])
+    assert (occ.value_at(x, y) == 0).all()  # every point of the path in a free cell
+    world = ScenarioMap(str(MAPS / "tb3_sandbox.yaml"), occupancy=occ).obstacles(0.2)
+    assert world.clearance_at(np.stack([x, y], axis=1)).min() > 0  # the robot's disc too
+    assert x[0] == pytest.approx(-1.6) and x[-1] == pytest.approx(1.6, abs=1e-6)
+
+
+def test_the_scenario_download_names_the_maps_file(client, arena, tmp_path):
+    sc = dict(ARENA, map={"id": arena["id"], "unknown": "free"})
+    text = client.post("/api/toml", json={"scenario": sc}).text
+    assert '[map]\nfile = "tb3_sandbox.yaml"\nunknown = "free"\n' in text
+    assert "leapfrog-map-" not in text  # no server folder in the file
+    r = client.post("/api/open", json={"toml": text, "name": "arena.toml"})
+    assert r.status_code == 200
+    assert r.json()["map"] == {"unknown": "free", "file": "tb3_sandbox.yaml"}
+    assert "map" not in r.json()["scenario"]  # the page opens the map's files itself
+
+
+@pytest.mark.parametrize(
+    ("files", "message"),
+    [
+        (
+            {"yaml": _file("bad.yaml", b"image: ["), "image": "tb3_sandbox.pgm"},
+            "bad.yaml: invalid YAML: expected the node content, but found '<stream end>'",
+        ),
+        (
+            {
+                "yaml": _file("m.yaml", b"image: tb3_sandbox.pgm\n"),
+                "image": "tb3_sandbox.pgm",
+            },
+            "m.yaml: resolution: missing required key",
+        ),
+        ({"image": "tb3_sandbox.pgm"}, "map: yaml: missing: choose the map's YAML file"),
+        (
+            {"yaml": "tb3_sandbox.yaml", "image": None},
+            "map: image: missing: choose the map's image (PGM or PNG) with its YAML file",
+        ),
+        (
+            {"yaml": "tb3_sandbox.yaml", "image": "depot.pgm"},
+            "tb3_sandbox.yaml: image: names 'tb3_sandbox.pgm', but the image chosen is 'depot.pgm'",
+        ),
+        (
+            {"yaml": "depot.yaml", "image": _file("depot.pgm", b"P5 10 10")},
+            "depot.yaml: image: 'depot.pgm': not a PGM image",
+        ),
+        (
+            {"yaml": "depot.yaml", "image": {"name": "depot.pgm", "data": "%%"}},
+            "map: image.data: not valid base64",
+        ),
+    ],
+)
+def test_bad_map_files_are_a_400_with_the_loaders_message(client, files, message):
+    body = {}
+    for key, f in files.items():
+        body[key] = _file(f) if isinstance(f, str) else f
+    r = client.post("/api/maps", json=body)
+    assert r.status_code == 400, r.text
+    got = r.json()["error"]
+    assert "\n" not in got and got.startswith(message)
+    assert "leapfrog-map-" not in got and "/tmp" not in got  # the files as the user named them
+
+
+def test_a_map_upload_too_large_is_refused_at_once(client):
+    r = client.post("/api/maps", content=b" " * (MAX_UPLOAD_BYTES + 1))
+    assert r.status_code == 413
+    assert r.json() == {"error": "map: the YAML file and its image are larger than 64 MB"}
+
+
+def test_a_plan_names_its_map_by_an_id_the_server_keeps(client, arena):
+    def error(map_table):
+        r = client.post("/api/plan", json={"scenario": dict(ARENA, map=map_table)})
+        assert r.status_code == 400, r.text
+        return r.json()["error"]
+
+    assert error({"id": "gone"}).startswith(
+        "scenario: map.id: no map 'gone' on the server (it keeps the last 4 opened, while it"
+        " runs): open the map again"
+    )
+    assert error({"file": "/etc/hostname"}).startswith(
+        "scenario: map.file: unknown key: the page names a map by its id"
+    )
+    assert error({"id": arena["id"], "unknown": "maybe"}).startswith("scenario: map.unknown:")
+    assert error({"id": arena["id"]} | {"x": 1}).startswith("scenario: map.x: unknown key")
+    r = client.post(
+        "/api/plan", json={"scenario": dict(ARENA, start=[0, 0, 0], map={"id": arena["id"]})}
+    )
+    assert r.json()["error"] == "scenario: start: (0.0, 0.0) is in an unknown cell of the map"
+    # the oldest of more than four maps is forgotten, its folder removed
+    first = _open_map(client, "tiny_yaw.yaml", "tiny.png").json()["id"]
+    folder = client.app.state.maps.find(first).folder
+    for _ in range(4):
+        assert _open_map(client, "tiny_yaw.yaml", "tiny.png").status_code == 200
+    assert error({"id": first}).startswith(f"scenario: map.id: no map '{first}' on the server")
+    assert not Path(folder).exists()

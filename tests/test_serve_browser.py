@@ -6,6 +6,7 @@ the command line to the cost the page showed."""
 
 from __future__ import annotations
 
+import io
 import json
 import shutil
 import subprocess
@@ -156,3 +157,74 @@ def test_downloads_of_the_result_and_the_view(server, browser, downloads):
     time.sleep(0.2)
     d = json.loads(Path(downloads / "paper-case-4.json").read_text())
     assert d["cost"] == pytest.approx(4.585248, abs=1e-6)
+
+
+MAPS = Path(__file__).parent / "data" / "maps"
+#: The TurtleBot3 arena: its nine pillars stand 1.1 m apart about (0, 0); between two rows of
+#: them, a straight run of 3.2 m (the horizon the page sets: 6.4 s at 0.5 m/s).
+ARENA_START, ARENA_GOAL = (-1.6, -0.55), (1.6, -0.55)
+
+
+def _click_world(driver, x: float, y: float) -> None:
+    """A click on the view at the world point (x, y) (the page's own transform)."""
+    view = driver.find_element(By.ID, "view")
+    px, py, w, h = driver.execute_script(
+        "const T = transform($('view')); return [T.X(arguments[0]), T.Y(arguments[1]), T.w, T.h];",
+        x,
+        y,
+    )
+    ActionChains(driver).move_to_element_with_offset(view, px - w / 2, py - h / 2).click().perform()
+
+
+def _pixels(png: bytes, box) -> set:
+    from PIL import Image
+
+    image = Image.open(io.BytesIO(png)).convert("RGB").crop(box)
+    return {c for _, c in image.getcolors(image.width * image.height)}
+
+
+def test_a_map_is_opened_and_planned_on(server, browser, tmp_path):
+    browser.get(server)
+    wait = WebDriverWait(browser, WAIT)
+    wait.until(lambda d: _text(d, "cost") not in ("", "–"))  # paper case 1, planned on load
+    t0 = time.perf_counter()
+    browser.find_element(By.ID, "map-yaml").send_keys(str(MAPS / "tb3_sandbox.yaml"))
+    browser.find_element(By.ID, "map-image").send_keys(str(MAPS / "tb3_sandbox.pgm"))
+    image = wait.until(lambda d: d.find_elements(By.CSS_SELECTOR, "#view image#map"))[0]
+    assert image.get_attribute("href").startswith("data:image/png;base64,")
+    assert "robot radius 0.2 m, weight W 1" in _text(browser, "map-info")
+    assert browser.find_element(By.ID, "radius").get_attribute("value") == "0.2"
+    assert browser.find_element(By.ID, "weight").get_attribute("value") == "1"
+    assert not browser.find_element(By.ID, "error").is_displayed()
+    # the view fits the arena (the known cells), not the whole 19.2 m square of the map
+    box = image.rect
+    view = browser.find_element(By.ID, "view").rect
+    assert box["width"] > 1.3 * view["width"] and box["height"] > 1.3 * view["height"]
+
+    _click_world(browser, *ARENA_START)  # a click places the start, the next the goal
+    time.sleep(0.4)
+    _click_world(browser, *ARENA_GOAL)
+
+    def placed(d):
+        got = [float(d.find_element(By.ID, f"{k}-{i}").get_attribute("value")) for k in
+               ("start", "goal") for i in (0, 1)]  # fmt: skip
+        return all(abs(a - b) < 0.05 for a, b in zip(got, ARENA_START + ARENA_GOAL, strict=True))
+
+    wait.until(placed)
+    wait.until(
+        lambda d: (
+            _text(d, "status").startswith("converged")
+            and not d.find_element(By.ID, "busy").is_displayed()
+        )
+    )
+    elapsed = time.perf_counter() - t0
+    assert float(browser.find_element(By.ID, "horizon").get_attribute("value")) == 6.4
+    assert len(browser.find_elements(By.CSS_SELECTOR, "#path polyline")) >= 1
+    assert float(_text(browser, "clearance")) > 0
+    shot = browser.find_element(By.ID, "view").screenshot_as_png
+    (tmp_path / "map-view.png").write_bytes(shot)
+    colors = _pixels(shot, (0, 0, int(view["width"]), int(view["height"])))
+    assert (205, 205, 205) in colors  # the map's unknown cells, as ROS shows them
+    assert (0, 0, 0) in colors  # its occupied cells
+    assert (0x15, 0x65, 0xC0) in colors  # the path over it
+    assert elapsed < 15.0

@@ -2,8 +2,12 @@
 
 - ``GET /``: the page; ``GET /static/...``: its script and style (shipped in the package).
 - ``GET /api/scenarios``: the built-in scenarios, in the layout of a scenario file.
-- ``POST /api/open`` ``{"toml", "name"}``: a scenario file opened on the page, checked.
-- ``POST /api/plan`` ``{"scenario", "options", "session", "seq"}``: plan it; what the page draws.
+- ``POST /api/open`` ``{"toml", "name"}``: a scenario file opened on the page, checked (its
+  ``[map]`` table is given back apart: the page opens the map's files itself).
+- ``POST /api/maps`` ``{"yaml", "image"}``: a ROS map opened on the page (:mod:`.maps`): its id,
+  place and suggested ends; ``GET /api/maps/<id>.png``: the map drawn as ROS shows it.
+- ``POST /api/plan`` ``{"scenario", "options", "session", "seq"}``: plan it; what the page draws
+  (a scenario's ``map`` is ``{"id", "unknown", "length"}``, the id of a map opened on the page).
 - ``POST /api/toml``, ``/api/result.json``, ``/api/result.csv``: the downloads (the scenario file
   with the page's options in its ``[solver]`` table; the result as ``leapfrog solve --json`` and
   ``leapfrog export --csv`` write it).
@@ -30,6 +34,7 @@ from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
 from ..planning.scenario import builtin_scenarios, load_scenario
+from .maps import MAX_MAP_BYTES, MAX_UPLOAD_BYTES, MapStore, parse_upload
 from .pool import PoolError, SolvePool
 from .schema import PlanRequest, RequestError, file_name, parse_json, parse_plan, parse_toml
 
@@ -69,10 +74,29 @@ async def _body(request: Request):
     return parse_json(await request.body())
 
 
+async def _upload(request: Request, limit: int = MAX_UPLOAD_BYTES):
+    """The JSON of a map's upload, read up to ``limit`` bytes (refused early when the request
+    says it is larger)."""
+    too_large = RequestError(
+        f"map: the YAML file and its image are larger than {MAX_MAP_BYTES // 2**20} MB", 413
+    )
+    declared = request.headers.get("content-length", "")
+    if declared.isdigit() and int(declared) > limit:
+        raise too_large
+    chunks, size = [], 0
+    async for chunk in request.stream():
+        size += len(chunk)
+        if size > limit:
+            raise too_large
+        chunks.append(chunk)
+    return parse_json(b"".join(chunks), limit)
+
+
 def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
     """The application; it starts ``pool`` (or a new ``SolvePool(**pool_options)``) when it
     starts and closes it when it stops."""
     pool = pool if pool is not None else SolvePool(**pool_options)
+    maps = MapStore()
     latest = _Latest()
     limiter = anyio.CapacityLimiter(pool.capacity)
 
@@ -97,25 +121,40 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
         return JSONResponse({"scenarios": out})
 
     async def open_file(request):
-        sc = parse_toml(await _body(request))
-        return JSONResponse({"scenario": sc.to_dict()})
+        sc, world = parse_toml(await _body(request))
+        return JSONResponse({"scenario": sc.to_dict(), "map": world})
+
+    async def open_map(request):
+        files = parse_upload(await _upload(request))
+        m = await anyio.to_thread.run_sync(maps.add, *files)
+        return JSONResponse(await anyio.to_thread.run_sync(m.info))
+
+    async def map_image(request):
+        m = maps.find(request.path_params["id"])
+        if m is None:
+            raise HTTPException(404, "no such map on the server: open it again")
+        return Response(m.png, media_type="image/png", headers={"Cache-Control": "no-store"})
+
+    async def planned(request) -> PlanRequest:
+        data = await _body(request)
+        return await anyio.to_thread.run_sync(parse_plan, data, maps)
 
     async def plan(request):
-        body = await solve(parse_plan(await _body(request)), "view")
+        body = await solve(await planned(request), "view")
         return Response(body, media_type="application/json")
 
     async def toml(request):
-        req = parse_plan(await _body(request))
-        text = req.scenario_with_options().to_toml()
+        req = await planned(request)
+        text = req.toml()
         return _download(text.encode(), "application/toml", file_name(req.scenario.name, ".toml"))
 
     async def result_json(request):
-        req = parse_plan(await _body(request))
+        req = await planned(request)
         body = await solve(req, "json")
         return _download(body, "application/json", file_name(req.scenario.name, ".json"))
 
     async def result_csv(request):
-        req = parse_plan(await _body(request))
+        req = await planned(request)
         body = await solve(req, "csv")
         return _download(body, "text/csv", file_name(req.scenario.name, ".csv"))
 
@@ -129,11 +168,14 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
             yield
         finally:
             pool.close()
+            maps.close()
 
     routes = [
         Route("/", page),
         Route("/api/scenarios", scenarios),
         Route("/api/open", open_file, methods=["POST"]),
+        Route("/api/maps", open_map, methods=["POST"]),
+        Route("/api/maps/{id}.png", map_image),
         Route("/api/plan", plan, methods=["POST"]),
         Route("/api/toml", toml, methods=["POST"]),
         Route("/api/result.json", result_json, methods=["POST"]),
@@ -149,6 +191,7 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
     }
     app = Starlette(routes=routes, exception_handlers=handlers, lifespan=lifespan)
     app.state.pool = pool
+    app.state.maps = maps
     return app
 
 

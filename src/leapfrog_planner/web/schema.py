@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -46,10 +47,24 @@ class PlanRequest:
     options: dict[str, Any]
     session: str | None = None
     seq: int = 0
+    map: Any = None  # the LoadedMap of maps.py the scenario's map was opened as, if any
 
-    def job(self, kind: str) -> tuple[str, dict, dict]:
-        """What a worker process is sent: plain values only."""
-        return kind, self.scenario.to_dict(), dict(self.options)
+    def job(self, kind: str) -> tuple[str, dict, dict, str | None]:
+        """What a worker process is sent: plain values only (and the image of an uploaded map,
+        which its YAML file may name elsewhere)."""
+        image = None if self.map is None else self.map.image
+        return kind, self.scenario.to_dict(), dict(self.options), image
+
+    def toml(self) -> str:
+        """The scenario file with the options in its ``[solver]`` table, an uploaded map named
+        by its YAML file's name (the file beside it)."""
+        text = self.scenario_with_options().to_toml()
+        if self.map is None:
+            return text
+        from ..planning.scenario_toml import toml_value
+
+        line = f"file = {toml_value(self.scenario.map.file)}\n"
+        return text.replace(line, f"file = {toml_value(self.map.name)}\n", 1)
 
     def scenario_with_options(self) -> Scenario:
         """The scenario with the options in its ``[solver]`` table: its TOML file, planned by
@@ -59,9 +74,9 @@ class PlanRequest:
         return replace(self.scenario, solver={**self.scenario.solver, **self.options})
 
 
-def parse_json(body: bytes) -> Any:
-    if len(body) > MAX_BODY_BYTES:
-        raise RequestError(f"request: larger than {MAX_BODY_BYTES // 2**20} MB", 413)
+def parse_json(body: bytes, limit: int = MAX_BODY_BYTES) -> Any:
+    if len(body) > limit:
+        raise RequestError(f"request: larger than {limit // 2**20} MB", 413)
     try:
         return json.loads(body.decode("utf-8"))
     except UnicodeDecodeError as e:
@@ -113,19 +128,39 @@ def parse_scenario(value: Any, source: str = SOURCE) -> Scenario:
         raise RequestError(f"{source}: values nested too deeply") from None
 
 
-def parse_plan(data: Any) -> PlanRequest:
-    """``{"scenario": {...}, "options": {...}, "session": "...", "seq": 3}``."""
+def _with_map(raw: Any, maps) -> tuple[Scenario, Any]:
+    """The scenario of a request, its map (``{"id", "unknown", "length"}``: a map opened on
+    the page) taken from ``maps``, a :class:`~.maps.MapStore`."""
+    if not (isinstance(raw, Mapping) and "map" in raw):
+        return parse_scenario(raw), None
+    from dataclasses import replace
+
+    from .maps import request_map
+
+    scenario = parse_scenario({k: v for k, v in raw.items() if k != "map"})
+    loaded, unknown, length = request_map(raw["map"], maps)
+    try:
+        world = maps.scenario_map(loaded, unknown, length, scenario.robot_radius)
+        return replace(scenario, map=world), loaded
+    except ScenarioError as e:
+        text = str(e)
+        raise RequestError(text if text.startswith(SOURCE) else f"{SOURCE}: {text}") from None
+
+
+def parse_plan(data: Any, maps=None) -> PlanRequest:
+    """``{"scenario": {...}, "options": {...}, "session": "...", "seq": 3}``; a scenario's map
+    is one opened on the page, named by its id in ``maps`` (a :class:`~.maps.MapStore`)."""
     data = _object(data, "request")
     _known(data, ("scenario", "options", "session", "seq"), "request")
     if "scenario" not in data:
         raise RequestError("request: scenario: missing required key")
-    scenario = parse_scenario(data["scenario"])
+    scenario, loaded = _with_map(data["scenario"], maps)
     options = parse_options(data.get("options"))
     session = data.get("session")
     if session is not None and not (isinstance(session, str) and 0 < len(session) <= MAX_SESSION):
         raise RequestError(f"request: session: expected a short string, got {describe(session)}")
     seq = require_integer("request: seq", data.get("seq", 0), 0, 2**53, error=RequestError)
-    return PlanRequest(scenario, options, session, seq)
+    return PlanRequest(scenario, options, session, seq, loaded)
 
 
 _SAFE_NAME = re.compile(r"[^A-Za-z0-9._-]+")
@@ -137,9 +172,11 @@ def file_name(name: str, suffix: str) -> str:
     return stem + suffix
 
 
-def parse_toml(data: Any) -> Scenario:
+def parse_toml(data: Any) -> tuple[Scenario, dict | None]:
     """``{"toml": "<file text>", "name": "room.toml"}``: a scenario file opened on the page, its
-    errors named after the file as the command line names them."""
+    errors named after the file as the command line names them. Its ``[map]`` table is given
+    back apart, the file's name without its folder (the server does not read the files of the
+    user's machine: the page opens the map itself)."""
     data = _object(data, "request")
     _known(data, ("toml", "name"), "request")
     text, name = data.get("toml"), data.get("name", "scenario.toml")
@@ -147,7 +184,22 @@ def parse_toml(data: Any) -> Scenario:
         raise RequestError(f"request: toml: expected a string, got {describe(text)}")
     if not isinstance(name, str) or not name.strip():
         raise RequestError(f"request: name: expected a file name, got {describe(name)}")
+    source = name.strip()[:200]
     try:
-        return load_scenario_text(text, name.strip()[:200])
+        data = tomllib.loads(text)
+    except (tomllib.TOMLDecodeError, RecursionError):
+        data = None  # the loader says what is wrong
+    try:
+        if not (isinstance(data, dict) and isinstance(data.get("map"), dict)):
+            return load_scenario_text(text, source), None
+        world = data.pop("map")
+        scenario = scenario_from_dict(data, source)
     except ScenarioError as e:
         raise RequestError(str(e)) from None
+    except RecursionError:
+        raise RequestError(f"{source}: values nested too deeply") from None
+    file = world.get("file")
+    kept = {k: world[k] for k in ("unknown", "length") if k in world}
+    if isinstance(file, str):
+        kept["file"] = file.replace("\\", "/").rsplit("/", 1)[-1]
+    return scenario, kept

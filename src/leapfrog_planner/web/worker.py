@@ -1,11 +1,12 @@
 """What a solver process of ``leapfrog serve`` runs: it loads the compiled kernels once, then
 answers jobs from its pipe, one at a time, until the pipe closes.
 
-A job is ``(kind, scenario, options)``: the scenario in the layout of a scenario file, the
-planner's options, and what to send back: ``"view"`` (what the page draws, as JSON), ``"json"``
-(the result file ``leapfrog solve --json`` writes) or ``"csv"`` (``leapfrog export --csv`` with
-its default step). The answer is ``("ok", bytes)``, ``("bad", message)`` for input the planner
-refused, or ``("error", message)``.
+A job is ``(kind, scenario, options, image)``: what to send back, ``"view"`` (what the page
+draws, as JSON), ``"json"`` (the result file ``leapfrog solve --json`` writes) or ``"csv"``
+(``leapfrog export --csv`` with its default step); the scenario in the layout of a scenario
+file; the planner's options; and the image of a map opened on the page (``None`` without one:
+its YAML file may name the image where it lay on the user's machine). The answer is ``("ok",
+bytes)``, ``("bad", message)`` for input the planner refused, or ``("error", message)``.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import os
 import signal
 import sys
 import tempfile
+from collections import OrderedDict
 from pathlib import Path
 
 log = logging.getLogger(__name__)
@@ -24,11 +26,42 @@ log = logging.getLogger(__name__)
 CSV_DT = 0.01
 
 
-def _plan(scenario: dict, options: dict, threads: int):
+#: Maps kept with their field, by files, options and robot radius (the last few a page used).
+MAX_MAPS = 4
+_maps: OrderedDict[tuple, object] = OrderedDict()
+
+
+def _map(table: dict, image: str, radius: float):
+    """The scenario's map, read from its YAML file and ``image`` once and kept (with its
+    field: a map of 2000 x 2000 cells takes half a second to build it)."""
+    from ..planning.scenario_map import ScenarioMap
+    from ..world import load_ros_map
+
+    key = (table["file"], image, table.get("unknown", "occupied"), table.get("length"), radius)
+    if key in _maps:
+        _maps.move_to_end(key)
+        return _maps[key]
+    occupancy = next((m.occupancy for k, m in _maps.items() if k[:2] == key[:2]), None)
+    if occupancy is None:
+        occupancy = load_ros_map(table["file"], image=image)
+    _maps[key] = ScenarioMap(key[0], key[2], key[3], occupancy=occupancy)
+    while len(_maps) > MAX_MAPS:
+        _maps.popitem(last=False)
+    return _maps[key]
+
+
+def _plan(scenario: dict, options: dict, threads: int, image: str | None = None):
+    from dataclasses import replace
+
     from ..planning.planner import Planner
     from ..planning.scenario import scenario_from_dict
 
-    sc = scenario_from_dict(scenario, "scenario")
+    if image is None or "map" not in scenario:
+        sc = scenario_from_dict(scenario, "scenario")
+    else:
+        rest = {k: v for k, v in scenario.items() if k != "map"}
+        sc = scenario_from_dict(rest, "scenario")
+        sc = replace(sc, map=_map(scenario["map"], image, sc.robot_radius))
     return Planner(sc, threads=threads, **options).plan()
 
 
@@ -46,9 +79,9 @@ def answer(job, threads: int = 0) -> tuple[str, object]:
     from ..errors import LeapfrogError
     from .view import result_view
 
-    kind, scenario, options = job
+    kind, scenario, options, *image = job
     try:
-        result = _plan(scenario, options, threads)
+        result = _plan(scenario, options, threads, *image)
         if kind == "view":
             body = json.dumps(result_view(result), allow_nan=False, separators=(",", ":"))
             return "ok", body.encode()

@@ -33,7 +33,7 @@ import os
 import re
 import stat
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -242,12 +242,17 @@ def cell_values(pixels: Pixels, spec: MapYaml) -> np.ndarray:
     return values
 
 
-def load_ros_map(path: str | os.PathLike, name: str | None = None) -> OccupancyMap:
+def load_ros_map(
+    path: str | os.PathLike, name: str | None = None, image: str | os.PathLike | None = None
+) -> OccupancyMap:
     """The map of a ROS map_server YAML file and its image (PGM, PNG, ...), by nav2's rules.
 
-    ``name`` (default: the YAML file's stem) names the map. Any fault of the file, its keys or
-    its image raises :class:`~leapfrog_planner.errors.ScenarioError` with one line."""
+    ``name`` (default: the YAML file's stem) names the map; ``image`` is read instead of the
+    image the YAML file names (a file uploaded with it). Any fault of the file, its keys or its
+    image raises :class:`~leapfrog_planner.errors.ScenarioError` with one line."""
     spec = read_map_yaml(path)
+    if image is not None:
+        spec = replace(spec, image=os.fspath(image))
     source = shown(str(path))
     try:
         pixels = read_pixels(spec.image)

@@ -21,6 +21,8 @@ const state = {
   frame: null,           // the sweep shown (index into result.frames), null: none
   bounds: null,          // world box shown: {x0, y0, x1, y1}
   drag: null,
+  map: null,             // the map opened (map.js): what /api/maps answered, and its image
+  pendingMap: null,      // the [map] table of a scenario file whose map is not open yet
 };
 
 const $ = (id) => document.getElementById(id);
@@ -70,6 +72,7 @@ function fitBounds() {
   add(s.start[0], s.start[1]);
   add(s.goal[0], s.goal[1]);
   for (const ob of s.obstacles || []) add(ob.center[0], ob.center[1], ob.radius);
+  mapBounds(add);
   const path = state.result && state.result.path;
   if (path) path.x.forEach((x, i) => add(x, path.y[i]));
   if (!Number.isFinite(x0)) { x0 = -1; y0 = -1; x1 = 1; y1 = 1; }
@@ -108,6 +111,8 @@ function drawGrid(svg, T) {
   const step = niceStep(Math.max(b.x1 - b.x0, b.y1 - b.y0));
   const g = el("g", {}, svg);
   el("rect", { x: 0, y: 0, width: T.w, height: T.h, fill: "#ffffff" }, g);
+  drawMap(g, T);
+  if (mapShown()) g.setAttribute("stroke-opacity", 0.45);
   const x0 = T.wx(0), x1 = T.wx(T.w), y0 = T.wy(T.h), y1 = T.wy(0);
   const label = { fill: COLORS.label, "font-size": 10, "font-family": "sans-serif" };
   for (let x = Math.ceil(x0 / step) * step; x <= x1; x += step) {
@@ -339,6 +344,8 @@ function refreshFields() {
   const put = (id, v) => { const e = $(id); if (document.activeElement !== e) e.value = short(v); };
   put("horizon", s.horizon);
   put("weight", s.penalty ? s.penalty.weight : 100);
+  put("radius", s.robot && s.robot.radius !== undefined ? s.robot.radius : 0);
+  $("close-map").disabled = !state.map;
   for (const key of ["start", "goal"]) for (const i of [0, 1, 2]) put(`${key}-${i}`, s[key][i]);
   const ob = state.selected === null ? null : s.obstacles[state.selected];
   for (const [id, get] of [["ob-cx", (o) => o.center[0]], ["ob-cy", (o) => o.center[1]],
@@ -467,6 +474,7 @@ function onPointerDown(ev) {
     state.drag = { kind: "heading", key: d.heading };
   } else {
     state.selected = null;
+    placeLater(x, y);  // on a map, a click places the start or the goal
     render();
     return;
   }
@@ -488,6 +496,7 @@ function onPointerMove(ev) {
   } else if (d.kind === "pose") {
     s[d.key][0] = x + d.dx;
     s[d.key][1] = y + d.dy;
+    autoHorizon();
   } else if (d.kind === "heading") {
     const p = s[d.key];
     const a = Math.atan2(y - val(p[1]), x - val(p[0]));
@@ -524,9 +533,10 @@ function removeObstacle() {
 
 // ------------------------------------------------------------------ scenarios and files
 
-function useScenario(scenario, name) {
+function useScenario(scenario, name, map = null) {
   state.scenario = JSON.parse(JSON.stringify(scenario));
   state.scenario.obstacles = state.scenario.obstacles || [];
+  scenarioMap(map);
   state.name = name;
   const solver = state.scenario.solver || {};
   state.options = {
@@ -574,7 +584,7 @@ async function openFile(file) {
   o.value = `file:${file.name}`;
   o.textContent = `${file.name} (file)`;
   menu.value = o.value;
-  useScenario(body.scenario, file.name);
+  useScenario(body.scenario, file.name, body.map);
 }
 
 function saveBlob(blob, name) {
@@ -629,6 +639,7 @@ function wire() {
   svg.addEventListener("pointerup", onPointerUp);
   svg.addEventListener("pointercancel", onPointerUp);
   svg.addEventListener("dblclick", (ev) => {
+    cancelPlace();
     if (ev.target.dataset && (ev.target.dataset.obstacle || ev.target.dataset.pose)) return;
     const [x, y] = pointerWorld(ev);
     addObstacle(x, y);
@@ -653,8 +664,11 @@ function wire() {
   onField("weight", (v) => {
     state.scenario.penalty = { ...(state.scenario.penalty || {}), weight: v };
   });
+  onField("radius", (v) => { setRobotRadius(v); });
   for (const key of ["start", "goal"]) {
-    for (const i of [0, 1, 2]) onField(`${key}-${i}`, (v) => { state.scenario[key][i] = v; });
+    for (const i of [0, 1, 2]) {
+      onField(`${key}-${i}`, (v) => { state.scenario[key][i] = v; autoHorizon(); });
+    }
   }
   const ob = () => state.scenario.obstacles[state.selected];
   onField("ob-cx", (v) => { ob().center[0] = v; });
@@ -683,6 +697,7 @@ function wire() {
   $("dl-csv").addEventListener("click", () => download("/api/result.csv"));
   $("dl-png").addEventListener("click", downloadPng);
   window.addEventListener("resize", () => { drawRoom(); drawPlots(); });
+  wireMap();
 }
 
 wire();
