@@ -158,3 +158,9 @@ def test_the_readmes_polygons_and_walls_are_those_planned_here():
     head = SCENE[: SCENE.index("[[polygons]]")]
     sc = load_scenario_text(head + block, "<readme>")
     assert sc.map.shapes == load_scenario_text(SCENE, "<shapes>").map.shapes
+
+
+def test_a_grid_too_fine_for_the_shapes_is_refused():
+    text = SCENE.replace("[penalty]", "[map]\nresolution = 1e-4\n\n[penalty]")
+    with pytest.raises(ScenarioError, match=r"map.resolution: 0.0001 m makes a grid of .* cells"):
+        load_scenario_text(text, "<shapes>")

@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import checks
 from ..errors import ScenarioError, describe
-from ..world import FREE, MAX_CELLS, OCCUPIED, UNKNOWN, OccupancyMap, load_ros_map
+from ..world import FREE, OCCUPIED, UNKNOWN, OccupancyMap, load_ros_map
 from ..world.obstacle_map import ObstacleMap
 from ..world.shapes import Shapes
 
@@ -43,6 +43,8 @@ WALL_KEYS = ("points", "thickness")
 SHAPES_LENGTH_SHARE = 1.0 / 50.0
 SHAPES_CELLS_PER_LENGTH = 8.0
 SHAPES_GRID_MAX = 2000
+#: ... and with a resolution given, at most this many cells (the field takes 8 bytes a cell).
+SHAPES_CELLS_MAX = 16_000_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,10 +124,10 @@ class ScenarioMap:
         if h is None:
             h = max(length / SHAPES_CELLS_PER_LENGTH, max(width, height) / SHAPES_GRID_MAX)
         cols, rows = int(math.ceil(width / h)), int(math.ceil(height / h))
-        if rows * cols > MAX_CELLS:
+        if rows * cols > SHAPES_CELLS_MAX:
             raise ScenarioError(
-                f"map.resolution: {h:g} m makes a grid of {rows} x {cols} cells"
-                f" (at most {MAX_CELLS})"
+                f"map.resolution: {h:g} m makes a grid of {rows} x {cols} cells round the"
+                f" shapes (at most {SHAPES_CELLS_MAX})"
             )
         data = np.full((rows, cols), FREE, dtype=np.int8)
         occ = OccupancyMap(data, h, (xmin - pad, ymin - pad, 0.0), "polygons and walls")
