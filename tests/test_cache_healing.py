@@ -61,31 +61,51 @@ def _target(cache: Path, what: str) -> Path:
     return sorted((cache / "models" / "__pycache__").glob(f"*shoot_newton*.{what}"))[0]
 
 
-@pytest.mark.parametrize(
-    "what, how",
-    [  # each but the last recompiles the kernels (20-40 s); all 11 kinds were checked by hand
-        ("module", "truncated"),
-        ("nbi", "random"),
-        ("nbi", "empty"),
-        ("nbc", "flipped"),
-        ("nbc", "truncated"),
-        ("tableaux", "truncated"),
-    ],
-)
-def test_a_damaged_cache_entry_is_reported_once_and_rebuilt(warm, tmp_path, what, how):
-    cache = tmp_path / "cache"
+#: Each but the last recompiles the kernels (20-40 s): one damage per kind of file (an empty
+#: index and a truncated nbc heal as these do: all 11 kinds were checked by hand).
+DAMAGES = [
+    ("module", "truncated"),
+    ("nbi", "random"),
+    ("nbc", "flipped"),
+    ("tableaux", "truncated"),
+]
+
+
+def _healed(
+    warm: Path, folder: Path, what: str, how: str
+) -> tuple[subprocess.CompletedProcess, Path]:
+    folder.mkdir()
+    cache = folder / "cache"
     shutil.copytree(warm, cache)
     _damage(_target(cache, what), how)
     env = {**cli_env(), "LEAPFROG_CACHE_DIR": str(cache)}
     p = subprocess.run(
         [sys.executable, "-m", "leapfrog_planner.cli", "solve", "paper-case-1", "--quiet",
          "--json", "r.json"],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900,
+        cwd=folder, env=env, capture_output=True, text=True, timeout=900,
     )  # fmt: skip
+    return p, folder / "r.json"
+
+
+@pytest.fixture(scope="module")
+def healed(warm, tmp_path_factory) -> dict:
+    """Every damage of :data:`DAMAGES`, healed by a solve in a process of its own, two at a
+    time (the recompiles take most of the time)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    root = tmp_path_factory.mktemp("healed")
+    with ThreadPoolExecutor(2) as pool:
+        futures = {d: pool.submit(_healed, warm, root / f"{d[0]}-{d[1]}", *d) for d in DAMAGES}
+        return {d: f.result() for d, f in futures.items()}
+
+
+@pytest.mark.parametrize("what, how", DAMAGES)
+def test_a_damaged_cache_entry_is_reported_once_and_rebuilt(healed, what, how):
+    p, result = healed[what, how]
     assert p.returncode == 0, p.stderr[-2000:]
     lines = p.stderr.strip().splitlines()
     assert len(lines) <= 1 and all(line.startswith("warning: ") for line in lines), p.stderr
-    assert json.loads((tmp_path / "r.json").read_text())["cost"] == pytest.approx(CASE1, rel=1e-6)
+    assert json.loads(result.read_text())["cost"] == pytest.approx(CASE1, rel=1e-6)
 
 
 def _read_only_mounts_work() -> bool:

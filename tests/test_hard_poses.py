@@ -130,7 +130,7 @@ def test_general_preset_sample_converges_without_collisions():
 # --------------------------------------------------------------------------- collisions
 
 
-@settings(max_examples=240)
+@settings(max_examples=150)
 @given(
     preset=st.sampled_from(["default", "general"]),
     index=st.integers(0, 10_000),
