@@ -444,3 +444,49 @@ def test_a_plan_names_its_map_by_an_id_the_server_keeps(client, arena):
         assert _open_map(client, "tiny_yaw.yaml", "tiny.png").status_code == 200
     assert error({"id": first}).startswith(f"scenario: map.id: no map '{first}' on the server")
     assert not Path(folder).exists()
+
+
+def _asgi_post(app, receive) -> int:
+    """POST /api/plan straight to the application with ``receive`` feeding the body; the
+    response's status."""
+    import anyio
+
+    sent = []
+
+    async def send(message):
+        sent.append(message)
+
+    scope = {
+        "type": "http", "asgi": {"version": "3.0"}, "http_version": "1.1", "method": "POST",
+        "scheme": "http", "path": "/api/plan", "raw_path": b"/api/plan", "query_string": b"",
+        "root_path": "", "headers": [(b"content-type", b"application/json")],
+        "client": ("127.0.0.1", 1), "server": ("127.0.0.1", 80),
+    }  # fmt: skip
+    anyio.run(app, scope, receive, send)
+    return next(m for m in sent if m["type"] == "http.response.start")["status"]
+
+
+def test_a_body_that_dribbles_in_is_cut_off(client, monkeypatch):
+    import anyio
+
+    from leapfrog_planner.web import app as app_module
+
+    monkeypatch.setattr(app_module, "BODY_SECONDS", 0.3)
+
+    async def receive():
+        await anyio.sleep(0.1)
+        return {"type": "http.request", "body": b" ", "more_body": True}
+
+    assert _asgi_post(client.app, receive) == 408
+
+
+def test_a_body_too_large_is_refused_while_it_arrives(client):
+    """No Content-Length, 64 kB chunks without end: refused after the limit, not read whole."""
+    chunks = []
+
+    async def receive():
+        chunks.append(1)
+        return {"type": "http.request", "body": b" " * 65536, "more_body": True}
+
+    assert _asgi_post(client.app, receive) == 413
+    assert len(chunks) <= 2 * 2**20 // 65536 + 2

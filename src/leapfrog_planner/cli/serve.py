@@ -58,5 +58,8 @@ def serve(host, port, workers, queue, time_limit):
         markup=False,
         soft_wrap=True,
     )
-    uvicorn.run(app, host=host, port=port, log_level="warning", access_log=False)
+    # At most 100 connections at once (more are answered 503 at once, not held), idle ones
+    # closed after 5 s; a body that dribbles in is cut off by the application (408).
+    uvicorn.run(app, host=host, port=port, log_level="warning", access_log=False,
+                limit_concurrency=100, timeout_keep_alive=5)  # fmt: skip
     return EXIT_OK

@@ -36,7 +36,15 @@ from starlette.staticfiles import StaticFiles
 from ..planning.scenario import builtin_scenarios, load_scenario
 from .maps import MAX_MAP_BYTES, MAX_UPLOAD_BYTES, MapStore, parse_upload
 from .pool import PoolError, SolvePool
-from .schema import PlanRequest, RequestError, file_name, parse_json, parse_plan, parse_toml
+from .schema import (
+    MAX_BODY_BYTES,
+    PlanRequest,
+    RequestError,
+    file_name,
+    parse_json,
+    parse_plan,
+    parse_toml,
+)
 
 log = logging.getLogger(__name__)
 
@@ -70,26 +78,42 @@ class _Latest:
         return lambda: self._seen.get(session, seq) > seq
 
 
+#: Seconds a request's body may take to arrive (a client that dribbles it is cut off).
+BODY_SECONDS = 30.0
+
+
 async def _body(request: Request):
-    return parse_json(await request.body())
+    """The JSON of a request, read up to :data:`MAX_BODY_BYTES` (see :func:`_read`)."""
+    too_large = RequestError(f"request: larger than {MAX_BODY_BYTES // 2**20} MB", 413)
+    return parse_json(await _read(request, MAX_BODY_BYTES, too_large), MAX_BODY_BYTES)
 
 
-async def _upload(request: Request, limit: int = MAX_UPLOAD_BYTES):
-    """The JSON of a map's upload, read up to ``limit`` bytes (refused early when the request
-    says it is larger)."""
+async def _upload(request: Request):
+    """The JSON of a map's upload, read up to :data:`MAX_UPLOAD_BYTES` (see :func:`_read`)."""
     too_large = RequestError(
         f"map: the YAML file and its image are larger than {MAX_MAP_BYTES // 2**20} MB", 413
     )
+    return parse_json(await _read(request, MAX_UPLOAD_BYTES, too_large), MAX_UPLOAD_BYTES)
+
+
+async def _read(request: Request, limit: int, too_large: RequestError) -> bytes:
+    """A request's body, refused at once when it says it is larger than ``limit`` bytes and
+    as soon as more arrives (never held whole first), and cut off (408) when it takes longer
+    than :data:`BODY_SECONDS` to arrive."""
     declared = request.headers.get("content-length", "")
     if declared.isdigit() and int(declared) > limit:
         raise too_large
     chunks, size = [], 0
-    async for chunk in request.stream():
-        size += len(chunk)
-        if size > limit:
-            raise too_large
-        chunks.append(chunk)
-    return parse_json(b"".join(chunks), limit)
+    try:
+        with anyio.fail_after(BODY_SECONDS):
+            async for chunk in request.stream():
+                size += len(chunk)
+                if size > limit:
+                    raise too_large
+                chunks.append(chunk)
+    except TimeoutError:
+        raise RequestError(f"request: the body took longer than {BODY_SECONDS:g} s", 408) from None
+    return b"".join(chunks)
 
 
 def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
