@@ -137,13 +137,6 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
             raise PoolError(value)
         return value
 
-    async def page(request):
-        return FileResponse(str(STATIC.joinpath("index.html")), media_type="text/html")
-
-    async def scenarios(request):
-        out = [{"name": n, "scenario": load_scenario(n).to_dict()} for n in builtin_scenarios()]
-        return JSONResponse({"scenarios": out})
-
     async def open_file(request):
         sc, world = parse_toml(await _body(request))
         return JSONResponse({"scenario": sc.to_dict(), "map": world})
@@ -195,8 +188,8 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
             maps.close()
 
     routes = [
-        Route("/", page),
-        Route("/api/scenarios", scenarios),
+        Route("/", _page),
+        Route("/api/scenarios", _scenarios),
         Route("/api/open", open_file, methods=["POST"]),
         Route("/api/maps", open_map, methods=["POST"]),
         Route("/api/maps/{id}.png", map_image),
@@ -207,16 +200,19 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
         Route("/api/health", health),
         Mount("/static", app=StaticFiles(directory=str(STATIC)), name="static"),
     ]
-    handlers = {
-        RequestError: lambda r, e: error(str(e), e.status),
-        PoolError: lambda r, e: error(str(e), e.status),
-        HTTPException: lambda r, e: error(e.detail, e.status_code),
-        Exception: _internal,
-    }
-    app = Starlette(routes=routes, exception_handlers=handlers, lifespan=lifespan)
+    app = Starlette(routes=routes, exception_handlers=HANDLERS, lifespan=lifespan)
     app.state.pool = pool
     app.state.maps = maps
     return app
+
+
+async def _page(request):
+    return FileResponse(str(STATIC.joinpath("index.html")), media_type="text/html")
+
+
+async def _scenarios(request):
+    out = [{"name": n, "scenario": load_scenario(n).to_dict()} for n in builtin_scenarios()]
+    return JSONResponse({"scenarios": out})
 
 
 def _internal(request, exc) -> JSONResponse:
@@ -227,3 +223,12 @@ def _internal(request, exc) -> JSONResponse:
 def _download(body: bytes, media_type: str, name: str) -> Response:
     headers = {"Content-Disposition": f'attachment; filename="{name}"'}
     return Response(body, media_type=media_type, headers=headers)
+
+
+#: Errors as JSON ``{"error": "<one line>"}`` with their status.
+HANDLERS = {
+    RequestError: lambda r, e: error(str(e), e.status),
+    PoolError: lambda r, e: error(str(e), e.status),
+    HTTPException: lambda r, e: error(e.detail, e.status_code),
+    Exception: _internal,
+}

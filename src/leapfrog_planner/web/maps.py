@@ -269,6 +269,10 @@ class MapStore:
                 self._built.popitem(last=False)
         return sm
 
+    def request(self, table: Any) -> tuple[LoadedMap, str, float | None]:
+        """The map a plan names and its options (:func:`request_map`)."""
+        return request_map(table, self)
+
     def get(self, map_id: Any) -> LoadedMap:
         """The map of ``map_id``, or a 400 naming what to do."""
         if not isinstance(map_id, str) or not map_id:

@@ -135,10 +135,10 @@ def _with_map(raw: Any, maps) -> tuple[Scenario, Any]:
         return parse_scenario(raw), None
     from dataclasses import replace
 
-    from .maps import request_map
-
     scenario = parse_scenario({k: v for k, v in raw.items() if k != "map"})
-    loaded, unknown, length = request_map(raw["map"], maps)
+    if maps is None:
+        raise RequestError("scenario: map: this server does not keep maps")
+    loaded, unknown, length = maps.request(raw["map"])
     try:
         world = maps.scenario_map(loaded, unknown, length, scenario.robot_radius)
         return replace(scenario, map=world), loaded
