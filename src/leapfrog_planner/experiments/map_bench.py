@@ -4,7 +4,9 @@ Queries come from the ROS 2 navigation stack's planner-benchmark protocol
 (:func:`..batch.generate.map_scenarios`: start and goal in free space, more than 3 m apart,
 headings uniform, connected for the robot; the horizon the shortest route at ``speed``). On each:
 
-- **Leapfrog**: the planner, in this process (warm), its cost ``J = int 1/2 (v^2 + omega^2) + P``.
+- **Leapfrog**: the planner, in this process (warm), its cost ``J = int 1/2 (v^2 + omega^2) + P``
+  (where the planner raised the obstacle weight to clear the obstacles, its motion is scored
+  at the query's own weight, as OMPL's is).
 - **OMPL** (:mod:`.ompl_peer`): a sampling-based planner in a Reeds-Shepp or Dubins space for
   the same disc footprint against the same exact clearance, its path driven at constant speed
   over the same horizon (:func:`.ompl_peer.timed`) and scored with the same ``J``
@@ -147,7 +149,10 @@ def _leapfrog_row(sc) -> MapBenchRow:
     traj = r.trajectory
     v, omega = (traj.u[:, 0], traj.u[:, 1]) if traj is not None else (np.zeros(1), np.zeros(1))
     clear = r.min_clearance if r.min_clearance is not None else math.nan
-    return MapBenchRow(sc.name, "leapfrog", bool(r.success), float(r.cost), wall,
+    cost = float(r.cost)
+    if traj is not None and r.weight != sc.weight:  # its cost at the query's own weight
+        cost = path_cost(sc.problem(), traj.t, traj.x, v, omega)
+    return MapBenchRow(sc.name, "leapfrog", bool(r.success), cost, wall,
                        curvature(v, omega), float(clear), sc.horizon, r.message)  # fmt: skip
 
 
