@@ -357,7 +357,7 @@ def test_a_plan_on_the_map_converges_clear_of_its_cells(client, arena):
     assert x[0] == pytest.approx(-1.6) and x[-1] == pytest.approx(1.6, abs=1e-6)
 
 
-def test_the_scenario_download_names_the_maps_file(client, arena, tmp_path):
+def test_the_scenario_and_result_downloads_name_the_maps_file(client, arena, tmp_path):
     sc = dict(ARENA, map={"id": arena["id"], "unknown": "free"})
     text = client.post("/api/toml", json={"scenario": sc}).text
     assert '[map]\nfile = "tb3_sandbox.yaml"\nunknown = "free"\n' in text
@@ -366,6 +366,9 @@ def test_the_scenario_download_names_the_maps_file(client, arena, tmp_path):
     assert r.status_code == 200
     assert r.json()["map"] == {"unknown": "free", "file": "tb3_sandbox.yaml"}
     assert "map" not in r.json()["scenario"]  # the page opens the map's files itself
+    result = client.post("/api/result.json", json={"scenario": sc})
+    assert result.status_code == 200 and "leapfrog-map-" not in result.text
+    assert result.json()["scenario_file"]["map"]["file"] == "tb3_sandbox.yaml"
 
 
 @pytest.mark.parametrize(

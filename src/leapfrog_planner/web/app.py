@@ -20,6 +20,7 @@ session, 413 for a body too large, 503 when the pool is full, 504 past the time 
 
 from __future__ import annotations
 
+import json
 import logging
 from collections import OrderedDict
 from contextlib import asynccontextmanager
@@ -167,7 +168,7 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
 
     async def result_json(request):
         req = await planned(request)
-        body = await solve(req, "json")
+        body = _named_map(await solve(req, "json"), req)
         return _download(body, "application/json", file_name(req.scenario.name, ".json"))
 
     async def result_csv(request):
@@ -218,6 +219,18 @@ async def _scenarios(request):
 def _internal(request, exc) -> JSONResponse:
     log.exception("internal error", exc_info=exc)
     return error(f"internal error: {type(exc).__name__}", 500)
+
+
+def _named_map(body: bytes, req: PlanRequest) -> bytes:
+    """A result file of a plan on an uploaded map names the map by its YAML file's name (the
+    file beside it, as the TOML download does), never by the server's temporary folder."""
+    if req.map is None:
+        return body
+    data = json.loads(body)
+    table = (data.get("scenario_file") or {}).get("map")
+    if isinstance(table, dict) and "file" in table:
+        table["file"] = req.map.name
+    return json.dumps(data, indent=1, allow_nan=False).encode()
 
 
 def _download(body: bytes, media_type: str, name: str) -> Response:
