@@ -96,17 +96,18 @@ class _Stage:
     settings: ShootingSettings
 
 
-def _simple(stage: _Stage, problem, arcs: Arcs) -> Arcs | None:
+def _simple(stage: _Stage, problem, arcs: Arcs, scale: float) -> Arcs | None:
     (t0, t1), (start, goal) = stage.t, stage.ends
-    r = solve_shooting(problem, t0, start, t1, goal, guess=arcs.lam0[0], settings=stage.settings)
+    guess = arcs.lam0[0] / scale
+    r = solve_shooting(problem, t0, start, t1, goal, guess=guess, settings=stage.settings)
     if not r.success:
         return None
     return Arcs(np.array([t0, t1]), np.array([start, goal]), r.costate0[None, :])
 
 
-def _multiple(stage: _Stage, previous, arcs: Arcs, problem) -> Arcs | None:
+def _multiple(stage: _Stage, previous, arcs: Arcs, problem, scale: float) -> Arcs | None:
     """Multiple shooting for ``problem`` from the extremal ``arcs`` of ``previous``, sampled at
-    :data:`JUNCTIONS` uniform times."""
+    :data:`JUNCTIONS` uniform times (its time stretched by ``scale``)."""
     (t0, t1), (start, goal) = stage.t, stage.ends
     s = stage.settings
     try:
@@ -116,8 +117,9 @@ def _multiple(stage: _Stage, previous, arcs: Arcs, problem) -> Arcs | None:
     t = np.linspace(t0, t1, JUNCTIONS + 1)
     t[0], t[-1] = t0, t1
     keep = np.append(np.diff(tr.t) > 0, True)
-    z = np.hstack([tr.x, tr.lam])[keep]
-    Z = np.column_stack([np.interp(t[:-1], tr.t[keep], z[:, i]) for i in range(z.shape[1])])
+    z = np.hstack([tr.x, tr.lam / scale])[keep]
+    old = t0 + (t[:-1] - t0) / scale
+    Z = np.column_stack([np.interp(old, tr.t[keep], z[:, i]) for i in range(z.shape[1])])
     ms = MultipleShootingSystem(Flow(problem, s.integrator), t, start, goal)
     nx = start.size
     root = solve_multiple_shooting(ms, ms.pack(Z[0, nx:], Z), s.method, s.root, s.compiled)
@@ -125,6 +127,24 @@ def _multiple(stage: _Stage, previous, arcs: Arcs, problem) -> Arcs | None:
         return None
     Z = ms.unpack(root.x)
     return Arcs(t, np.vstack([Z[:, :nx], goal[None, :]]), Z[:, nx:].copy())
+
+
+def resolve(
+    previous: OptimalControlProblem,
+    arcs: Arcs,
+    problem: OptimalControlProblem,
+    t: tuple[float, float],
+    ends: tuple[np.ndarray, np.ndarray],
+    settings: ShootingSettings,
+) -> Arcs | None:
+    """An extremal of ``problem`` from ``t[0]`` to ``t[1]`` between ``ends``, near ``arcs``
+    (an extremal of ``previous`` from ``t[0]``): simple shooting from its first costate, else
+    multiple shooting from its trajectory; None when both fail. When ``t`` is longer or
+    shorter than ``arcs``, the guess is ``arcs`` stretched to it (the costates, like the
+    controls, scaled by the inverse)."""
+    stage = _Stage(t, ends, settings)
+    scale = (t[1] - t[0]) / (arcs.t[-1] - arcs.t[0])
+    return _simple(stage, problem, arcs, scale) or _multiple(stage, previous, arcs, problem, scale)
 
 
 def continue_to_bounds(
@@ -136,12 +156,11 @@ def continue_to_bounds(
     settings: ShootingSettings,
 ) -> Continued:
     """Continue ``run`` (an extremal of ``at(0)``) to ``at(1)`` in ``steps`` equal steps."""
-    stage = _Stage(t, ends, settings)
     arcs, s, current, halvings = run.extremal, 0.0, at(0.0), 0
     todo = list(np.linspace(0.0, 1.0, steps + 1)[1:])
     while todo and arcs is not None:
         trial = at(todo[0])
-        new = _simple(stage, trial, arcs) or _multiple(stage, current, arcs, trial)
+        new = resolve(current, arcs, trial, t, ends, settings)
         if new is not None:
             arcs, s, current = new, todo.pop(0), trial
         elif halvings < MAX_HALVINGS:

@@ -14,7 +14,12 @@ import time
 from collections.abc import Callable
 
 from .._blas import single_threaded_blas
+from ..bvp.shooting import ShootingSettings
 from ..integrate.flow import Flow
+from ..integrate.problem import OptimalControlProblem
+from ..model import get_model
+from ..model.cruise import straight_effort
+from .free_time import first_horizon, plan_free_time
 from .answer import Chosen, Context, choose_answer
 from .initial_path import InitialPath, initial_paths, points_away
 from .initial_path.map_paths import Unreachable, map_initial_paths
@@ -119,7 +124,36 @@ class Planner:
 
     def plan(self) -> PlanResult:
         with single_threaded_blas():
-            return self._plan()
+            if self.scenario.free_time is None:
+                return self._plan()
+            return plan_free_time(self, self.scenario, self._first_horizon())
+
+    # ------------------------------------------------------------ a free final time (.free_time)
+
+    def plan_at(self, horizon: float) -> PlanResult:
+        """The plan of the scenario with its horizon fixed at ``horizon``."""
+        fixed = dataclasses.replace(self.scenario, horizon=horizon, free_time=None)
+        return Planner(fixed, self.settings, progress=self.progress)._plan()
+
+    def problem_at(self, weight: float) -> OptimalControlProblem:
+        """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
+        s = self.scenario
+        problem = s.problem(s.smoothing_widths[-1]) if s.control_bounds else self.robot
+        return problem if weight == problem.penalty.weight else problem.with_weight(weight)
+
+    @property
+    def shooting(self) -> ShootingSettings:
+        """The final solves' shooting settings (no dense output)."""
+        lf = self.settings.leapfrog
+        return dataclasses.replace(lf.final_shooting, samples=0, method=lf.method)
+
+    def _first_horizon(self) -> float:
+        try:
+            shortest = min(p.length for p in self.initial_paths())
+        except Unreachable:  # the plan at the provisional horizon says so
+            return self.scenario.horizon
+        s = self.scenario
+        return first_horizon(s, shortest, straight_effort(get_model(s.model), s.model_parameters))
 
     def _plan(self) -> PlanResult:
         t_begin = time.perf_counter()

@@ -22,7 +22,7 @@ from ..errors import LeapfrogError
 from ..integrate.flow import Trajectory
 from .leapfrog import SweepRecord
 from .scenario import scenario_from_dict
-from .status import PathOutcome, PlanStatus, RunRecord
+from .status import FreeTimeReport, PathOutcome, PlanStatus, RunRecord, TimeStep
 
 SCHEMA = 2
 _EXTRA = ("running_cost", "hamiltonian")  # trajectory columns besides t, states, controls, costates
@@ -149,6 +149,30 @@ def _record_json(rec: RunRecord) -> dict:
     return {**d, "status": str(rec.status), "cost": _num(rec.cost)}
 
 
+def _free_time_json(f: FreeTimeReport | None) -> dict | None:
+    if f is None:
+        return None
+    d = {k: getattr(f, k) for k in ("time_weight", "cruise_speed", "horizon", "bound")}
+    steps = [{**{k: _num(getattr(s, k)) for k in _STEP[:3]}, "source": s.source} for s in f.steps]
+    return {**d, "condition": _num(f.condition), "steps": steps}
+
+
+def _free_time(d: dict | None) -> FreeTimeReport | None:
+    if d is None:
+        return None
+    steps = tuple(
+        TimeStep(*(_float(s[k]) for k in _STEP[:3]), source=str(s["source"])) for s in d["steps"]
+    )
+    speed = d["cruise_speed"]
+    return FreeTimeReport(
+        float(d["time_weight"]), None if speed is None else float(speed), float(d["horizon"]),
+        _float(d["condition"]), str(d["bound"]), steps,
+    )  # fmt: skip
+
+
+_STEP = ("horizon", "hamiltonian", "cost", "source")
+
+
 def result_to_dict(r) -> dict:
     """Every field of ``r`` as JSON values (non-finite numbers as null)."""
     names = (r.state_names, r.control_names)
@@ -167,6 +191,7 @@ def result_to_dict(r) -> dict:
         "initial_junctions": {"t": np.asarray(t0).tolist(), "X": np.asarray(X0).tolist()},
         "alternatives": [_alternative_json(a, names) for a in r.alternatives],
         "search": [_record_json(rec) for rec in r.search],
+        "free_time": _free_time_json(r.free_time),
         "scenario_file": None if r.task is None else r.task.to_dict(),
         "settings": r.settings,
         "trajectory": _columns_json(r.trajectory_columns()),
@@ -243,6 +268,7 @@ def _fields(d: dict, source: str) -> dict[str, Any]:
         task=None if task is None else scenario_from_dict(task, source),
         settings=d["settings"],
         search=tuple(_record(rec) for rec in d.get("search", ())),  # absent before
+        free_time=_free_time(d.get("free_time")),  # absent before
     )
 
 

@@ -52,7 +52,7 @@ from .export import interpolate_columns, resample_columns, result_html
 from .leapfrog import Arcs, SweepRecord
 from .result_files import load_result, result_to_dict, save_json, save_npz, trajectory_columns
 from .scenario import Scenario
-from .status import PathOutcome, PlanStatus, RunRecord
+from .status import FreeTimeReport, PathOutcome, PlanStatus, RunRecord
 
 VALIDATION = IntegratorSettings(method="dop853", rtol=1e-12, atol=1e-12)
 
@@ -234,6 +234,9 @@ class PlanResult:
     # Every Leapfrog run of the search, in the order made: which stage asked for it, why, and
     # what it gave (see :mod:`.search`).
     search: tuple[RunRecord, ...] = ()
+    # With a free final time: the price of time, the T chosen and how (then ``cost`` includes
+    # the price of time, ``energy + penalty + time_weight T``); None for a fixed horizon.
+    free_time: FreeTimeReport | None = None
 
     @classmethod
     def load(cls, path) -> PlanResult:

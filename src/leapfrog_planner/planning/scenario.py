@@ -13,7 +13,7 @@ import stat
 import tomllib
 import unicodedata
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -27,6 +27,7 @@ from ..integrate.problem import ObstaclePenalty, OptimalControlProblem
 from ..model import MODELS
 from .scenario_checks import ScenarioCheck, key_path
 from .scenario_map import ScenarioMap, map_from_tables
+from .scenario_time import FREE, FreeTime, free_time_from_tables, provisional_horizon
 from .scenario_toml import toml_key, toml_state, toml_value
 
 __all__ = [
@@ -61,6 +62,8 @@ TOP_LEVEL_KEYS = (
     "map",
     "polygons",
     "walls",
+    "cost",
+    "time",
 )
 REQUIRED_KEYS = ("horizon", "start", "goal")
 #: The smoothing widths of bounded controls, relative to the narrowest range: Leapfrog at the
@@ -127,6 +130,9 @@ class Scenario:
     margin: float = 0.0  # clearance a converged path keeps beyond the footprint
     control_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)  # name: (lo, hi)
     map: ScenarioMap | None = None  # a ROS map, polygons, walls (planning/scenario_map.py)
+    # The final time left to the planner at a price (planning/scenario_time.py); ``horizon``
+    # is then where its search starts.
+    free_time: FreeTime | None = None
 
     def __post_init__(self):
         source = None if self.source is None else str(self.source)
@@ -163,6 +169,8 @@ class Scenario:
         margin = c.number(self.margin, "robot.margin", ge=0)
         c.in_range(margin, "robot.margin", (0.0, checks.COORDINATE_MAX))
         bounds = self._check_bounds(c, model)
+        if self.free_time is not None and not isinstance(self.free_time, FreeTime):
+            c.fail("free_time", f"expected a FreeTime or None, got {describe(self.free_time)}")
 
         self._check_ends(c, start, goal, waypoints, obstacles, robot_radius, exponent)
 
@@ -183,6 +191,7 @@ class Scenario:
             "margin": margin,
             "control_bounds": bounds,
             "map": self.map,
+            "free_time": self.free_time,
         }
         for k, v in values.items():
             object.__setattr__(self, k, v)
@@ -327,7 +336,7 @@ class Scenario:
         """Plain Python values in the file's layout; :func:`scenario_from_dict` inverts it."""
         data: dict[str, Any] = {
             "name": self.name,
-            "horizon": self.horizon,
+            "horizon": self.horizon if self.free_time is None else FREE,
             "start": self.start.tolist(),
             "goal": self.goal.tolist(),
         }
@@ -350,6 +359,8 @@ class Scenario:
             if self.map.to_dict():
                 data["map"] = self.map.to_dict()
             data.update(self.map.shapes_dict())
+        if self.free_time is not None:
+            data.update(self.free_time.to_tables())
         return data
 
     def to_toml(self) -> str:
@@ -363,7 +374,7 @@ class Scenario:
         ]
         if "waypoints" in d:
             lines.append(f"waypoints = {toml_value(d['waypoints'])}")
-        for table in ("robot", "penalty", "solver", "map"):
+        for table in ("robot", "penalty", "cost", "time", "solver", "map"):
             if table in d:
                 lines += ["", f"[{table}]"]
                 lines += [f"{toml_key(k)} = {toml_value(v)}" for k, v in d[table].items()]
@@ -403,9 +414,9 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
     world = c._named(
         map_from_tables, table, data.get("polygons"), data.get("walls"), _folder(source)
     )
-    return Scenario(
+    scenario = Scenario(
         name=data.get("name", _default_name(source)),
-        horizon=data["horizon"],
+        horizon=1.0 if data["horizon"] == FREE else data["horizon"],
         start=data["start"],
         goal=data["goal"],
         obstacles=obstacles,
@@ -421,6 +432,24 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
         control_bounds=bounds,
         map=world,
     )
+    return _free_time(c, data, scenario)
+
+
+def _free_time(c: ScenarioCheck, data: Mapping, scenario: Scenario) -> Scenario:
+    """``scenario`` with the free time of its file: ``horizon = "free"`` with its ``[cost]``
+    and ``[time]`` tables (else as it is, and neither table allowed)."""
+    if data["horizon"] != FREE:
+        for key in ("cost", "time"):
+            if key in data:
+                c.fail(key, f'a price of time needs horizon = "{FREE}", got {data["horizon"]!r}')
+        return scenario
+    from ..model import get_model
+    from ..model.cruise import straight_effort
+
+    effort = straight_effort(get_model(scenario.model), scenario.model_parameters)
+    free = free_time_from_tables(c, data.get("cost"), data.get("time"), effort)
+    horizon = provisional_horizon(free, scenario.start, scenario.goal, effort)
+    return replace(scenario, horizon=horizon, free_time=free)
 
 
 def _discs_from_tables(c: ScenarioCheck, raw) -> np.ndarray:

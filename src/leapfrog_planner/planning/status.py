@@ -62,3 +62,33 @@ def listed_alternatives(
     if len(failed) <= FAILED_LISTED:
         return list(alternatives), 0
     return [a for a in alternatives if math.isfinite(a.cost)], len(failed)
+
+
+@dataclass(frozen=True)
+class TimeStep:
+    """One horizon the search solved: ``H`` of the fixed-horizon extremal there (the rate of
+    change of its cost with ``T``), its cost with the price of time (``V + k T``), and how it
+    was found: ``"plan"`` (the whole search) or ``"continued"`` (shooting from a known one)."""
+
+    horizon: float
+    hamiltonian: float
+    cost: float
+    source: str
+
+
+@dataclass(frozen=True)
+class FreeTimeReport:
+    """How the final time was chosen: the price of time ``k`` (and the cruise speed it was
+    given as), the answer's ``T``, its ``k + H`` (zero at a free-time optimum), the bound ``T``
+    rests on (``""``, ``"shortest"`` or ``"longest"``) and every horizon solved."""
+
+    time_weight: float
+    cruise_speed: float | None
+    horizon: float
+    condition: float
+    bound: str
+    steps: tuple[TimeStep, ...]
+
+    @property
+    def time_cost(self) -> float:
+        return self.time_weight * self.horizon

@@ -1,0 +1,55 @@
+"""The effort of driving straight ahead, which turns a cruise speed into a price of time.
+
+With the final time free and a price ``k`` on each second, the cost of a straight run of
+length ``D`` at speed ``v`` in free space is ``(k + c v^2) D / v``, where ``c v^2`` is the least
+running cost of the controls that drive the model straight ahead at ``v``. It is least at
+``v = sqrt(k / c)``: a price of time ``k = c v^2`` makes the optimum cruise at ``v`` where no
+obstacle is near. ``c`` is 1/2 for the unicycle and the car, ``1 / r^2`` for the differential
+drive with wheel radius ``r`` (both wheels at ``v / r``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from ..errors import ModelError
+from .base import VehicleModel
+
+
+def straight_effort(model: VehicleModel, parameters: dict[str, float]) -> float:
+    """``c``: the least running cost of the controls that drive ``model`` straight ahead at unit
+    speed from the origin with every other state at zero, for the parameter values
+    ``parameters`` (by name; defaults for the others). The running cost must be a quadratic
+    form of the controls and the dynamics there linear in them."""
+    values = dict(zip(model.parameter_names, model.defaults, strict=True)) | dict(parameters)
+    at = {s: 0 for s in model.states}
+    at.update({p: values[n] for p, n in zip(model.parameters, model.parameter_names, strict=True)})
+    u = model.controls
+    f = [sp.sympify(e).subs(at) for e in model.dynamics]
+    L = sp.sympify(model.running_cost).subs(at)
+    try:
+        A = np.array(sp.Matrix(f).jacobian(u).subs({c: 0 for c in u}), dtype=float)
+        Q = np.array(sp.hessian(L, u).subs({c: 0 for c in u}), dtype=float)
+        offset = np.array([e.subs({c: 0 for c in u}) for e in f], dtype=float)
+    except TypeError as exc:  # symbols left: the cost or dynamics depend on more than u
+        raise ModelError(f"model {model.name!r}: no cruise speed: {exc}") from None
+    if np.any(offset) or not np.allclose(L.subs({c: 0 for c in u}), 0.0):
+        raise ModelError(f"model {model.name!r}: at rest it moves or costs: give a time weight")
+    # least 1/2 u'Qu with A u = e_1 (unit speed along x, every other rate zero)
+    rows = np.any(A != 0.0, axis=1)
+    b = np.zeros(A.shape[0])
+    b[0] = 1.0
+    A, b = A[rows], b[rows]
+    try:
+        Qi = np.linalg.inv(Q)
+        uc = Qi @ A.T @ np.linalg.solve(A @ Qi @ A.T, b)
+    except np.linalg.LinAlgError:
+        raise ModelError(
+            f"model {model.name!r}: its effort is no positive quadratic form of the controls: "
+            "give a time weight instead of a cruise speed"
+        ) from None
+    c = 0.5 * float(uc @ Q @ uc)
+    if not np.allclose(A @ uc, b) or not c > 0.0:
+        raise ModelError(f"model {model.name!r} cannot drive straight ahead: give a time weight")
+    return c
