@@ -22,13 +22,12 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from .. import checks
-from ..errors import ModelError, ScenarioError, SettingsError, require_integer
+from ..errors import ScenarioError, SettingsError, require_integer
 from .direct_arcs import (
     arc_clearance,
     arc_end_state,
@@ -36,11 +35,22 @@ from .direct_arcs import (
     unicycle_to_wheel,
     wheel_to_unicycle,
 )
+from .direct_inputs import (
+    check_free_time,
+    check_guess,
+    check_horizon,
+    check_model,
+    check_obstacles,
+    check_positive,
+    check_state,
+    distinct_guesses,
+    multistart_guesses,
+    resample_guess,
+    straight_line_guess,
+)
 
 __all__ = ["DirectResult", "DirectTranscription", "cached_transcription", "multistart_guesses",
            "richardson", "solve_direct", "straight_line_guess"]  # fmt: skip
-
-_MODELS = ("unicycle", "diff-drive")  # the direct method writes its own dynamics for these
 
 _CASADI_MISSING = "the direct method needs casadi: pip install 'leapfrog-planner[dev]'"
 
@@ -76,6 +86,9 @@ class DirectResult:
     # |x(T) - goal| of the start state driven by the returned controls exactly (each interval an
     # arc), not by the transcription's RK4 step: the check of the mesh's own error.
     end_state_error: float = math.nan
+    # The horizon T of the solution (``t[-1]``): the given one, or the optimal one of a free-time
+    # solve (then ``cost`` holds the price of time, ``time_weight * T``, too).
+    horizon: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -83,7 +96,9 @@ class DirectCase:
     """What a solve is given: end states, horizon, obstacle rows, penalty weight and exponent,
     and the control bounds (per control ``(lo, hi)`` or ``None``; ``None``: no bounds).
     :meth:`DirectTranscription.solve` checks them; :func:`solve_direct` checks the ends,
-    horizon and obstacles first and leaves the rest to its solves."""
+    horizon and obstacles first and leaves the rest to its solves. A free-time case (of a
+    transcription with ``free_time=True``) also has the price of time ``k`` and the bounds of
+    ``T``; its ``horizon`` is the guess of ``T``."""
 
     start: np.ndarray
     goal: np.ndarray
@@ -92,51 +107,18 @@ class DirectCase:
     weight: float
     exponent: float
     control_bounds: Any = None
+    time_weight: float | None = None
+    horizon_bounds: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
 class StartPoint:
     """IPOPT's start point ``x0`` and the bounds ``lbx``, ``ubx`` of the NLP's variables (the
-    node states, then the controls, flat)."""
+    node states, then the controls, flat; last ``T`` if the final time is free)."""
 
     x0: np.ndarray
     lbx: np.ndarray
     ubx: np.ndarray
-
-
-# --------------------------------------------------------------------------- validation
-
-
-def check_state(value: Any, name: str) -> np.ndarray:
-    return checks.vector(value, 3, name, " [x, y, heading]")
-
-
-def check_horizon(value: Any) -> float:
-    return checks.real(value, "horizon", gt=0)
-
-
-def check_obstacles(value: Any) -> np.ndarray:
-    return checks.obstacles(value)
-
-
-def check_positive(
-    value: Any, name: str, *, allow_zero: bool = False, error: type[ValueError] = ScenarioError
-) -> float:
-    bound = {"ge": 0.0} if allow_zero else {"gt": 0.0}
-    return checks.real(value, name, error=error, **bound)
-
-
-def check_guess(value: Any, name: str, shape: tuple[int, int]) -> np.ndarray:
-    arr = checks.rows(value, shape[1], name, ", ".join(["v"] * shape[1]), error=SettingsError)
-    if arr.shape != shape:
-        raise SettingsError(f"{name}: expected {shape[0]} rows, got {arr.shape[0]}")
-    return arr
-
-
-def check_model(value: Any) -> str:
-    if value not in _MODELS:
-        raise ModelError(f"the direct method has no model {value!r} (it has {', '.join(_MODELS)})")
-    return value
 
 
 # --------------------------------------------------------------------------- transcription
@@ -154,6 +136,12 @@ class DirectTranscription:
     Each interval is integrated with ``substeps`` RK4 steps, carrying the running cost as a
     fourth (quadrature) state so that the cost is integrated by the same scheme as the motion.
     Heading is a plain real variable: it is never wrapped.
+
+    With ``free_time=True`` the horizon ``T`` is a decision variable too (the last one, boxed by
+    the case's ``horizon_bounds``; ``solve``'s ``horizon`` is its guess) and the objective holds
+    ``k T`` besides the integral, with the price of time ``k`` (``solve``'s ``time_weight``) the
+    NLP's first parameter in place of the horizon: the step ``T / (N substeps)`` then varies
+    with the variable ``T``.
     """
 
     def __init__(
@@ -167,6 +155,7 @@ class DirectTranscription:
         axle_length: float = 2.0,
         tol: float = 1e-10,
         max_iter: int = 3000,
+        free_time: bool = False,
     ) -> None:
         self.n_obstacles = require_integer("n_obstacles", n_obstacles, 0)
         self.intervals = require_integer("intervals", intervals, 1)
@@ -176,6 +165,9 @@ class DirectTranscription:
         self.axle_length = check_positive(axle_length, "axle_length", error=SettingsError)
         self.tol = check_positive(tol, "tol", error=SettingsError)
         self.max_iter = require_integer("max_iter", max_iter, 1)
+        if not isinstance(free_time, bool):
+            raise SettingsError(f"free_time: expected True or False, got {free_time!r:.40}")
+        self.free_time = free_time
         self._solver = self._build()
 
     # The symbolic model: state derivative and running cost for one (x, u). Both models spend
@@ -229,15 +221,17 @@ class DirectTranscription:
         states = ca.MX.sym("X", 3, n + 1)
         controls = ca.MX.sym("U", 2, n)
         params_mx = ca.MX.sym("p", params.numel())
-        x_next, q = step.map(n)(states[:, :n], controls, params_mx)
+        variables = ca.vertcat(ca.vec(states), ca.vec(controls))
+        step_params, time_cost = params_mx, 0
+        if self.free_time:  # T the last variable; the first parameter the price of time k
+            horizon_mx = ca.MX.sym("T")
+            variables = ca.vertcat(variables, horizon_mx)
+            step_params = ca.vertcat(horizon_mx, params_mx[1:])
+            time_cost = params_mx[0] * horizon_mx
+        x_next, q = step.map(n)(states[:, :n], controls, step_params)
         defects = x_next - states[:, 1:]
 
-        nlp = {
-            "x": ca.vertcat(ca.vec(states), ca.vec(controls)),
-            "p": params_mx,
-            "f": ca.sum2(q),
-            "g": ca.vec(defects),
-        }
+        nlp = {"x": variables, "p": params_mx, "f": ca.sum2(q) + time_cost, "g": ca.vec(defects)}
         options = {
             "print_time": False,
             # Quiet by design: the library never prints. lam_p (sensitivity to the parameters)
@@ -264,11 +258,17 @@ class DirectTranscription:
         guess_states=None,
         guess_controls=None,
         control_bounds=None,
+        time_weight=None,
+        horizon_bounds=None,
     ) -> DirectResult:
         """Solve one scenario from one initial guess.
 
         ``control_bounds`` gives ``(lo, hi)`` or ``None`` per control (in the model's units):
         box constraints on the piecewise-constant controls.
+
+        A free-time transcription needs the price of time ``time_weight`` (finite, > 0); then
+        ``horizon`` is the guess of ``T`` and ``horizon_bounds`` ``(lo, hi)`` its bounds
+        (default: the guess / 100 to the guess * 100). A fixed-time one refuses both.
 
         ``guess_states`` is an ``(N+1, 3)`` array; without it the straight line with interpolated
         heading is used. ``guess_controls`` is ``(N, 2)`` in the model's units; without it the
@@ -276,11 +276,11 @@ class DirectTranscription:
         and goal, which are imposed exactly.
         """
         case = self._case(start, goal, horizon, obstacles, weight, exponent, control_bounds)
+        case = self._free_time(case, time_weight, horizon_bounds)
         states0, controls0 = self._first_guess(case, guess_states, guess_controls)
         point = self._start_point(case, states0, controls0)
-        params = np.concatenate(
-            ([case.horizon, case.weight, case.exponent], case.obstacles.ravel())
-        )
+        first = case.time_weight if self.free_time else case.horizon
+        params = np.concatenate(([first, case.weight, case.exponent], case.obstacles.ravel()))
 
         tic = time.perf_counter()
         sol = self._solver(x0=point.x0, p=params, lbx=point.lbx, ubx=point.ubx, lbg=0.0, ubg=0.0)
@@ -302,6 +302,18 @@ class DirectTranscription:
                 f"got {len(case.obstacles)}"
             )
         return case
+
+    def _free_time(self, case: DirectCase, time_weight, horizon_bounds) -> DirectCase:
+        """``case`` with the price of time and the bounds of ``T`` checked (its horizon the
+        guess of ``T``); refused unless the final time is free."""
+        if not self.free_time:
+            if time_weight is not None or horizon_bounds is not None:
+                raise SettingsError(
+                    "time_weight, horizon_bounds: only for a free-time transcription"
+                )
+            return case
+        k, guess, bounds = check_free_time(time_weight, case.horizon, horizon_bounds)
+        return replace(case, horizon=guess, time_weight=k, horizon_bounds=bounds)
 
     def _first_guess(
         self, case: DirectCase, guess_states, guess_controls
@@ -334,15 +346,20 @@ class DirectTranscription:
             if bound is not None:
                 lbx[3 * (n + 1) + i :: 2], ubx[3 * (n + 1) + i :: 2] = bound
                 controls0[:, i] = np.clip(controls0[:, i], *bound)
-        return StartPoint(np.concatenate((states0.ravel(), controls0.ravel())), lbx, ubx)
+        x0 = np.concatenate((states0.ravel(), controls0.ravel()))
+        if self.free_time:
+            lo, hi = case.horizon_bounds
+            x0, lbx, ubx = np.append(x0, case.horizon), np.append(lbx, lo), np.append(ubx, hi)
+        return StartPoint(x0, lbx, ubx)
 
     def _result(self, case: DirectCase, sol, stats, solve_time: float) -> DirectResult:
         """IPOPT's solution ``sol`` and ``stats`` as a :class:`DirectResult`; the clearance and
         the end state's error are measured along the exact arcs of the controls."""
         n = self.intervals
         w = np.asarray(sol["x"], dtype=float).ravel()
+        horizon = float(w[-1]) if self.free_time else case.horizon
         states = w[: 3 * (n + 1)].reshape(n + 1, 3)
-        controls = w[3 * (n + 1) :].reshape(n, 2)
+        controls = w[3 * (n + 1) : 3 * (n + 1) + 2 * n].reshape(n, 2)
         unicycle = (
             controls
             if self.model == "unicycle"
@@ -351,19 +368,23 @@ class DirectTranscription:
         status = str(stats.get("return_status", "unknown"))
         success = bool(stats.get("success", False))
         iterations = int(stats.get("iter_count", -1))
-        end = arc_end_state(case.start, unicycle, case.horizon)
+        message = f"IPOPT: {status} after {iterations} iterations"
+        if self.free_time and min(abs(horizon / b - 1.0) for b in case.horizon_bounds) < 1e-6:
+            message += f"; T = {horizon:g} is at a bound, {case.horizon_bounds}"
+        end = arc_end_state(case.start, unicycle, horizon)
         return DirectResult(
             success=success,
             status=status,
-            message=f"IPOPT: {status} after {iterations} iterations",
+            message=message,
             cost=float(sol["f"]),
-            t=np.linspace(0.0, case.horizon, n + 1),
+            t=np.linspace(0.0, horizon, n + 1),
             states=states,
             controls=controls,
-            min_clearance=arc_clearance(states, unicycle, case.horizon, case.obstacles),
+            min_clearance=arc_clearance(states, unicycle, horizon, case.obstacles),
             iterations=iterations,
             solve_time=solve_time,
             end_state_error=float(np.linalg.norm(end - case.goal)),
+            horizon=horizon,
         )
 
 
@@ -386,97 +407,6 @@ def cached_transcription(
 def clear_transcriptions() -> None:
     """Free the cached transcriptions (a large mesh holds a gigabyte)."""
     _TRANSCRIPTIONS.clear()
-
-
-# --------------------------------------------------------------------------- initial guesses
-
-
-def straight_line_guess(start, goal, horizon, intervals) -> tuple[np.ndarray, np.ndarray]:
-    """Straight segment from start to goal, heading interpolated linearly between the two.
-
-    Returns ``(states (N+1, 3), controls (N, 2))`` with unicycle controls ``(v, omega)``. The
-    heading is interpolated rather than taken from the chord, so the guess already meets both
-    end headings without any wrapping.
-    """
-    start = check_state(start, "start")
-    goal = check_state(goal, "goal")
-    horizon = check_horizon(horizon)
-    n = require_integer("intervals", intervals, 1)
-    s = np.linspace(0.0, 1.0, n + 1)[:, None]
-    states = start + s * (goal - start)
-    return states, controls_from_states(states, horizon)
-
-
-def _arc(start: np.ndarray, goal: np.ndarray, n: int, offset: float, heading: str) -> np.ndarray:
-    """Chord plus a quadratic lateral bump of height ``offset`` (relative to the chord length).
-
-    ``heading="tangent"`` follows the path tangent (unwrapped, shifted by whole turns to start
-    next to the start heading); ``heading="interpolated"`` blends start to goal heading.
-    """
-    chord = goal[:2] - start[:2]
-    length = float(np.hypot(*chord))
-    if length > 1e-9:
-        along, scale = chord / length, length
-    else:  # start and goal coincide in position: bump sideways of the start heading
-        along, scale = np.array([math.cos(start[2]), math.sin(start[2])]), 1.0
-    normal = np.array([-along[1], along[0]])
-    s = np.linspace(0.0, 1.0, n + 1)[:, None]
-    pos = start[:2] + s * chord + offset * scale * 4.0 * s * (1.0 - s) * normal
-    if heading == "interpolated":
-        theta = start[2] + s[:, 0] * (goal[2] - start[2])
-    else:
-        tangent = chord + offset * scale * 4.0 * (1.0 - 2.0 * s) * normal
-        if length <= 1e-9:
-            tangent = tangent + 1e-9 * along  # keep atan2 defined on a degenerate chord
-        theta = np.unwrap(np.arctan2(tangent[:, 1], tangent[:, 0]))
-        theta += 2.0 * np.pi * np.round((start[2] - theta[0]) / (2.0 * np.pi))
-    return np.column_stack((pos, theta))
-
-
-def multistart_guesses(start, goal, intervals) -> list[np.ndarray]:
-    """The deterministic set of state guesses tried by :func:`solve_direct`.
-
-    The straight line and quadratic lateral arcs peaking at ``+-0.25, +-0.5, +-0.75, +-1.0``
-    chord lengths, each once with the heading interpolated between the end headings and once
-    with the heading of the path tangent (18 guesses). Both heading choices matter: with fixed
-    end headings neighbouring extremals differ in how the heading turns, and the two families
-    lead IPOPT to different ones (paper case 1 is found only from tangent headings). The
-    offsets are dense because which guess reaches which optimum shifts with the mesh; with only
-    +-0.5 and +-1.0, paper cases 3 and 4 miss their best optimum on some meshes.
-    """
-    start = check_state(start, "start")
-    goal = check_state(goal, "goal")
-    n = require_integer("intervals", intervals, 1)
-    return [
-        _arc(start, goal, n, offset, heading)
-        for offset in _OFFSETS
-        for heading in ("interpolated", "tangent")
-    ]
-
-
-_OFFSETS = (0.0, 0.25, -0.25, 0.5, -0.5, 0.75, -0.75, 1.0, -1.0)
-
-
-def resample_guess(result: DirectResult, intervals: int) -> tuple[np.ndarray, np.ndarray]:
-    """A coarse solution on a finer mesh: states linear in time, controls sampled at midpoints."""
-    t = np.linspace(0.0, result.t[-1], intervals + 1)
-    states = np.column_stack([np.interp(t, result.t, result.states[:, i]) for i in range(3)])
-    mid = (t[:-1] + t[1:]) / 2.0
-    index = np.minimum(np.searchsorted(result.t, mid, side="right") - 1, len(result.controls) - 1)
-    return states, result.controls[index]
-
-
-def distinct_guesses(results: list[DirectResult]) -> list[DirectResult]:
-    """Successful results, cheapest first, with repeats of the same local optimum dropped."""
-    kept: list[DirectResult] = []
-    for r in sorted((r for r in results if r.success), key=lambda r: r.cost):
-        if not any(
-            abs(r.cost - k.cost) <= 1e-6 * (1.0 + abs(k.cost))
-            and np.max(np.abs(r.states - k.states)) < 1e-3
-            for k in kept
-        ):
-            kept.append(r)
-    return kept
 
 
 def solve_direct(
@@ -517,12 +447,22 @@ def solve_direct(
     start, goal = check_state(start, "start"), check_state(goal, "goal")
     horizon, obstacles = check_horizon(horizon), check_obstacles(obstacles)
     case = DirectCase(start, goal, horizon, obstacles, weight, exponent, control_bounds)
+    return solve_case(case, intervals, model, multistart, guesses, coarse_intervals, kw)
+
+
+def solve_case(
+    case: DirectCase, intervals, model: str, multistart: bool, guesses, coarse_intervals, kw: dict
+) -> DirectResult:
+    """:func:`solve_direct`'s solves of a ``case`` whose ends, horizon and obstacles are
+    checked: the user's ``guesses`` and, with ``multistart``, the built-in ones (refined from
+    the coarse mesh); ``kw`` are the transcription's options (``free_time=True`` for a
+    free-time case, as :func:`.direct_free.solve_direct_free`'s)."""
     n = require_integer("intervals", intervals, 1)
     if coarse_intervals is not None:
         coarse_intervals = require_integer("coarse_intervals", coarse_intervals, 1)
     user = [] if guesses is None else list(guesses)
 
-    starts: list[tuple[np.ndarray, np.ndarray | None]] = [(g, None) for g in user]
+    starts: list[tuple] = [(g, None) for g in user]
     if multistart:
         starts += _builtin_starts(case, n, coarse_intervals, model, kw)
     if not starts:
@@ -532,7 +472,7 @@ def solve_direct(
 
 
 def _builtin_starts(case: DirectCase, n: int, coarse_intervals, model: str, kw: dict) -> list:
-    """The starts ``(states, controls or None)`` that the built-in guesses
+    """The starts ``(states, controls or None[, horizon])`` that the built-in guesses
     (:func:`multistart_guesses`) give a mesh of ``n`` intervals: each distinct local optimum of
     the guesses on the coarse mesh, resampled to the full one; the raw guesses themselves when
     there is no coarse mesh (None, or not below ``n``) or nothing converged on it. ``kw`` are
@@ -545,26 +485,29 @@ def _builtin_starts(case: DirectCase, n: int, coarse_intervals, model: str, kw: 
         guesses = multistart_guesses(case.start, case.goal, coarse_intervals)
         optima = distinct_guesses(solve_all(coarse, case, [(g, None) for g in guesses]))
         if optima:
-            return [resample_guess(r, n) for r in optima]
+            return [(*resample_guess(r, n), r.horizon) for r in optima]
         # nothing converged on the coarse mesh: try the raw guesses on the full one
     return [(g, None) for g in multistart_guesses(case.start, case.goal, n)]
 
 
 def solve_all(transcription: DirectTranscription, case: DirectCase, starts) -> list[DirectResult]:
-    """One solve of ``case`` per start ``(states, controls or None)``, in order."""
+    """One solve of ``case`` per start ``(states, controls or None)``, in order; a start may
+    add its own ``horizon`` (a free-time case's guess of ``T``; else the case's)."""
     return [
         transcription.solve(
             case.start,
             case.goal,
-            case.horizon,
+            horizon[0] if horizon else case.horizon,
             case.obstacles,
             weight=case.weight,
             exponent=case.exponent,
             guess_states=states,
             guess_controls=controls,
             control_bounds=case.control_bounds,
+            time_weight=case.time_weight,
+            horizon_bounds=case.horizon_bounds,
         )
-        for states, controls in starts
+        for states, controls, *horizon in starts
     ]
 
 

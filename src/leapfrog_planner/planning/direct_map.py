@@ -288,7 +288,7 @@ class MapTranscription(DirectTranscription):
             unicycle = wheel_to_unicycle(unicycle, self.wheel_radius, self.axle_length)
         world = self.obstacle_map
         if world is not None:
-            clear = world.path_clearance(arc_points(result.states, unicycle, case.horizon))
+            clear = world.path_clearance(arc_points(result.states, unicycle, result.horizon))
             result = replace(result, min_clearance=min(result.min_clearance, clear))
         if self.window is not None and _touches(result.states, self.window.box):
             result = replace(
