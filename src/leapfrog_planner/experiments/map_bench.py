@@ -157,7 +157,7 @@ def _leapfrog_row(sc) -> MapBenchRow:
 
 
 def _ompl_row(sc, ompl) -> MapBenchRow:
-    from .ompl_peer import ompl_plan, timed
+    from .ompl_peer import ompl_plan, timed, wrap_angle
 
     world = sc.map.obstacles(sc.robot_radius)
     t0 = time.perf_counter()
@@ -169,15 +169,11 @@ def _ompl_row(sc, ompl) -> MapBenchRow:
     t, poses, v, omega = timed(p, sc.horizon)
     cost = path_cost(sc.problem(), t, poses, v, omega)
     # OMPL's headings are angles: its path may end whole turns away from the goal's heading.
-    heading = poses[0, 2] + float(np.sum(_wrap(np.diff(poses[:, 2]))))
+    heading = poses[0, 2] + float(np.sum(wrap_angle(np.diff(poses[:, 2]))))
     turns = round((heading - float(sc.goal[2])) / (2.0 * math.pi))
     message = p.message if turns == 0 else f"{p.message}; ends {turns:+d} turns from the goal"
     return MapBenchRow(sc.name, "ompl", True, cost, wall, p.max_curvature, p.min_clearance,
                        sc.horizon, message)  # fmt: skip
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def summary(result: MapBenchResult) -> dict:

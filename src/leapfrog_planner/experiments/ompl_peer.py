@@ -40,7 +40,8 @@ from ..errors import ScenarioError, SettingsError, describe, require_integer
 from ..world.clearance import HALF_DIAGONAL, MapClearance
 
 __all__ = ["PLANNERS", "RUN_FIELDS", "SPACES", "OmplPath", "OmplSettings", "benchmark", "main",
-           "ompl_available", "ompl_plan", "random_queries", "summarize", "timed"]  # fmt: skip
+           "ompl_available", "ompl_plan", "random_queries", "summarize", "timed",
+           "wrap_angle"]  # fmt: skip
 
 #: Planners by name (the classes of ``ompl.geometric``). The first four improve their path until
 #: the time limit; RRT and RRTConnect stop at their first path. Left out: PRM* (its roadmap
@@ -376,7 +377,8 @@ def _densify(space, states, step: float) -> tuple[np.ndarray, np.ndarray]:
     return np.array(out), np.array(ds)
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
+def wrap_angle(a: np.ndarray) -> np.ndarray:
+    """Angles (differences of headings) into ``[-pi, pi)``: OMPL's headings are angles."""
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
@@ -386,7 +388,7 @@ def _directions(poses: np.ndarray, ds: np.ndarray) -> np.ndarray:
     arclength it takes the direction of the piece before (after, at the start). A reverse part
     shorter than about a step may go unseen."""
     d = np.diff(poses[:, :2], axis=0)
-    mid = poses[:-1, 2] + _wrap(np.diff(poses[:, 2])) / 2
+    mid = poses[:-1, 2] + wrap_angle(np.diff(poses[:, 2])) / 2
     along = d[:, 0] * np.cos(mid) + d[:, 1] * np.sin(mid)
     sign = np.where(along >= 0, 1, -1).astype(np.int8)
     clear_cut = np.abs(along) >= 0.5 * ds
@@ -402,7 +404,7 @@ def _finish(clear, radius, settings, poses, ds, valid, times, status) -> OmplPat
     """The :class:`OmplPath` of a densified exact solution, checked again against the map."""
     arclength = np.concatenate([[0.0], np.cumsum(ds)])
     direction = _directions(poses, ds)
-    curvature = np.abs(_wrap(np.diff(poses[:, 2]))) / np.maximum(ds, 1e-300)
+    curvature = np.abs(wrap_angle(np.diff(poses[:, 2]))) / np.maximum(ds, 1e-300)
     min_clear = float(clear.clearance(poses[:, 0], poses[:, 1], radius).min())
     cusps = int(np.count_nonzero(direction[1:] != direction[:-1]))
     solved = valid and min_clear >= 0.0
@@ -435,7 +437,7 @@ def timed(path: OmplPath, horizon: float):
     t[-1] = horizon
     dt = np.diff(t)
     v = speed * path.direction.astype(float)
-    omega = _wrap(np.diff(path.poses[:, 2])) / np.where(dt > 0, dt, np.inf)
+    omega = wrap_angle(np.diff(path.poses[:, 2])) / np.where(dt > 0, dt, np.inf)
     return t, path.poses.copy(), np.append(v, v[-1]), np.append(omega, omega[-1])
 
 
