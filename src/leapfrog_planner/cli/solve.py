@@ -200,6 +200,25 @@ def scenarios():
     help="seconds after which no new run or sweep starts: the plan ends with the best answer"
     " found so far (the final solves under way finish)",
 )
+@click.option(
+    "--horizon",
+    default=None,
+    help='the horizon T in seconds, or "free": the planner chooses T at a price of time'
+    " (--cruise-speed or --time-weight, else the scenario's [cost])  [default: the scenario's]",
+)
+@click.option(
+    "--cruise-speed",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    help="with a free horizon: the speed the robot travels at where no obstacle is near",
+)
+@click.option(
+    "--time-weight",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    help="with a free horizon: the price k of each second, the cost being the integral of"
+    " k + effort + penalty",
+)
 @click.option("--json", "json_path", default=None, help="write the result as JSON")
 @click.option("--npz", "npz_path", default=None, help="write the trajectory arrays as NPZ")
 @click.option("--plot", "plot_path", default=None, help="write the path figure (PNG, PDF or SVG)")
@@ -213,6 +232,9 @@ def solve(
     final,
     map_file,
     time_limit,
+    horizon,
+    cruise_speed,
+    time_weight,
     json_path,
     npz_path,
     plot_path,
@@ -233,6 +255,8 @@ def solve(
     }
     distinct_outputs(outputs)
     sc = load_scenario(scenario)
+    if (horizon, cruise_speed, time_weight) != (None, None, None):
+        sc = with_horizon(sc, horizon, cruise_speed, time_weight)
     if map_file is not None:
         sc = with_map(sc, map_file)
     named = [
@@ -267,6 +291,35 @@ def solve(
             markup=False,
         )
     return EXIT_OK if result.success else EXIT_FAILED
+
+
+def with_horizon(sc, horizon: str | None, cruise_speed, time_weight):
+    """``sc`` with the horizon of ``--horizon`` (seconds, or ``free``) and the price of time of
+    ``--cruise-speed`` or ``--time-weight``."""
+    from ..planning.scenario import scenario_from_dict
+
+    if cruise_speed is not None and time_weight is not None:
+        raise click.UsageError("give --cruise-speed or --time-weight, not both")
+    d = sc.to_dict()
+    if horizon is not None and horizon.strip().lower() != "free":
+        try:
+            d["horizon"] = float(horizon)
+        except ValueError:
+            raise click.BadParameter(
+                f"expected seconds or free, got {horizon!r}", param_hint="--horizon"
+            ) from None
+        d.pop("cost", None), d.pop("time", None)
+    elif horizon is not None:
+        d["horizon"] = "free"
+    if cruise_speed is not None or time_weight is not None:
+        if d["horizon"] != "free":
+            raise click.UsageError(
+                "--cruise-speed and --time-weight price the time of a free horizon: add"
+                " --horizon free"
+            )
+        given = {"cruise_speed": cruise_speed, "time_weight": time_weight}
+        d["cost"] = {k: v for k, v in given.items() if v is not None}
+    return scenario_from_dict(d, sc.source or "<command line>")
 
 
 def with_map(sc, map_file: str):
@@ -313,11 +366,24 @@ def _plan_with_progress(planner):
                     info=f"path {ev.path_index + 1}/{ev.paths}: sweep {r.sweep}, q={r.q}, "
                     f"cost {r.cost:.6g}",
                 )
+            elif ev.stage == "time":
+                bar.update(task, info=ev.label)
             else:
                 bar.update(task, completed=ev.paths, info="validating")
 
         planner.progress = on_event
         return planner.plan()
+
+
+def _free_time_rows(f) -> list[tuple[str, str]]:
+    """The rows of a free final time: the ``T`` chosen, its price, Pontryagin's condition."""
+    if f is None:
+        return []
+    price = f"{f.time_weight:.6g} per second"
+    if f.cruise_speed is not None:
+        price += f" (a cruise speed of {f.cruise_speed:g})"
+    rest = f"on its {f.bound} bound" if f.bound else f"k + H = {f.condition:.1e}"
+    return [("final time", f"T = {f.horizon:.8g} chosen at a price of {price}; {rest}")]
 
 
 def _summary(r) -> Table:
@@ -327,7 +393,9 @@ def _summary(r) -> Table:
     clearance = "n/a (no obstacles)" if r.min_clearance is None else f"{r.min_clearance:.4g}"
     if r.task is not None and r.task.robot_radius and r.min_clearance is not None:
         clearance += f"  (of the footprint, radius {r.task.robot_radius:g})"
-    cost = f"{r.cost:.8g}  (energy {r.energy:.6g} + penalty {r.penalty:.6g})"
+    cost = f"{r.cost:.8g}  (energy {r.energy:.6g} + penalty {r.penalty:.6g}"
+    f = r.free_time
+    cost += ")" if f is None else f" + time {f.time_cost:.6g})"
     what = r.message.split("; returned: ")[0]  # the returned trajectory has its own row
     rows = [("status", str(r.status) + ("" if r.success else f": {what}"))]
     if r.optimal:
@@ -335,6 +403,7 @@ def _summary(r) -> Table:
             ("cost", cost),
             ("min clearance", clearance),
             ("end-state error", f"{r.end_state_error:.2e}"),
+            *_free_time_rows(f),
             ("final solve", f"{r.final_solver} from initial path {r.initial_path}"),
         ]
         raised = [part for part in r.message.split("; ") if "weight was raised" in part]

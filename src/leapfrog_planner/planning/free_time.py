@@ -39,7 +39,7 @@ from ..integrate.flow import Flow, Trajectory
 from ..integrate.problem import OptimalControlProblem
 from .bounded import MAX_HALVINGS, resolve
 from .leapfrog import Arcs
-from .results import PlanResult, piecewise_trajectory
+from .results import PlanResult, Validation, piecewise_trajectory
 from .scenario import Scenario
 from .status import FreeTimeReport, PlanStatus, TimeStep
 
@@ -49,6 +49,13 @@ ROUNDS = 3
 CONDITION_TOL = 1e-8
 #: The junctions of a planned extremal that the continuation in ``T`` starts from.
 JUNCTIONS = 16
+#: The horizons where the first is sought, as multiples of the shortest path at cruise speed.
+FIRST_GRID = np.geomspace(0.5, 8.0, 9)
+#: Shooting solves one family's continuation may make (a family that folds is left there).
+MAX_SOLVES = 30
+#: Alternatives are continued when their cost with the price of time is at most this many
+#: times the answer's at the first horizon.
+ALTERNATIVE_FACTOR = 1.5
 #: The largest change of ``T`` in one secant step, as a factor.
 STEP_FACTOR = 8.0
 
@@ -60,6 +67,10 @@ class FixedHorizonPlans(Protocol):
     def plan_at(self, horizon: float) -> PlanResult: ...
 
     def problem_at(self, weight: float) -> OptimalControlProblem: ...
+
+    def progress_note(self, note: str) -> None: ...
+
+    def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation: ...
 
     @property
     def shooting(self) -> ShootingSettings: ...
@@ -94,6 +105,7 @@ class TimeSearch:
         self.limits = (max(lo, checks.HORIZON_RANGE[0]), min(hi, checks.HORIZON_RANGE[1]))
         self.flow = Flow(problem, settings.integrator)
         self.points = [self._point(first)]
+        self.solves = 0
 
     def _point(self, arcs: Arcs) -> _Point:
         tr = piecewise_trajectory(self.flow, arcs, 401)
@@ -115,7 +127,10 @@ class TimeSearch:
         targets = [T]
         while targets:
             T1 = targets[-1]
-            arcs = resolve(self.problem, base.arcs, self.problem, (0.0, T1), self.ends, self.settings)
+            if self.solves >= MAX_SOLVES:
+                raise _Stuck(f"the continuation in T made {MAX_SOLVES} solves")
+            self.solves += 1
+            arcs = resolve(self.problem, base.arcs, self.problem, (0, T1), self.ends, self.settings)
             if arcs is None:
                 if len(targets) > MAX_HALVINGS:
                     raise _Stuck(f"the continuation in T stopped between {base.T:.6g} and {T1:.6g}")
@@ -163,16 +178,20 @@ class TimeSearch:
             return self.points[-1]
 
 
-def first_horizon(scenario: Scenario, shortest_path: float, effort: float) -> float:
-    """Where the search starts: the user's guess, else the shortest initial path (at least a
+def first_horizon(scenario: Scenario, shortest: float, effort: float, estimate) -> float:
+    """Where the search starts: the user's guess, else the horizon of least estimated cost with
+    the price of time, ``estimate(T) + k T`` (``estimate``: the least estimated cost of the
+    initial paths followed in ``T``) on a grid about the shortest path's length (at least a
     tenth of a metre) at the cruise speed, inside the bounds."""
     free = scenario.free_time
     if free.guess is not None:
         return free.guess
     lo, hi = free.limits()
+    lo, hi = max(lo, checks.HORIZON_RANGE[0]), min(hi, checks.HORIZON_RANGE[1])
     speed = math.sqrt(free.time_weight / effort)
-    T = max(shortest_path, 0.1) / speed
-    return float(np.clip(T, max(lo, checks.HORIZON_RANGE[0]), min(hi, checks.HORIZON_RANGE[1])))
+    grid = np.clip(max(shortest, 0.1) / speed * FIRST_GRID, lo, hi)
+    costs = [estimate(T) + free.time_weight * T for T in grid]
+    return float(grid[int(np.argmin(costs))])
 
 
 def arcs_of(tr: Trajectory, pieces: int = JUNCTIONS) -> Arcs:
@@ -188,49 +207,112 @@ def arcs_of(tr: Trajectory, pieces: int = JUNCTIONS) -> Arcs:
     return Arcs(t, X, lam[:-1])
 
 
+@dataclass(frozen=True)
+class _Root:
+    """A family's free-time optimum: the point, the bound it rests on (``""``: none), the plan
+    whose answer or alternative the family came from, and the problem it solves."""
+
+    point: _Point
+    bound: str
+    source: PlanResult
+    problem: OptimalControlProblem
+
+    def total(self, k: float) -> float:
+        return self.point.V + k * self.point.T
+
+
 def plan_free_time(plans: FixedHorizonPlans, scenario: Scenario, T0: float) -> PlanResult:
     """The free-time answer of ``scenario`` (the module's method), starting at ``T0``."""
     t_begin = time.perf_counter()
-    free = scenario.free_time
+    k = scenario.free_time.time_weight
     result = plans.plan_at(T0)
-    steps = [_step(result, free.time_weight, "plan")]
-    planned = [result]
+    steps = [_step(result, k, "plan")]
+    planned, roots = [result], []
     for _ in range(ROUNDS):
         if result.status is not PlanStatus.CONVERGED:
             break
-        found = _cheapest_root(plans, scenario, result, steps)
-        if found is None or found.T == result.task.horizon:
-            break
-        result = plans.plan_at(found.T)
-        steps.append(_step(result, free.time_weight, "plan"))
+        roots += _family_roots(plans, scenario, result, steps)
+        best = _cheapest(roots, scenario)
+        if best is None or best.point.T == result.task.horizon:
+            break  # the plan was made at the root: it has seen every family there
+        result = plans.plan_at(best.point.T)
+        steps.append(_step(result, k, "plan"))
         planned.append(result)
-        if _same(result, found):
+        if not _cheaper(result, best, k):
             break
-    return _answer(planned, steps, scenario, time.perf_counter() - t_begin)
+    best = _cheapest(roots, scenario)
+    answer = planned[0] if best is None else _at_root(plans, scenario, best, planned)
+    return _reported(answer, steps, scenario, time.perf_counter() - t_begin)
 
 
-def _cheapest_root(plans, scenario: Scenario, result: PlanResult, steps: list) -> _Point | None:
-    """Step 2 for the answer of ``result`` and each of its alternatives that converged: the
-    root of the family whose cost with the price of time is least there (among those that keep
-    the margin, if any does). The horizons solved are added to ``steps``."""
+def _family_roots(plans, scenario: Scenario, result: PlanResult, steps: list) -> list[_Root]:
+    """Step 2 for the answer of ``result`` and each of its alternatives that converged at a
+    cost (with the price of time) near it. The horizons solved are added to ``steps``."""
     free, k = scenario.free_time, scenario.free_time.time_weight
     ends = (scenario.start, scenario.goal)
-    families = [(result.trajectory, result.weight)] + [
-        (a.trajectory, a.weight)
+    T0 = result.task.horizon
+    near = ALTERNATIVE_FACTOR * (result.cost + k * T0)
+    families = [(result.cost, result.trajectory, result.weight)] + [
+        (a.cost, a.trajectory, a.weight)
         for a in result.alternatives
-        if a.status is PlanStatus.CONVERGED and a.trajectory is not None
+        if a.status is PlanStatus.CONVERGED and a.trajectory is not None and a.cost + k * T0 <= near
     ]
-    roots = []
-    for trajectory, weight in families:
+    roots, seen = [], []
+    for cost, trajectory, weight in families:
+        if any(abs(cost - c) <= 1e-9 * max(1.0, abs(c)) for c in seen):
+            continue  # the same extremal, found from another path
+        seen.append(cost)
+        plans.progress_note(f"final time: the extremal of cost {cost:.6g} at T = {T0:.4g}")
         problem = plans.problem_at(weight)
         search = TimeSearch(problem, plans.shooting, k, free.limits(), ends, arcs_of(trajectory))
         try:
-            roots.append(search.solve()[0])
+            point, bound = search.solve()
+            roots.append(_Root(point, bound, result, problem))
         except _Stuck:
             pass
         steps += [TimeStep(p.T, p.H, p.V + k * p.T, "continued") for p in search.points[1:]]
-    clear = [p for p in roots if p.clearance >= scenario.margin]
-    return min(clear or roots, key=lambda p: p.V + k * p.T, default=None)
+    return roots
+
+
+def _cheapest(roots: list[_Root], scenario: Scenario) -> _Root | None:
+    """The root of least cost among those that keep the margin (all, if none does)."""
+    k = scenario.free_time.time_weight
+    clear = [r for r in roots if r.point.clearance >= scenario.margin]
+    return min(clear or roots, key=lambda r: r.total(k), default=None)
+
+
+def _cheaper(result: PlanResult, root: _Root, k: float) -> bool:
+    """Whether the plan at the root's horizon found an extremal cheaper than the root's."""
+    if result.status is not PlanStatus.CONVERGED:
+        return False
+    J = root.total(k)
+    return result.cost + k * result.task.horizon < J - 1e-9 * max(1.0, abs(J))
+
+
+def _at_root(plans, scenario: Scenario, root: _Root, planned: list[PlanResult]) -> PlanResult:
+    """The answer at ``root``: the plan made there when it returned the same extremal, else the
+    root's extremal validated, in place of the answer of the plan its family came from."""
+    p = root.point
+    for r in planned:
+        if r.task.horizon == p.T and abs(r.cost - p.V) <= 1e-7 * max(1.0, abs(p.V)):
+            return r
+    v = plans.validate(root.problem, p.arcs)
+    if v.trajectory is None:
+        return root.source
+    clear = v.clearance.size == 0 or float(v.clearance.min()) >= scenario.margin
+    return replace(
+        root.source,
+        status=PlanStatus.CONVERGED if clear else PlanStatus.COLLIDES,
+        message="converged by continuation in T" if clear else "the extremal collides",
+        final_solver="shooting" if p.arcs.t.size == 2 else "multiple-shooting",
+        costate0=p.arcs.lam0[0],
+        trajectory=v.trajectory,
+        **{f: getattr(v, f) for f in ("cost", "energy", "penalty", "clearance")},
+        **{f: getattr(v, f) for f in ("end_state_error", "max_dH_du", "hamiltonian_variation")},
+        task=replace(scenario, horizon=p.T, free_time=None),
+        optimal=True,
+        trajectory_source="extremal",
+    )
 
 
 def _step(result: PlanResult, k: float, source: str) -> TimeStep:
@@ -245,43 +327,26 @@ def _hamiltonian(result: PlanResult) -> float:
     return float(np.mean(tr.hamiltonian[tr.at_step]))
 
 
-def _same(result: PlanResult, found: _Point) -> bool:
-    """Whether the plan at the root returned the extremal continued there."""
-    if result.status is not PlanStatus.CONVERGED:
-        return False
-    return abs(result.cost - found.V) <= 1e-7 * max(1.0, abs(found.V))
-
-
-def _answer(planned: list[PlanResult], steps, scenario: Scenario, wall: float) -> PlanResult:
-    """The cheapest converged plan (with the price of time) that meets the free-time
-    condition or rests on a bound; else the cheapest plan, failed, saying why."""
+def _reported(r: PlanResult, steps, scenario: Scenario, wall: float) -> PlanResult:
+    """``r`` with its cost including the price of time, the report of the search, and failed
+    when converged without meeting the free-time condition (or resting on a bound)."""
     free = scenario.free_time
     k, (lo, hi) = free.time_weight, free.limits()
-
-    def report(r: PlanResult) -> FreeTimeReport:
-        T, H = r.task.horizon, _hamiltonian(r)
-        bound = "shortest" if T <= lo and k + H > 0 else "longest" if T >= hi and k + H < 0 else ""
-        return FreeTimeReport(k, free.cruise_speed, T, k + H, bound, tuple(steps))
-
-    def total(r: PlanResult) -> float:
-        return r.cost + k * r.task.horizon if math.isfinite(r.cost) else math.inf
-
-    good = [
-        r for r in planned
-        if r.status is PlanStatus.CONVERGED
-        and (report(r).bound or abs(report(r).condition) <= CONDITION_TOL * max(1.0, k))
-    ]  # fmt: skip
-    best = min(good or planned, key=total)
-    rep = report(best)
-    message = best.message
-    if best.status is PlanStatus.CONVERGED and not good:
-        best = replace(best, status=PlanStatus.FAILED, optimal=False)
-        message = f"no plan met the free-time condition (|k + H| = {abs(rep.condition):.2e}); {message}"
-    elif rep.bound:
-        message += f"; T = {rep.horizon:.6g} rests on its {rep.bound} bound"
-    else:
-        message += f"; free final time T = {rep.horizon:.6g} (k + H = {rep.condition:.1e})"
-    task = replace(scenario, horizon=rep.horizon)
+    T, H = r.task.horizon, _hamiltonian(r)
+    bound = "shortest" if T <= lo and k + H > 0 else "longest" if T >= hi and k + H < 0 else ""
+    rep = FreeTimeReport(k, free.cruise_speed, T, k + H, bound, tuple(steps))
+    message, status, optimal = r.message, r.status, r.optimal
+    if status is PlanStatus.CONVERGED and not (
+        bound or abs(rep.condition) <= CONDITION_TOL * max(1.0, k)
+    ):
+        status, optimal = PlanStatus.FAILED, False
+        message = f"no extremal met the free-time condition (|k + H| = {abs(k + H):.2e}); {message}"
+    elif bound:
+        message += f"; T = {T:.6g} rests on its {bound} bound"
+    elif status is PlanStatus.CONVERGED:
+        message += f"; free final time T = {T:.6g} (k + H = {rep.condition:.1e})"
+    alternatives = tuple(replace(a, cost=a.cost + k * T) for a in r.alternatives)
     return replace(
-        best, cost=total(best), free_time=rep, message=message, wall_time_s=wall, task=task,
+        r, status=status, optimal=optimal, message=message, cost=r.cost + k * T, free_time=rep,
+        wall_time_s=wall, task=replace(scenario, horizon=T), alternatives=alternatives,
     )  # fmt: skip

@@ -13,20 +13,23 @@ import dataclasses
 import time
 from collections.abc import Callable
 
+import numpy as np
+
 from .._blas import single_threaded_blas
 from ..bvp.shooting import ShootingSettings
 from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
 from ..model import get_model
 from ..model.cruise import straight_effort
-from .free_time import first_horizon, plan_free_time
 from .answer import Chosen, Context, choose_answer
+from .free_time import first_horizon, plan_free_time
 from .initial_path import InitialPath, initial_paths, points_away
 from .initial_path.map_paths import Unreachable, map_initial_paths
+from .leapfrog import Arcs
 from .outcome import Timing, plan_result, unreachable_result
-from .path_ranking import drivable, rank_paths
+from .path_ranking import drivable, estimated_costs, rank_paths
 from .result_files import plain
-from .results import PlanResult
+from .results import PlanResult, Validation, validate_arcs
 from .runner import PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest
 from .scenario import Scenario, load_scenario
@@ -63,7 +66,12 @@ class Planner:
 
     @property
     def progress(self) -> Callable[[PlanEvent], None] | None:
+        """Called with each :class:`PlanEvent` (None: nothing is reported)."""
         return self.runner.progress
+
+    @progress.setter
+    def progress(self, callback: Callable[[PlanEvent], None] | None) -> None:
+        self.runner.progress = callback
 
     def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
         """The paths a plan runs first, keeping ``margin`` (default: the settings') from the
@@ -141,6 +149,14 @@ class Planner:
         problem = s.problem(s.smoothing_widths[-1]) if s.control_bounds else self.robot
         return problem if weight == problem.penalty.weight else problem.with_weight(weight)
 
+    def progress_note(self, note: str) -> None:
+        """Reports ``note`` as a :class:`PlanEvent` of stage ``"time"``."""
+        self.runner.emit(PlanEvent("time", 0, 1, note))
+
+    def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation:
+        """``arcs`` re-integrated and checked as every answer is (``validate_arcs``)."""
+        return validate_arcs(problem, arcs, self.settings.samples, self.runner.validation)
+
     @property
     def shooting(self) -> ShootingSettings:
         """The final solves' shooting settings (no dense output)."""
@@ -148,12 +164,18 @@ class Planner:
         return dataclasses.replace(lf.final_shooting, samples=0, method=lf.method)
 
     def _first_horizon(self) -> float:
-        try:
-            shortest = min(p.length for p in self.initial_paths())
-        except Unreachable:  # the plan at the provisional horizon says so
-            return self.scenario.horizon
         s = self.scenario
-        return first_horizon(s, shortest, straight_effort(get_model(s.model), s.model_parameters))
+        try:
+            paths = self.initial_paths()
+        except Unreachable:  # the plan at the provisional horizon says so
+            return s.horizon
+        ends = (s.start, s.goal)
+
+        def estimate(T: float) -> float:
+            return float(np.min(estimated_costs(self.problem, paths, T, ends=ends)))
+
+        effort = straight_effort(get_model(s.model), s.model_parameters)
+        return first_horizon(s, min(p.length for p in paths), effort, estimate)
 
     def _plan(self) -> PlanResult:
         t_begin = time.perf_counter()

@@ -29,7 +29,8 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class PlanEvent:
-    """Progress report: ``stage`` is "path" (a new initial path starts), "sweep" or "final"."""
+    """Progress report: ``stage`` is "path" (a new initial path starts), "sweep", "final", or
+    "time" (a free final time sought: ``label`` says where)."""
 
     stage: str
     path_index: int
@@ -55,7 +56,7 @@ class Runner:
         self.aid = robot.model.aid
         final = settings.leapfrog.final_shooting
         self._final_integrator = final.integrator
-        self._validation = IntegratorSettings(
+        self.validation = IntegratorSettings(
             "dop853", rtol=final.integrator.rtol, atol=final.integrator.atol
         )
         self._end_tolerance = END_STATE_FACTOR * final.root.tol
@@ -132,7 +133,7 @@ class Runner:
             t0 = time.perf_counter()
             v = None
             if run.success:
-                v = validate_arcs(problem, run.extremal, self.settings.samples, self._validation)
+                v = validate_arcs(problem, run.extremal, self.settings.samples, self.validation)
             t_val = time.perf_counter() - t0
         return PathRun(
             request=request,

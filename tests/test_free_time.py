@@ -1,0 +1,213 @@
+"""A free final time: ``horizon = "free"`` at a price ``k`` per second.
+
+Closed forms in free space (the optimum drives straight at the cruise speed ``v``, ``k = c v^2``
+with ``c`` the model's effort of driving straight ahead), the direct method with ``T`` a variable
+on the paper's cases (its Richardson-extrapolated optima are in ``data/free_time_direct.json``,
+made by ``benchmarks/free_time_direct_reference.py``), Pontryagin's condition ``k + H = 0`` on
+every converged answer, the bounds of ``T``, files and bad input.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from leapfrog_planner.errors import ScenarioError
+from leapfrog_planner.model import get_model
+from leapfrog_planner.model.cruise import straight_effort
+from leapfrog_planner.planning.planner import plan
+from leapfrog_planner.planning.results import PlanResult
+from leapfrog_planner.planning.scenario import load_scenario, load_scenario_text
+from leapfrog_planner.planning.scenario_time import FreeTime
+from leapfrog_planner.planning.status import PlanStatus
+
+REFERENCE = json.loads((Path(__file__).parent / "data" / "free_time_direct.json").read_text())
+
+
+def line(model: str = "unicycle", price: str = "cruise_speed = 1.0", extra: str = "") -> str:
+    return f"""
+name = "line"
+horizon = "free"
+start = [0, 0, 0]
+goal = [3, 0, 0]
+[robot]
+model = "{model}"
+{extra}
+[cost]
+{price}
+"""
+
+
+def condition_met(r: PlanResult) -> bool:
+    f = r.free_time
+    return abs(f.condition) <= 1e-8 * max(1.0, f.time_weight)
+
+
+def test_the_effort_of_driving_straight_ahead():
+    assert straight_effort(get_model("unicycle"), {}) == pytest.approx(0.5)
+    assert straight_effort(get_model("car"), {}) == pytest.approx(0.5)
+    assert straight_effort(get_model("diff-drive"), {"wheel_radius": 0.5}) == pytest.approx(4.0)
+
+
+@pytest.mark.parametrize("k", [0.1, 2.0])
+def test_free_space_unicycle_meets_the_closed_form(k):
+    r = plan(load_scenario_text(line(price=f"time_weight = {k}")))
+    assert r.status is PlanStatus.CONVERGED and condition_met(r)
+    assert r.free_time.horizon == pytest.approx(3 / math.sqrt(2 * k), rel=1e-8)
+    assert r.cost == pytest.approx(3 * math.sqrt(2 * k), rel=1e-8)
+    assert r.cost == pytest.approx(r.energy + r.penalty + r.free_time.time_cost, rel=1e-12)
+    assert r.trajectory.t[-1] == pytest.approx(r.free_time.horizon, rel=1e-12)
+
+
+def test_a_cruise_speed_is_the_speed_in_free_space_for_the_differential_drive():
+    text = line("diff-drive", "cruise_speed = 0.75", "wheel_radius = 0.5")
+    r = plan(load_scenario_text(text))
+    assert r.status is PlanStatus.CONVERGED and condition_met(r)
+    assert r.free_time.horizon == pytest.approx(3 / 0.75, rel=1e-8)
+    assert r.free_time.time_weight == pytest.approx(4.0 * 0.75**2)
+    v = 0.5 * r.trajectory.u.sum(axis=1) / 2  # r (w_R + w_L) / 2
+    assert np.allclose(v, 0.75, rtol=1e-6)
+
+
+CASES = [(c["case"], c["k"]) for c in REFERENCE]
+#: Cases whose direct optimum is collision-free, and a quick plan: the planner must be no
+#: dearer (it is cheaper where the multistart stopped at a worse local optimum), and where they
+#: found the same extremal the costs agree to 1e-6 and T to 1e-5 (the extrapolation's accuracy).
+AGREE = [("paper-case-1", 1.0), ("paper-case-2", 1.0), ("paper-case-4", 1.0), ("paper-case-3", 1.0)]
+
+
+def _reference(case: str, k: float) -> dict:
+    return next(c for c in REFERENCE if c["case"] == case and c["k"] == k)
+
+
+def _free(case: str, k: float) -> PlanResult:
+    return plan(dataclasses.replace(load_scenario(case), free_time=FreeTime(k)))
+
+
+@pytest.mark.parametrize("case, k", AGREE)
+def test_the_paper_cases_against_the_direct_method_with_free_time(case, k):
+    ref = _reference(case, k)
+    r = _free(case, k)
+    assert r.status is PlanStatus.CONVERGED and condition_met(r)
+    assert r.min_clearance is None or r.min_clearance >= 0.0
+    assert r.cost <= ref["cost"] * (1 + 1e-6)
+    if r.cost >= ref["cost"] * (1 - 1e-4):  # the same extremal
+        assert r.cost == pytest.approx(ref["cost"], rel=1e-6)
+        assert r.free_time.horizon == pytest.approx(ref["horizon"], rel=1e-5)
+
+
+def test_a_cheaper_answer_than_the_direct_multistart_is_an_optimum_of_the_direct_method_too():
+    """Paper case 4 at k = 1: the planner's optimum is 18% cheaper than the multistart's. The
+    direct method started from the planner's path must find it as well."""
+    pytest.importorskip("casadi")
+    from leapfrog_planner.planning.direct import richardson
+    from leapfrog_planner.planning.direct_free import solve_direct_free
+
+    r = _free("paper-case-4", 1.0)
+    sc = load_scenario("paper-case-4")
+    tr = r.trajectory
+    costs, horizons = [], []
+    for n in (200, 400):
+        t = np.linspace(0.0, tr.t[-1], n + 1)
+        guess = np.column_stack([np.interp(t, tr.t, tr.x[:, i]) for i in range(3)])
+        d = solve_direct_free(
+            sc.start, sc.goal, sc.obstacles, 1.0, horizon_guess=tr.t[-1], intervals=n,
+            multistart=False, guesses=[guess], weight=sc.weight, exponent=sc.exponent,
+        )  # fmt: skip
+        assert d.success
+        costs.append(d.cost)
+        horizons.append(d.horizon)
+    assert richardson(*costs) == pytest.approx(r.cost, rel=1e-6)
+    assert richardson(*horizons) == pytest.approx(r.free_time.horizon, rel=1e-5)
+    assert r.cost < 0.9 * _reference("paper-case-4", 1.0)["cost"]
+
+
+def test_where_the_direct_optimum_crosses_a_disc_the_answer_does_not():
+    """Paper case 3 at k = 10: time is so dear that the direct optimum drives through the
+    centre of a disc (clearance -0.15). The planner's answer keeps clear of it, or says it
+    collides; it is never a converged path through the disc."""
+    ref = _reference("paper-case-3", 10.0)
+    assert ref["min_clearance"] < -0.1
+    r = _free("paper-case-3", 10.0)
+    assert r.status in (PlanStatus.CONVERGED, PlanStatus.COLLIDES)
+    if r.status is PlanStatus.CONVERGED:
+        assert r.min_clearance >= 0.0 and condition_met(r)
+        assert r.cost > ref["cost"]  # dearer than the path through the disc, as it must be
+
+
+def test_a_bound_on_t_holds_and_is_reported():
+    text = line(price="cruise_speed = 1.0") + "[time]\nbounds = [0.5, 2.0]\n"
+    r = plan(load_scenario_text(text))  # the free optimum, 3 s, is beyond the longest
+    assert r.status is PlanStatus.CONVERGED
+    assert r.free_time.horizon == pytest.approx(2.0) and r.free_time.bound == "longest"
+    assert r.free_time.condition < 0  # a longer T would be cheaper
+    assert "longest bound" in r.message
+
+
+def test_a_guess_starts_the_search_and_the_answer_does_not_depend_on_it():
+    costs = []
+    for guess in (0.5, 20.0):
+        r = plan(load_scenario_text(line() + f"[time]\nguess = {guess}\n"))
+        assert r.status is PlanStatus.CONVERGED and condition_met(r)
+        costs.append(r.cost)
+    assert costs[0] == pytest.approx(costs[1], rel=1e-9)
+
+
+def test_a_free_time_result_and_scenario_round_trip(tmp_path):
+    sc = load_scenario_text(line() + "[time]\nguess = 2.5\nbounds = [1, 10]\n")
+    assert load_scenario_text(sc.to_toml()) == sc
+    assert sc.free_time == FreeTime(0.5, 1.0, 2.5, (1.0, 10.0))
+    r = plan(sc)
+    path = tmp_path / "r.json"
+    r.save_json(path)
+    back = PlanResult.load(path)
+    assert back.free_time == r.free_time and back.cost == r.cost
+    assert back.task == sc.__class__(**{**_fields(sc), "horizon": r.free_time.horizon})
+
+
+def _fields(sc) -> dict:
+    return {f.name: getattr(sc, f.name) for f in dataclasses.fields(sc)}
+
+
+def test_the_same_input_gives_the_same_answer():
+    a, b = (plan(load_scenario("paper-case-2").__class__(**{
+        **_fields(load_scenario("paper-case-2")), "free_time": FreeTime(1.0)})) for _ in range(2))  # fmt: skip
+    assert a.cost == b.cost and a.free_time.horizon == b.free_time.horizon
+
+
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        (line(price="time_weight = 0"), "cost.time_weight: must be > 0"),
+        (line(price="time_weight = -1"), "cost.time_weight: must be > 0"),
+        (line(price="time_weight = nan"), "cost.time_weight"),
+        (line(price="time_weight = 1e12"), "outside"),
+        (line(price="cruise_speed = 0"), "cost.cruise_speed: must be > 0"),
+        (line(price="cruise_speed = 1\ntime_weight = 1"), "one of time_weight and cruise_speed"),
+        (line(price=""), "one of time_weight and cruise_speed"),
+        (line(price="speed = 1"), "speed"),
+        (line() + "[time]\nbounds = [2, 1]\n", "shortest < longest"),
+        (line() + "[time]\nbounds = [0, 1]\n", "time.bounds"),
+        (line() + "[time]\nbounds = [1, 2]\nguess = 5\n", "outside the bounds"),
+        (line() + "[time]\nbest = 5\n", "time"),
+        (line().replace('horizon = "free"', "horizon = 2"), 'needs horizon = "free"'),
+        (line().replace('horizon = "free"', 'horizon = "fre"'), "horizon"),
+    ],
+)
+def test_bad_free_time_input_is_one_line(text, needle):
+    with pytest.raises(ScenarioError) as e:
+        load_scenario_text(text, "f.toml")
+    assert needle in str(e.value) and "\n" not in str(e.value)
+
+
+def test_a_goal_out_of_reach_within_the_longest_t_fails_explicitly():
+    """Speed at most 1 m/s, 10 m to go, at most 2 s: no T allowed reaches the goal."""
+    text = line(extra="v = [-1.0, 1.0]").replace("goal = [3, 0, 0]", "goal = [10, 0, 0]")
+    r = plan(load_scenario_text(text + "[time]\nbounds = [0.5, 2.0]\n"))
+    assert r.status is not PlanStatus.CONVERGED
+    assert r.message
