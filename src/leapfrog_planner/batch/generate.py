@@ -40,6 +40,7 @@ import numpy as np
 from .._atomic import write_atomic
 from ..errors import SettingsError, require_integer
 from ..planning.scenario import Scenario
+from ..planning.scenario_time import FreeTime
 
 __all__ = [
     "PRESETS",
@@ -102,6 +103,9 @@ class GeneratorSpec:
     # Seconds per metre of the straight line from start to goal, an inclusive range: when
     # given, the horizon is drawn from it times that distance (``horizon`` is then unused).
     pace: tuple[float, float] | None = None
+    # A free final time at a cruise speed drawn from this inclusive range (the unicycle's price
+    # of time, v^2 / 2 per second): the horizon drawn is then only where the search starts.
+    cruise_speed: tuple[float, float] | None = None
     prefix: str = "random"  # scenario names: f"{prefix}-s{seed}-{i:05d}"
     max_attempts: int = 1000
 
@@ -157,6 +161,13 @@ class GeneratorSpec:
             if pace[0] > pace[1]:
                 raise SettingsError(f"pace: min {pace[0]} > max {pace[1]}")
             set_("pace", pace)
+        if self.cruise_speed is not None:
+            if len(self.cruise_speed) != 2:
+                raise SettingsError(f"cruise_speed must be (min, max), got {self.cruise_speed!r}")
+            speed = tuple(real("cruise_speed", v, 0.0, strict=True) for v in self.cruise_speed)
+            if speed[0] > speed[1]:
+                raise SettingsError(f"cruise_speed: min {speed[0]} > max {speed[1]}")
+            set_("cruise_speed", speed)
         check_prefix(self.prefix)
         set_("max_attempts", require_integer("max_attempts", self.max_attempts))
 
@@ -240,12 +251,18 @@ def generate_one(spec: GeneratorSpec, i: int) -> Scenario:
     horizon = lo if lo == hi else float(rng.uniform(lo, hi))
     if spec.pace is not None:
         horizon *= float(np.hypot(*(g - s)))
+    free = None
+    if spec.cruise_speed is not None:  # drawn last: the other draws stay as they were
+        lo, hi = spec.cruise_speed
+        v = lo if lo == hi else float(rng.uniform(lo, hi))
+        free = FreeTime(v * v / 2, v)
     return Scenario(
         name=spec.name(i),
         horizon=horizon,
         start=[float(s[0]), float(s[1]), float(th0)],
         goal=[float(g[0]), float(g[1]), float(th1)],
         obstacles=np.array(obstacles, dtype=float).reshape(-1, 3),
+        free_time=free,
     )
 
 

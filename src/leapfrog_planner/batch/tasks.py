@@ -23,6 +23,7 @@ from ..bvp.shooting import ShootingSettings, solve_shooting
 from ..compiled.kernels import model_info
 from ..errors import LeapfrogError, SettingsError, require_integer
 from ..planning.direct import solve_direct
+from ..planning.direct_free import solve_direct_free
 from ..planning.direct_map import solve_direct_map
 from ..planning.planner import Planner, PlannerSettings
 from ..planning.results import VALIDATION, validate
@@ -283,11 +284,7 @@ def _run_direct(sc: Scenario, options: dict) -> dict:
 
 def _solve_direct(sc: Scenario, guesses):
     bounds = tuple(sc.control_bounds.get(c) for c in model_info(sc.model).controls)
-    return solve_direct(
-        sc.start,
-        sc.goal,
-        sc.horizon,
-        sc.footprint_obstacles,  # the robot's centre among the obstacles grown by its radius
+    common = dict(
         weight=sc.weight,
         exponent=sc.exponent,
         intervals=DIRECT_INTERVALS,
@@ -295,6 +292,14 @@ def _solve_direct(sc: Scenario, guesses):
         guesses=guesses,
         control_bounds=bounds if any(bounds) else None,
         **sc.model_parameters,
+    )
+    # the robot's centre among the obstacles grown by its radius
+    ends, obstacles = (sc.start, sc.goal), sc.footprint_obstacles
+    if sc.free_time is None:
+        return solve_direct(*ends, sc.horizon, obstacles, **common)
+    f = sc.free_time
+    return solve_direct_free(
+        *ends, obstacles, f.time_weight, horizon_guess=sc.horizon, horizon_bounds=f.bounds, **common
     )
 
 

@@ -24,10 +24,10 @@ from .common import (
 from .warmup import ensure_compiled
 
 
-def _range(kind, name):
+def _range(kind, name, words=()):
     def convert(ctx, param, value):
-        if value is None:
-            return None
+        if value is None or value in words:
+            return value
         from ..batch.generate import parse_range
 
         try:
@@ -104,8 +104,16 @@ def _generator_options(fn):
         click.option(
             "--horizon",
             default=None,
-            callback=_range(float, "horizon"),
-            help="T: a value or LO..HI (uniform)  [default preset: 1]",
+            callback=_range(float, "horizon", ("free",)),
+            help="T: a value or LO..HI (uniform), or free (the planner chooses T at the price"
+            " of time of --cruise-speed)  [default preset: 1]",
+        ),
+        click.option(
+            "--cruise-speed",
+            default=None,
+            callback=_range(float, "cruise-speed"),
+            help="with --horizon free: the speed in free space, which sets the price of time"
+            " (v^2 / 2 per second), a value or LO..HI (uniform)",
         ),
         click.option(
             "--pace",
@@ -132,7 +140,12 @@ def _spec(n, seed, preset, prefix=None, **given):
         overrides["workspace"] = tuple(overrides["workspace"])
     if prefix is not None:
         overrides["prefix"] = prefix
-    if "horizon" in overrides and "pace" not in overrides:  # a horizon given: no pace
+    free = overrides.get("horizon") == "free"
+    if free != ("cruise_speed" in overrides):
+        raise click.UsageError("--horizon free and --cruise-speed go together")
+    if free:  # the search starts at the preset's horizon
+        del overrides["horizon"]
+    elif "horizon" in overrides and "pace" not in overrides:  # a horizon given: no pace
         overrides["pace"] = None
     return GeneratorSpec.preset(preset, n=n, seed=seed, **overrides)
 

@@ -36,6 +36,7 @@ from .direct_arcs import (
     wheel_to_unicycle,
 )
 from .direct_inputs import (
+    DirectResult,
     check_free_time,
     check_guess,
     check_horizon,
@@ -62,33 +63,6 @@ def load_casadi():
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise ImportError(_CASADI_MISSING) from exc
     return casadi
-
-
-@dataclass(frozen=True)
-class DirectResult:
-    """Outcome of one direct solve.
-
-    ``controls`` are in the model's own units: ``(v, omega)`` for the unicycle,
-    ``(omega_R, omega_L)`` for the diff-drive. ``states[k]`` is the state at ``t[k]``; the
-    control ``controls[k]`` is held constant on ``[t[k], t[k+1]]``.
-    """
-
-    success: bool
-    status: str
-    message: str
-    cost: float
-    t: np.ndarray
-    states: np.ndarray
-    controls: np.ndarray
-    min_clearance: float
-    iterations: int
-    solve_time: float
-    # |x(T) - goal| of the start state driven by the returned controls exactly (each interval an
-    # arc), not by the transcription's RK4 step: the check of the mesh's own error.
-    end_state_error: float = math.nan
-    # The horizon T of the solution (``t[-1]``): the given one, or the optimal one of a free-time
-    # solve (then ``cost`` holds the price of time, ``time_weight * T``, too).
-    horizon: float = math.nan
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,8 @@ finer mesh). Split from :mod:`.direct`, which imports them all: they can be impo
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -13,14 +14,39 @@ from .. import checks
 from ..errors import ModelError, ScenarioError, SettingsError, require_integer
 from .direct_arcs import controls_from_states
 
-if TYPE_CHECKING:
-    from .direct import DirectResult
-
-__all__ = ["check_free_time", "check_guess", "check_horizon", "check_model", "check_obstacles",
-           "check_positive", "check_state", "distinct_guesses", "multistart_guesses",
-           "resample_guess", "straight_line_guess"]  # fmt: skip
+__all__ = ["DirectResult", "check_free_time", "check_guess", "check_horizon", "check_model",
+           "check_obstacles", "check_positive", "check_state", "distinct_guesses",
+           "multistart_guesses", "resample_guess", "straight_line_guess"]  # fmt: skip
 
 _MODELS = ("unicycle", "diff-drive")  # the direct method writes its own dynamics for these
+
+
+@dataclass(frozen=True)
+class DirectResult:
+    """Outcome of one direct solve.
+
+    ``controls`` are in the model's own units: ``(v, omega)`` for the unicycle,
+    ``(omega_R, omega_L)`` for the diff-drive. ``states[k]`` is the state at ``t[k]``; the
+    control ``controls[k]`` is held constant on ``[t[k], t[k+1]]``.
+    """
+
+    success: bool
+    status: str
+    message: str
+    cost: float
+    t: np.ndarray
+    states: np.ndarray
+    controls: np.ndarray
+    min_clearance: float
+    iterations: int
+    solve_time: float
+    # |x(T) - goal| of the start state driven by the returned controls exactly (each interval an
+    # arc), not by the transcription's RK4 step: the check of the mesh's own error.
+    end_state_error: float = math.nan
+    # The horizon T of the solution (``t[-1]``): the given one, or the optimal one of a free-time
+    # solve (then ``cost`` holds the price of time, ``time_weight * T``, too).
+    horizon: float = math.nan
+
 
 # --------------------------------------------------------------------------- validation
 

@@ -169,8 +169,6 @@ class Scenario:
         margin = c.number(self.margin, "robot.margin", ge=0)
         c.in_range(margin, "robot.margin", (0.0, checks.COORDINATE_MAX))
         bounds = self._check_bounds(c, model)
-        if self.free_time is not None and not isinstance(self.free_time, FreeTime):
-            c.fail("free_time", f"expected a FreeTime or None, got {describe(self.free_time)}")
 
         self._check_ends(c, start, goal, waypoints, obstacles, robot_radius, exponent)
 
@@ -191,10 +189,15 @@ class Scenario:
             "margin": margin,
             "control_bounds": bounds,
             "map": self.map,
-            "free_time": self.free_time,
+            "free_time": self._check_free_time(c),
         }
         for k, v in values.items():
             object.__setattr__(self, k, v)
+
+    def _check_free_time(self, c: ScenarioCheck) -> FreeTime | None:
+        if self.free_time is not None and not isinstance(self.free_time, FreeTime):
+            c.fail("free_time", f"expected a FreeTime or None, got {describe(self.free_time)}")
+        return self.free_time
 
     def _check_ends(self, c, start, goal, waypoints, obstacles, robot_radius, exponent) -> None:
         """The footprint at the start, the goal and the waypoints may not overlap an obstacle
