@@ -210,3 +210,40 @@ def test_a_goal_out_of_reach_within_the_longest_t_fails_explicitly():
     r = plan(load_scenario_text(text + "[time]\nbounds = [0.5, 2.0]\n"))
     assert r.status is not PlanStatus.CONVERGED
     assert r.message
+
+
+def test_the_command_line_plans_a_free_time_and_refuses_bad_input(tmp_path):
+    from tests.test_cli import run_cli
+
+    ok = run_cli(["solve", "paper-case-1", "--horizon", "free", "--cruise-speed", "1"], tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    assert "final time" in ok.stdout and "T = 3.21297" in ok.stdout
+    for args, needle in [
+        (["--cruise-speed", "1"], "--horizon free"),
+        (["--horizon", "soon"], "expected seconds or free"),
+        (["--horizon", "free"], "one of time_weight and cruise_speed"),
+        (["--horizon", "free", "--time-weight", "-1"], "--time-weight"),
+        (["--horizon", "free", "--time-weight", "1", "--cruise-speed", "1"], "not both"),
+    ]:
+        bad = run_cli(["solve", "paper-case-1", *args], tmp_path)
+        assert bad.returncode == 2, (args, bad.stderr)
+        assert needle in bad.stderr and "Traceback" not in bad.stderr
+        assert "\n" not in bad.stderr.strip()
+
+
+def test_the_terminal_s_progress_bar_follows_a_plan(monkeypatch):
+    """On a terminal, ``solve`` shows a progress bar fed by the planner's events (setting the
+    planner's progress callback raised AttributeError once)."""
+    import io
+
+    from rich.console import Console
+
+    from leapfrog_planner.cli import solve as cli_solve
+    from leapfrog_planner.planning.planner import Planner
+
+    terminal = Console(file=io.StringIO(), force_terminal=True, width=100)
+    monkeypatch.setattr(cli_solve, "err", terminal)
+    planner = Planner(dataclasses.replace(load_scenario("paper-case-1"), free_time=FreeTime(1.0)))
+    r = cli_solve._plan_with_progress(planner)
+    assert r.status is PlanStatus.CONVERGED
+    assert "final time" in terminal.file.getvalue() or "sweep" in terminal.file.getvalue()

@@ -145,6 +145,28 @@ def test_a_bad_value_shows_the_error(server, browser):
     WebDriverWait(browser, WAIT).until(lambda d: _text(d, "cost") == "4.58525")
 
 
+def test_a_free_final_time_is_chosen_on_the_page(server, browser, downloads):
+    """Tick "free time": the planner chooses T at the cruise speed, the page shows it, and the
+    scenario downloaded plans to the same cost from the command line."""
+    browser.get(server)
+    wait = WebDriverWait(browser, WAIT)
+    wait.until(lambda d: _text(d, "cost") not in ("", "–"))  # paper case 1, planned on load
+    assert not browser.find_element(By.ID, "chosen-row").is_displayed()
+    browser.find_element(By.ID, "free-time").click()
+    assert not browser.find_element(By.ID, "horizon").is_enabled()
+    wait.until(lambda d: d.find_element(By.ID, "chosen-row").is_displayed())
+    wait.until(lambda d: not d.find_element(By.ID, "busy").is_displayed())
+    T = float(_text(browser, "chosen").split()[0])  # paper case 1 at a cruise speed of 1
+    assert T == pytest.approx(3.212974, rel=1e-5)
+    assert float(_text(browser, "cost")) == pytest.approx(6.425948, rel=1e-5)
+    browser.find_element(By.ID, "dl-toml").click()
+    toml = downloads / "paper-case-1.toml"
+    wait.until(lambda d: toml.exists() and 'horizon = "free"' in toml.read_text())
+    browser.find_element(By.ID, "free-time").click()  # back to the fixed horizon
+    wait.until(lambda d: not d.find_element(By.ID, "chosen-row").is_displayed())
+    assert browser.find_element(By.ID, "horizon").get_attribute("value") == "1"
+
+
 def test_downloads_of_the_result_and_the_view(server, browser, downloads):
     _case4(browser, server)
     for button, name in (("dl-json", "paper-case-4.json"), ("dl-csv", "paper-case-4.csv")):

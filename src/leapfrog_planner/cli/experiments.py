@@ -10,6 +10,7 @@ from pathlib import Path
 
 import click
 
+from .._atomic import write_atomic
 from .common import EXIT_OK, console, err, output_folder, write_output
 from .warmup import ensure_compiled, held_interrupts
 
@@ -82,20 +83,48 @@ def _shared_options(out: str, repeat: int, repeat_help: str, case_help: str):
     "timed repetitions per case and method (the median is reported)",
     "run only this paper case (repeatable)  [default: all four]",
 )
+@click.option(
+    "--time-weights",
+    default=None,
+    help="also the cases with the final time free at these prices of time k, e.g. 0.1,1,10"
+    " (free_time.md, free_time.csv)",
+)
 @click.option("--quiet", is_flag=True, help="no progress bar and no table")
-def paper(out, repeat, cases, quiet):
+def paper(out, repeat, cases, time_weights, quiet):
     """Reproduce the paper's Table 1 and Figures 1-4 (NM and MNM on its four cases)."""
-    from ..experiments.paper import PaperSettings, run_paper, table1_markdown, write_paper
+    from ..experiments.paper import PaperSettings, run_paper, table1_markdown
+    from ..experiments.paper_free import run_free_time
+    from ..experiments.paper_free import time_weights as parse_weights
 
     settings = PaperSettings(repeat=repeat, **({"cases": cases} if cases else {}))
+    weights = parse_weights(time_weights) if time_weights is not None else ()
     folder = _output_dir(out, "--out")
     ensure_compiled(["unicycle"], show=not quiet)
     result = _run_with_bar("paper", lambda cb: run_paper(settings, progress=cb), quiet)
-    write_output(lambda f: write_paper(result, f), folder, "--out")
+    free = []
+    if weights:
+        run = lambda cb: run_free_time(settings.cases, weights, cb)  # noqa: E731
+        free = _run_with_bar("free time", run, quiet)
+    write_output(lambda f: _write_paper(result, free, f), folder, "--out")
     if not quiet:
         click.echo(table1_markdown(result))  # plain: rich would re-wrap the Markdown
+        if free:
+            from ..experiments.paper_free import free_time_markdown
+
+            click.echo(free_time_markdown(free))
         console.print(f"written to {folder}/", markup=False, highlight=False)
     return EXIT_OK
+
+
+def _write_paper(result, free, folder) -> None:
+    from ..experiments.paper import write_paper
+    from ..experiments.paper_free import free_time_csv, free_time_markdown
+
+    write_paper(result, folder)
+    for name, text in (("free_time.md", free_time_markdown), ("free_time.csv", free_time_csv)):
+        if free:
+            content = text(free)
+            write_atomic(folder / name, lambda tmp, c=content: Path(tmp).write_text(c, "utf-8"))
 
 
 @click.command()

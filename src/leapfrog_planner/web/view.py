@@ -84,6 +84,7 @@ def result_view(result) -> dict:
         }
         for a in listed
     ]
+    f = result.free_time
     return {
         "status": str(result.status),
         "success": result.success,
@@ -104,6 +105,15 @@ def result_view(result) -> dict:
         "min_clearance": _num(result.min_clearance),
         "end_state_error": _num(result.end_state_error),
         "wall_time_s": result.wall_time_s,
+        # with a free final time: the T chosen, its price and Pontryagin's condition k + H
+        "free_time": None
+        if f is None
+        else {
+            "horizon": f.horizon,
+            "time_weight": f.time_weight,
+            "condition": _num(f.condition),
+            "bound": f.bound,
+        },
         "sweeps": result.sweeps,
         "newton_iterations": result.newton_iterations,
         "path": path_view(result.trajectory, *names),

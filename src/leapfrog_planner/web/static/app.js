@@ -328,6 +328,12 @@ function showResult() {
   b.textContent = r.status;
   status.append(b, r.success ? ` — ${r.message}` : `: ${r.message}`);
   setText("cost", fmt(r.cost));
+  $("chosen-row").hidden = !r.free_time;
+  if (r.free_time) {
+    const f = r.free_time;
+    const where = f.bound ? `on its ${f.bound} bound` : `k + H = ${f.condition.toExponential(1)}`;
+    setText("chosen", `${fmt(f.horizon)} s (${where})`);
+  }
   setText("energy", fmt(r.energy));
   setText("penalty", fmt(r.penalty));
   setText("clearance", r.min_clearance === null ? "no obstacles" : fmt(r.min_clearance, 4));
@@ -342,7 +348,12 @@ function refreshFields() {
   const s = state.scenario;
   if (!s) return;
   const put = (id, v) => { const e = $(id); if (document.activeElement !== e) e.value = short(v); };
-  put("horizon", s.horizon);
+  const free = s.horizon === "free";
+  $("free-time").checked = free;
+  $("cruise-speed").disabled = !free;
+  $("horizon").disabled = free;
+  if (!free) put("horizon", s.horizon);
+  if (free && s.cost && s.cost.cruise_speed !== undefined) put("cruise-speed", s.cost.cruise_speed);
   put("weight", s.penalty ? s.penalty.weight : 100);
   put("radius", s.robot && s.robot.radius !== undefined ? s.robot.radius : 0);
   $("close-map").disabled = !state.map;
@@ -661,6 +672,21 @@ function wire() {
   onField("initial_paths", (v) => { state.options.initial_paths = v; });
   onField("partitions", (v) => { state.options.partitions = v; });
   onField("horizon", (v) => { state.scenario.horizon = v; });
+  $("free-time").addEventListener("change", () => {
+    const s = state.scenario;
+    if ($("free-time").checked) {
+      state.fixedHorizon = s.horizon;
+      s.horizon = "free";
+      s.cost = { cruise_speed: Number($("cruise-speed").value) || 1 };
+    } else {
+      s.horizon = state.fixedHorizon || 1;
+      delete s.cost;
+      delete s.time;
+    }
+    refreshFields();
+    schedule(0);
+  });
+  onField("cruise-speed", (v) => { state.scenario.cost = { cruise_speed: v }; });
   onField("weight", (v) => {
     state.scenario.penalty = { ...(state.scenario.penalty || {}), weight: v };
   });

@@ -43,7 +43,7 @@ function setRobotRadius(r) {
 
 function autoHorizon() {
   const m = mapShown(), s = state.scenario;
-  if (!m || !$("auto-horizon").checked) return;
+  if (!m || !$("auto-horizon").checked || s.horizon === "free") return;
   const d = Math.hypot(val(s.goal[0]) - val(s.start[0]), val(s.goal[1]) - val(s.start[1]));
   s.horizon = Math.max(1, Math.round((10 * d) / m.speed) / 10);
 }
