@@ -2,7 +2,7 @@
 method's (T a variable, multistart), and what choosing T costs beside a fixed-T plan.
 
     python benchmarks/bench_free_time.py [--paper] [--n 200] [--seed 1] [--cruise-speed 1]
-        [--direct] [--out FILE.jsonl]
+        [--direct] [--vmax V] [--omega W] [--car] [--out FILE.jsonl]
 
 ``--paper``: the four paper cases at k = 0.1, 1 and 10 against the Richardson-extrapolated
 direct optima of ``tests/data/free_time_direct.json``. Otherwise the general preset (``--n``
@@ -11,7 +11,9 @@ scenarios, ``--seed``) at the cruise speed given. For each scenario: the free-ti
 of the two times is what choosing T costs. With ``--direct``, the direct method with T free
 (multistart, 100 intervals, from the straight distance at the cruise speed) on each scenario;
 the best known optimum is the cheapest collision-free one of both, and "best" means within 1e-4
-of it. No assertions: run it on a quiet machine and read the figures.
+of it. ``--vmax V`` bounds the speed to ``[-V, V]`` (``--omega W`` the turn rate to ``[-W, W]``)
+in both methods; ``--car`` plans the car (steering straight at both ends; the direct method has
+no car). No assertions: run it on a quiet machine and read the figures.
 """
 
 from __future__ import annotations
@@ -41,6 +43,19 @@ def timed(sc):
     return r, time.perf_counter() - t
 
 
+def vehicle(sc, vmax: float | None, omega: float | None, car: bool):
+    """``sc`` with the speed and turn rate bounded as asked, or as the car."""
+    if car:
+        ends = {"start": [*sc.start, 0.0], "goal": [*sc.goal, 0.0]}
+        return dataclasses.replace(sc, model="car", model_parameters={}, **ends)
+    bounds = {}
+    if vmax:
+        bounds["v"] = (-vmax, vmax)
+    if omega:
+        bounds["omega"] = (-omega, omega)
+    return dataclasses.replace(sc, control_bounds=bounds) if bounds else sc
+
+
 def run_one(sc, free: FreeTime, direct: bool) -> dict:
     r, t_free = timed(dataclasses.replace(sc, free_time=free))
     f = r.free_time
@@ -56,9 +71,10 @@ def run_one(sc, free: FreeTime, direct: bool) -> dict:
 
         speed = math.sqrt(2 * f.time_weight)  # the unicycle's cruise
         guess = max(float(np.hypot(*(sc.goal[:2] - sc.start[:2]))), 0.1) / speed
+        box = tuple(sc.control_bounds.get(c) for c in ("v", "omega"))
         d = solve_direct_free(
             sc.start, sc.goal, sc.obstacles, f.time_weight, horizon_guess=guess,
-            weight=sc.weight, exponent=sc.exponent,
+            weight=sc.weight, exponent=sc.exponent, control_bounds=box if any(box) else None,
         )  # fmt: skip
         row.update(direct_cost=d.cost if d.success else math.nan, direct_clearance=d.min_clearance)
     return row
@@ -119,6 +135,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--cruise-speed", type=float, default=1.0)
     ap.add_argument("--direct", action="store_true")
+    ap.add_argument("--vmax", type=float, default=None)
+    ap.add_argument("--omega", type=float, default=None)
+    ap.add_argument("--car", action="store_true")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
     plan("paper-case-1")  # warm-up: kernels loaded
@@ -128,7 +147,8 @@ def main() -> None:
         free = FreeTime(a.cruise_speed**2 / 2, a.cruise_speed)
         rows = []
         for sc in generate(GeneratorSpec.preset("general", n=a.n, seed=a.seed)):
-            rows.append(run_one(sc, free, a.direct))
+            sc = vehicle(sc, a.vmax, a.omega, a.car)
+            rows.append(run_one(sc, free, a.direct and not a.car))
             print(json.dumps(rows[-1]), flush=True)
     print(f"\n{'paper cases' if a.paper else f'general preset, {a.n} (seed {a.seed})'}:")
     summary(rows)

@@ -140,6 +140,23 @@ def test_where_the_direct_optimum_crosses_a_disc_the_answer_does_not():
         assert r.cost > ref["cost"]  # dearer than the path through the disc, as it must be
 
 
+@pytest.mark.parametrize("index", [0, 5])
+def test_an_answer_is_no_dearer_than_a_fixed_horizon_plan_at_its_t(index):
+    """Random layouts of the general preset at a cruise speed of 1 (headings within 45 degrees
+    of the line): converged, k + H = 0, collision-free, and no dearer than what the planner
+    finds with the horizon fixed at the T chosen (on layout 5 that fixed plan returns a dearer
+    extremal than the one continued in T, which the answer keeps)."""
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+
+    sc = generate_one(GeneratorSpec.preset("general", seed=1), index)
+    r = plan(dataclasses.replace(sc, free_time=FreeTime(0.5, 1.0)))
+    assert r.status is PlanStatus.CONVERGED and condition_met(r)
+    assert r.min_clearance >= 0.0
+    T = r.free_time.horizon
+    fixed = plan(dataclasses.replace(sc, horizon=T))
+    assert r.cost <= fixed.cost + 0.5 * T + 1e-9
+
+
 def test_a_bound_on_t_holds_and_is_reported():
     text = line(price="cruise_speed = 1.0") + "[time]\nbounds = [0.5, 2.0]\n"
     r = plan(load_scenario_text(text))  # the free optimum, 3 s, is beyond the longest

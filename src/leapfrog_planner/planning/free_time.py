@@ -70,7 +70,7 @@ class FixedHorizonPlans(Protocol):
 
     def progress_note(self, note: str) -> None: ...
 
-    def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation: ...
+    def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation | None: ...
 
     @property
     def shooting(self) -> ShootingSettings: ...
@@ -297,7 +297,7 @@ def _at_root(plans, scenario: Scenario, root: _Root, planned: list[PlanResult]) 
         if r.task.horizon == p.T and abs(r.cost - p.V) <= 1e-7 * max(1.0, abs(p.V)):
             return r
     v = plans.validate(root.problem, p.arcs)
-    if v.trajectory is None:
+    if v is None or v.trajectory is None:
         return root.source
     clear = v.clearance.size == 0 or float(v.clearance.min()) >= scenario.margin
     return replace(

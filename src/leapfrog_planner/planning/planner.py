@@ -153,9 +153,11 @@ class Planner:
         """Reports ``note`` as a :class:`PlanEvent` of stage ``"time"``."""
         self.runner.emit(PlanEvent("time", 0, 1, note))
 
-    def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation:
-        """``arcs`` re-integrated and checked as every answer is (``validate_arcs``)."""
-        return validate_arcs(problem, arcs, self.settings.samples, self.runner.validation)
+    def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation | None:
+        """``arcs`` re-integrated and checked as every answer is (``validate_arcs``); None when
+        they miss the goal by more than a run's extremal may."""
+        v = validate_arcs(problem, arcs, self.settings.samples, self.runner.validation)
+        return v if v.end_state_error <= self.runner.end_tolerance else None
 
     @property
     def shooting(self) -> ShootingSettings:

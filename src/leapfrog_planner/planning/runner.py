@@ -59,7 +59,7 @@ class Runner:
         self.validation = IntegratorSettings(
             "dop853", rtol=final.integrator.rtol, atol=final.integrator.atol
         )
-        self._end_tolerance = END_STATE_FACTOR * final.root.tol
+        self.end_tolerance = END_STATE_FACTOR * final.root.tol
         self._lock = threading.Lock()
         self._progress_lock = threading.Lock()
         self._flows: dict[tuple, tuple[OptimalControlProblem, Flow]] = {}
@@ -143,7 +143,7 @@ class Runner:
             validation=v,
             validation_time_s=t_val,
             iterate_problem=iterate_problem,
-            end_tolerance=self._end_tolerance,
+            end_tolerance=self.end_tolerance,
             margin=s.margin,
             time_s=time.perf_counter() - t_start,
         )
