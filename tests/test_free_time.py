@@ -221,12 +221,12 @@ def test_bad_free_time_input_is_one_line(text, needle):
     assert needle in str(e.value) and "\n" not in str(e.value)
 
 
-def test_a_goal_out_of_reach_within_the_longest_t_fails_explicitly():
+def test_a_goal_out_of_reach_within_the_longest_t_is_refused_at_once():
     """Speed at most 1 m/s, 10 m to go, at most 2 s: no T allowed reaches the goal."""
     text = line(extra="v = [-1.0, 1.0]").replace("goal = [3, 0, 0]", "goal = [10, 0, 0]")
-    r = plan(load_scenario_text(text + "[time]\nbounds = [0.5, 2.0]\n"))
-    assert r.status is not PlanStatus.CONVERGED
-    assert r.message
+    with pytest.raises(ScenarioError) as e:
+        load_scenario_text(text + "[time]\nbounds = [0.5, 2.0]\n", "f.toml")
+    assert "it takes at least 10 s, longer than the longest T allowed, 2" in str(e.value)
 
 
 def test_the_command_line_plans_a_free_time_and_refuses_bad_input(tmp_path):

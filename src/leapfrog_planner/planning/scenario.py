@@ -189,15 +189,30 @@ class Scenario:
             "margin": margin,
             "control_bounds": bounds,
             "map": self.map,
-            "free_time": self._check_free_time(c),
+            "free_time": self._check_free_time(c, start, goal, bounds),
         }
         for k, v in values.items():
             object.__setattr__(self, k, v)
 
-    def _check_free_time(self, c: ScenarioCheck) -> FreeTime | None:
-        if self.free_time is not None and not isinstance(self.free_time, FreeTime):
-            c.fail("free_time", f"expected a FreeTime or None, got {describe(self.free_time)}")
-        return self.free_time
+    def _check_free_time(self, c: ScenarioCheck, start, goal, bounds) -> FreeTime | None:
+        """The free time, of the right type, and its longest ``T`` long enough for a bounded
+        speed to cover the straight distance."""
+        free = self.free_time
+        if free is None:
+            return None
+        if not isinstance(free, FreeTime):
+            c.fail("free_time", f"expected a FreeTime or None, got {describe(free)}")
+        if free.bounds is not None and "v" in bounds:
+            vmax = max(abs(v) for v in bounds["v"])
+            distance = float(np.hypot(*(goal[:2] - start[:2])))
+            if distance > vmax * free.bounds[1]:
+                c.fail(
+                    "time.bounds",
+                    f"the goal is {distance:.6g} away and the speed at most {vmax:g}: it takes at"
+                    f" least {distance / vmax:.6g} s, longer than the longest T allowed,"
+                    f" {free.bounds[1]:g}",
+                )
+        return free
 
     def _check_ends(self, c, start, goal, waypoints, obstacles, robot_radius, exponent) -> None:
         """The footprint at the start, the goal and the waypoints may not overlap an obstacle
