@@ -159,6 +159,8 @@ class TimeSearch:
                 return b, "shortest"
             if b.T == hi and self.g(b) < 0:
                 return b, "longest"
+            if b.T == a.T or self.g(b) == self.g(a):
+                raise _Stuck(f"the secant in T stalled at {b.T:.6g}")
             ua, ub = a.T**-2, b.T**-2  # the secant in 1/T^2
             u = ub - self.g(b) * (ub - ua) / (self.g(b) - self.g(a))
             T = u**-0.5 if u > 0 else b.T * STEP_FACTOR
