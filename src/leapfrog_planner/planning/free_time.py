@@ -56,6 +56,8 @@ MAX_SOLVES = 30
 #: Alternatives are continued when their cost with the price of time is at most this many
 #: times the answer's at the first horizon.
 ALTERNATIVE_FACTOR = 1.5
+#: Where the plan at the first horizon finds no extremal, these multiples of it are planned.
+RETRIES = (1.6, 2.5)
 #: The largest change of ``T`` in one secant step, as a factor.
 STEP_FACTOR = 8.0
 
@@ -227,8 +229,7 @@ def plan_free_time(plans: FixedHorizonPlans, scenario: Scenario, T0: float) -> P
     """The free-time answer of ``scenario`` (the module's method), starting at ``T0``."""
     t_begin = time.perf_counter()
     k = scenario.free_time.time_weight
-    result = plans.plan_at(T0)
-    steps = [_step(result, k, "plan")]
+    result, steps = _first_plan(plans, scenario, T0)
     planned, roots = [result], []
     for _ in range(ROUNDS):
         if result.status is not PlanStatus.CONVERGED:
@@ -245,6 +246,20 @@ def plan_free_time(plans: FixedHorizonPlans, scenario: Scenario, T0: float) -> P
     best = _cheapest(roots, scenario)
     answer = planned[0] if best is None else _at_root(plans, scenario, best, planned)
     return _reported(answer, steps, scenario, time.perf_counter() - t_begin)
+
+
+def _first_plan(plans, scenario: Scenario, T0: float) -> tuple[PlanResult, list[TimeStep]]:
+    """The plan at ``T0``; where it finds no extremal, at longer horizons (gentler on the
+    controls: a bounded turn rate needs time), :data:`RETRIES` of them within the bounds."""
+    k, (_, hi) = scenario.free_time.time_weight, scenario.free_time.limits()
+    steps = []
+    for factor in (1.0, *RETRIES):
+        T = min(T0 * factor, hi)
+        result = plans.plan_at(T)
+        steps.append(_step(result, k, "plan"))
+        if result.status is PlanStatus.CONVERGED or T == hi:
+            break
+    return result, steps
 
 
 def _family_roots(plans, scenario: Scenario, result: PlanResult, steps: list) -> list[_Root]:
