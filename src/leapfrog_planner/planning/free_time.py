@@ -97,6 +97,10 @@ class _Stuck(RuntimeError):
 class _Met(Exception):
     """Raised inside Brent's method when a point meets the condition: no need to go on."""
 
+    def __init__(self, point: _Point):
+        super().__init__(point.T)
+        self.point = point
+
 
 class TimeSearch:
     """The root of ``k + H(T)`` along one family of extremals (step 2 of the module's method)."""
@@ -172,14 +176,14 @@ class TimeSearch:
         def g(u):
             p = self.at(u**-0.5)
             if self.met(p):
-                raise _Met
+                raise _Met(p)
             return self.g(p)
 
         try:
             u = brentq(g, a.T**-2, b.T**-2, xtol=1e-300, rtol=4 * np.finfo(float).eps)
             return self.at(u**-0.5)
-        except _Met:
-            return self.points[-1]
+        except _Met as met:
+            return met.point
 
 
 def first_horizon(scenario: Scenario, shortest: float, effort: float, estimate) -> float:
