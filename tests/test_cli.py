@@ -61,6 +61,11 @@ def run_cli(args: list[str], cwd: Path) -> Run:
     return Run(p.returncode, p.stdout, p.stderr, cwd)
 
 
+def not_compile_notices(stderr: str) -> list[str]:
+    """The lines of ``stderr`` other than the notices of compiling kernels."""
+    return [x for x in stderr.splitlines() if not re.match(r"compil(ing|ed) the \S+ kernels", x)]
+
+
 def run_all(jobs: dict[str, tuple[list[str], Path]]) -> dict[str, Run]:
     with ThreadPoolExecutor(WORKERS) as pool:
         futures = {k: pool.submit(run_cli, args, cwd) for k, (args, cwd) in jobs.items()}
@@ -335,7 +340,9 @@ def test_solve_prints_a_summary(good_runs):
     assert re.search(r"status\s*\W\s*converged", run.stdout)
     assert re.search(r"cost\s*\W\s*10\.323202\b", run.stdout), run.stdout
     assert os.listdir(run.cwd) == []
-    assert run.stderr == ""  # stderr is a pipe here: no progress bar, not even a blank line
+    # stderr is a pipe here: no progress bar, not even a blank line; only a compile notice, on a
+    # machine whose cache is cold
+    assert not_compile_notices(run.stderr) == []
 
 
 def test_solver_failure_gives_exit_1_and_still_writes_files(good_runs):

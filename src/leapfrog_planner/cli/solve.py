@@ -269,7 +269,12 @@ def solve(
     settings = {**planner_options(options), **{k: v for k, v in named if v is not None}}
     planner = Planner(sc, **settings)  # settings errors surface here, before any display
     # Loaded before planning, so that the time reported is the plan's own.
-    ensure_compiled([sc.model], show=not quiet, methods=[planner.settings.leapfrog.method])
+    ensure_compiled(
+        [sc.model],
+        show=not quiet,
+        methods=[planner.settings.leapfrog.method],
+        bounded=tuple(sc.control_bounds),
+    )
     result = planner.plan() if quiet else _plan_with_progress(planner)
     if outputs["--json"]:
         write_output(result.save_json, outputs["--json"], "--json")
