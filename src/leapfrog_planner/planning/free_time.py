@@ -43,6 +43,10 @@ from .results import PlanResult, Validation, piecewise_trajectory
 from .scenario import Scenario
 from .status import FreeTimeReport, PlanStatus, TimeStep
 
+#: The initial paths of the plans at a horizon, at least: the extremals they find are the
+#: families followed in T, and with the default three the cheapest family was missed on 3 of
+#: 80 random layouts (general preset, seed 1, cruise speed 1) where six found it.
+FREE_TIME_PATHS = 6
 #: Plans at a root before the search gives up on a plan returning the extremal it continued.
 ROUNDS = 3
 #: ``|k + H|`` at most this times ``max(1, k)`` meets the free-time condition.

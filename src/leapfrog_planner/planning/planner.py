@@ -22,7 +22,7 @@ from ..integrate.problem import OptimalControlProblem
 from ..model import get_model
 from ..model.cruise import straight_effort
 from .answer import Chosen, Context, choose_answer
-from .free_time import first_horizon, plan_free_time
+from .free_time import FREE_TIME_PATHS, first_horizon, plan_free_time
 from .initial_path import InitialPath, initial_paths, points_away
 from .initial_path.map_paths import Unreachable, map_initial_paths
 from .leapfrog import Arcs
@@ -139,9 +139,12 @@ class Planner:
     # ------------------------------------------------------------ a free final time (.free_time)
 
     def plan_at(self, horizon: float) -> PlanResult:
-        """The plan of the scenario with its horizon fixed at ``horizon``."""
+        """The plan of the scenario with its horizon fixed at ``horizon``, with at least
+        :data:`.free_time.FREE_TIME_PATHS` initial paths."""
         fixed = dataclasses.replace(self.scenario, horizon=horizon, free_time=None)
-        return Planner(fixed, self.settings, progress=self.progress)._plan()
+        paths = max(self.settings.initial_paths, FREE_TIME_PATHS)
+        settings = dataclasses.replace(self.settings, initial_paths=paths)
+        return Planner(fixed, settings, progress=self.progress)._plan()
 
     def problem_at(self, weight: float) -> OptimalControlProblem:
         """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
