@@ -55,6 +55,11 @@ CONDITION_TOL = 1e-8
 JUNCTIONS = 16
 #: The horizons where the first is sought, as multiples of the shortest path at cruise speed.
 FIRST_GRID = np.geomspace(0.5, 8.0, 9)
+#: A continuation step whose path moves further than this fraction of its length from the path
+#: it started from has jumped to another family (measured: a step of 1.5x in T from a path round
+#: a disc landed on one through it); it is made again in smaller steps.
+MAX_MOVE = 0.15
+SHAPE_SAMPLES = 33
 #: Shooting solves one family's continuation may make (a family that folds is left there).
 MAX_SOLVES = 30
 #: Alternatives are continued when their cost with the price of time is at most this many
@@ -92,6 +97,16 @@ class _Point:
     H: float
     V: float
     clearance: float
+    xy: np.ndarray  # positions at SHAPE_SAMPLES uniform fractions of T: the path's shape
+
+    def moved(self, other: _Point) -> float:
+        """How far the path moved from ``other``'s, relative to the longer path's length."""
+        length = max(_length(self.xy), _length(other.xy), 1e-12)
+        return float(np.linalg.norm(self.xy - other.xy, axis=1).max()) / length
+
+
+def _length(xy: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum())
 
 
 class _Stuck(RuntimeError):
@@ -121,7 +136,10 @@ class TimeSearch:
         tr = piecewise_trajectory(self.flow, arcs, 401)
         H = float(np.mean(tr.hamiltonian[tr.at_step]))
         clearance = float(np.min(self.problem.penalty.clearance(tr.x[:, :2]), initial=np.inf))
-        return _Point(float(arcs.t[-1]), arcs, H, float(tr.cost[-1]), clearance)
+        keep = np.append(np.diff(tr.t) > 0, True)
+        s = np.linspace(tr.t[0], tr.t[-1], SHAPE_SAMPLES)
+        xy = np.column_stack([np.interp(s, tr.t[keep], tr.x[keep, i]) for i in (0, 1)])
+        return _Point(float(arcs.t[-1]), arcs, H, float(tr.cost[-1]), clearance, xy)
 
     def g(self, p: _Point) -> float:
         return self.k + p.H
@@ -141,12 +159,13 @@ class TimeSearch:
                 raise _Stuck(f"the continuation in T made {MAX_SOLVES} solves")
             self.solves += 1
             arcs = resolve(self.problem, base.arcs, self.problem, (0, T1), self.ends, self.settings)
-            if arcs is None:
+            new = None if arcs is None else self._point(arcs)
+            if new is None or new.moved(base) > MAX_MOVE:  # failed, or jumped to another family
                 if len(targets) > MAX_HALVINGS:
                     raise _Stuck(f"the continuation in T stopped between {base.T:.6g} and {T1:.6g}")
                 targets.append(math.sqrt(base.T * T1))
                 continue
-            base = self._point(arcs)
+            base = new
             self.points.append(base)
             targets.pop()
         return base
@@ -244,16 +263,39 @@ def plan_free_time(plans: FixedHorizonPlans, scenario: Scenario, T0: float) -> P
             break
         roots += _family_roots(plans, scenario, result, steps)
         best = _cheapest(roots, scenario)
-        if best is None or best.point.T == result.task.horizon:
+        if best is None:  # no family could be followed: plan where the first step aimed
+            T = _aimed(result, scenario)
+            if T is None:
+                break
+        elif best.point.T == result.task.horizon:
             break  # the plan was made at the root: it has seen every family there
-        result = plans.plan_at(best.point.T)
+        else:
+            T = best.point.T
+        result = plans.plan_at(T)
         steps.append(_step(result, k, "plan"))
         planned.append(result)
-        if not _cheaper(result, best, k):
+        if best is not None and not _cheaper(result, best, k):
             break
     best = _cheapest(roots, scenario)
-    answer = planned[0] if best is None else _at_root(plans, scenario, best, planned)
+    if best is None:  # no root: the best plan made, which says it misses the condition
+        answer = min(planned, key=lambda r: (r.status is not PlanStatus.CONVERGED, _total(r, k)))
+    else:
+        answer = _at_root(plans, scenario, best, planned)
     return _reported(answer, steps, scenario, time.perf_counter() - t_begin)
+
+
+def _aimed(result: PlanResult, scenario: Scenario) -> float | None:
+    """Where the first step of a family's search aimed from ``result`` (None: it was there),
+    inside the bounds: a plan there starts the search afresh when no family could be followed
+    (from a horizon far too short, the extremals fold before they get there)."""
+    free, H = scenario.free_time, _hamiltonian(result)
+    T0, k = result.task.horizon, free.time_weight
+    if not math.isfinite(H):
+        return None
+    T = T0 * math.sqrt(-H / k) if H < 0 else T0 / 2
+    lo, hi = free.limits()
+    T = float(np.clip(T, max(lo, T0 / STEP_FACTOR), min(hi, T0 * STEP_FACTOR)))
+    return None if T == T0 else T
 
 
 def _first_plan(plans, scenario: Scenario, T0: float) -> tuple[PlanResult, list[TimeStep]]:
@@ -338,6 +380,10 @@ def _at_root(plans, scenario: Scenario, root: _Root, planned: list[PlanResult]) 
         optimal=True,
         trajectory_source="extremal",
     )
+
+
+def _total(r: PlanResult, k: float) -> float:
+    return r.cost + k * r.task.horizon if math.isfinite(r.cost) else math.inf
 
 
 def _step(result: PlanResult, k: float, source: str) -> TimeStep:
