@@ -154,20 +154,15 @@ class GeneratorSpec:
         if h[0] > h[1]:
             raise SettingsError(f"horizon: min {h[0]} > max {h[1]}")
         set_("horizon", h)
-        if self.pace is not None:
-            if len(self.pace) != 2:
-                raise SettingsError(f"pace must be (min, max) seconds per metre, got {self.pace!r}")
-            pace = tuple(real("pace", v, 0.0, strict=True) for v in self.pace)
-            if pace[0] > pace[1]:
-                raise SettingsError(f"pace: min {pace[0]} > max {pace[1]}")
-            set_("pace", pace)
-        if self.cruise_speed is not None:
-            if len(self.cruise_speed) != 2:
-                raise SettingsError(f"cruise_speed must be (min, max), got {self.cruise_speed!r}")
-            speed = tuple(real("cruise_speed", v, 0.0, strict=True) for v in self.cruise_speed)
-            if speed[0] > speed[1]:
-                raise SettingsError(f"cruise_speed: min {speed[0]} > max {speed[1]}")
-            set_("cruise_speed", speed)
+        for name, unit in (("pace", " seconds per metre"), ("cruise_speed", "")):
+            value = getattr(self, name)
+            if value is not None:
+                if len(value) != 2:
+                    raise SettingsError(f"{name} must be (min, max){unit}, got {value!r}")
+                lo, hi = (real(name, v, 0.0, strict=True) for v in value)
+                if lo > hi:
+                    raise SettingsError(f"{name}: min {lo} > max {hi}")
+                set_(name, (lo, hi))
         check_prefix(self.prefix)
         set_("max_attempts", require_integer("max_attempts", self.max_attempts))
 
