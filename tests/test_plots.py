@@ -381,3 +381,27 @@ def test_save_figure_closes_pyplot_figures(planned, tmp_path):
     save_figure(fig, tmp_path / "p.png")
     assert not plt.fignum_exists(fig.number)
     check_png(tmp_path / "p.png")
+
+
+def test_the_hamiltonian_panel_of_a_saved_result_reads_the_integrator_steps(tmp_path):
+    """The figure of a result read back from its file titles the Hamiltonian's variation at the
+    integrator's own steps, as the result itself reports it (it used every interpolated row:
+    3.8e-5 in the title where the file said 6.9e-12)."""
+    import matplotlib.pyplot as plt
+
+    from leapfrog_planner.planning.planner import plan
+    from leapfrog_planner.planning.results import PlanResult
+    from leapfrog_planner.viz.plots import plot_controls
+
+    r = plan("paper-case-4")
+    path = tmp_path / "r.json"
+    r.save_json(path)
+    back = PlanResult.load(path)
+    np.testing.assert_array_equal(back.trajectory.at_step, r.trajectory.at_step)
+    fig = plot_controls(back)
+    title = next(a.get_title() for a in fig.axes if "Hamiltonian" in a.get_title())
+    shown = float(title.rsplit("=", 1)[1])
+    H = r.trajectory.hamiltonian[r.trajectory.at_step]
+    assert shown == pytest.approx(float(np.abs(H - H[0]).max()), rel=0.01)
+    assert shown <= 1e-9
+    plt.close(fig)

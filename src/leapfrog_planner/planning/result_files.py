@@ -25,7 +25,6 @@ from .scenario import scenario_from_dict
 from .status import FreeTimeReport, PathOutcome, PlanStatus, RunRecord, TimeStep
 
 SCHEMA = 2
-_EXTRA = ("running_cost", "hamiltonian")  # trajectory columns besides t, states, controls, costates
 
 
 class ResultFileError(LeapfrogError, ValueError):
@@ -56,7 +55,9 @@ def plain(value: Any) -> Any:
 
 def trajectory_columns(tr: Trajectory | None, states, controls) -> dict[str, np.ndarray]:
     """A trajectory as named columns of equal length: ``t``, the states, the controls, the
-    costates ``lambda_1``..., ``running_cost`` (accumulated from ``t[0]``) and ``hamiltonian``."""
+    costates ``lambda_1``..., ``running_cost`` (accumulated from ``t[0]``), ``hamiltonian`` and
+    ``at_step`` (1 where the integrator stepped, 0 on the rows interpolated between its steps,
+    whose Hamiltonian carries the interpolation's error)."""
     if tr is None:
         return {}
     cols = {"t": tr.t}
@@ -65,6 +66,7 @@ def trajectory_columns(tr: Trajectory | None, states, controls) -> dict[str, np.
     cols.update({f"lambda_{i + 1}": tr.lam[:, i] for i in range(tr.lam.shape[1])})
     cols["running_cost"] = tr.cost
     cols["hamiltonian"] = tr.hamiltonian
+    cols["at_step"] = np.asarray(tr.at_step, dtype=float)
     return cols
 
 
@@ -85,7 +87,7 @@ def trajectory_from_columns(cols: dict, states, controls) -> Trajectory | None:
         cost=np.asarray(cols.get("running_cost", nan), dtype=float),
         hamiltonian=np.asarray(cols.get("hamiltonian", nan), dtype=float),
         dH_du=np.full_like(u, np.nan),  # not saved: max_dH_du holds its check
-        at_step=np.zeros(t.size, dtype=bool),
+        at_step=np.asarray(cols.get("at_step", np.zeros(t.size)), dtype=float) == 1.0,
     )
 
 
