@@ -176,7 +176,7 @@ class TimeSearch:
         if self.met(a):
             return a, ""
         lo, hi = self.limits
-        T = a.T * math.sqrt(-a.H / self.k) if a.H < 0 else a.T / 2
+        T = first_step(a.T, a.H, self.k)
         while True:
             T = float(np.clip(T, max(lo, a.T / STEP_FACTOR), min(hi, a.T * STEP_FACTOR)))
             b = self.at(T)
@@ -207,6 +207,12 @@ class TimeSearch:
             return self.at(u**-0.5)
         except _Met as met:
             return met.point
+
+
+def first_step(T: float, H: float, k: float) -> float:
+    """Where a search aims first from an extremal at ``T`` with Hamiltonian ``H``: the root of
+    ``k + H`` were ``H`` that of free space, ``-c / T^2``; half ``T`` when ``H >= 0``."""
+    return T * math.sqrt(-H / k) if H < 0 else T / 2
 
 
 def first_horizon(scenario: Scenario, shortest: float, effort: float, estimate) -> float:
@@ -292,7 +298,7 @@ def _aimed(result: PlanResult, scenario: Scenario) -> float | None:
     T0, k = result.task.horizon, free.time_weight
     if not math.isfinite(H):
         return None
-    T = T0 * math.sqrt(-H / k) if H < 0 else T0 / 2
+    T = first_step(T0, H, k)
     lo, hi = free.limits()
     T = float(np.clip(T, max(lo, T0 / STEP_FACTOR), min(hi, T0 * STEP_FACTOR)))
     return None if T == T0 else T
