@@ -197,7 +197,8 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
     # assist to 0. Another path's last iterate, still assisted, turns where the car cannot and
     # costs less than the car's extremal: it was reported as a cheaper motion on 29 of 32
     # converged parking layouts (and sent those plans on to twice the partitions). Only
-    # motions the car can make count.
+    # motions the car can make count. (Which rival iterates come out cheaper depends on the
+    # route each run takes; layout 4 has three.)
     import math
 
     from leapfrog_planner.planning.answer import (
@@ -210,7 +211,7 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
     from leapfrog_planner.planning.planner import Planner
     from leapfrog_planner.planning.search import STAGES, Search
 
-    sc = parking_car(1)
+    sc = parking_car(4)
     p = Planner(sc)
     search = Search(
         p.scenario, p.settings, p.path_selection(), p.robot.model.aid, p.runner.problem_of,
@@ -232,4 +233,4 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
                for r, tr in cheaper)  # fmt: skip
     r = plan(sc)
     assert math.isnan(r.cheaper_motion) and "cheaper" not in r.message
-    assert r.cost == pytest.approx(3.3066764, rel=1e-6)
+    assert r.cost == pytest.approx(4.4517245, rel=1e-6)

@@ -1,8 +1,7 @@
 """Never waiting blind: when loading a model's kernels turns out to be compiling them, every
 command says so on stderr, on a terminal and off it (a script, CI, a notebook), and how long it
-took; a scenario with bounded controls warms its own kernel set up before the plan, so that the
-plan's time is the plan's own. The compiling is stood in for by a slow warm-up here (a real
-one takes a minute)."""
+took. One kernel set per model serves every scenario, bounded controls included. The compiling
+is stood in for by a slow warm-up here (a real one takes a minute)."""
 
 from __future__ import annotations
 
@@ -20,8 +19,8 @@ from leapfrog_planner.planning import warmup as planning_warmup
 def slow(monkeypatch):
     calls = []
 
-    def warm_up(model, methods=None, bounded=()):
-        calls.append((model, tuple(bounded)))
+    def warm_up(model, methods=None):
+        calls.append(model)
         time.sleep(cli_warmup.COMPILING_AFTER_S + 0.3)
         return cli_warmup.COMPILING_AFTER_S + 0.3
 
@@ -33,19 +32,18 @@ def slow(monkeypatch):
 def test_compiling_is_said_on_and_off_a_terminal(monkeypatch, slow, terminal):
     out = io.StringIO()
     monkeypatch.setattr(cli_warmup, "err", Console(file=out, force_terminal=terminal, width=200))
-    cli_warmup.ensure_compiled(["unicycle"], bounded=("v",))
+    cli_warmup.ensure_compiled(["unicycle"])
     text = out.getvalue()
     assert "compiling the unicycle kernels, once per machine" in text
     assert "compiled the unicycle kernels in 2 s" in text
-    assert "compiled the unicycle kernels with v bounded in 2 s" in text
-    assert slow == [("unicycle", ()), ("unicycle", ("v",))]
+    assert slow == ["unicycle"]
 
 
 def test_quiet_says_nothing(monkeypatch, slow):
     out = io.StringIO()
     monkeypatch.setattr(cli_warmup, "err", Console(file=out, force_terminal=False))
     cli_warmup.ensure_compiled(["unicycle"], show=False)
-    assert out.getvalue() == "" and slow == [("unicycle", ())]
+    assert out.getvalue() == "" and slow == ["unicycle"]
 
 
 def test_loading_cached_kernels_says_nothing(monkeypatch):

@@ -10,7 +10,7 @@ import pytest
 
 from leapfrog_planner.batch.generate import GeneratorSpec, generate
 from leapfrog_planner.errors import ScenarioError
-from leapfrog_planner.model.bounds import smooth_clip
+from leapfrog_planner.model.bounds import saturate
 from leapfrog_planner.planning.bounded import exceeded
 from leapfrog_planner.planning.planner import plan
 from leapfrog_planner.planning.scenario import load_scenario, load_scenario_text
@@ -23,13 +23,20 @@ def test_the_smooth_clip_is_the_identity_inside_and_the_bound_outside():
     lo, hi = -1.0, 2.0
     s = np.linspace(-10, 10, 20001)
     for eps in (0.3, 0.01, 1e-4):
-        u = smooth_clip(s, lo, hi, eps)
+        u, slope = np.array([saturate(x, lo, hi, 1.0, eps) for x in s]).T
         assert np.all(np.diff(u) > 0)  # strictly increasing: a unique minimiser
+        h = 1e-3 * eps  # the slope is the derivative (central differences)
+        up = np.array([saturate(x + h, lo, hi, 1.0, eps)[0] for x in s[::97]])
+        down = np.array([saturate(x - h, lo, hi, 1.0, eps)[0] for x in s[::97]])
+        fd = (up - down) / (2 * h)
+        np.testing.assert_allclose(slope[::97], fd, rtol=1e-5, atol=1e-7)
         assert u.max() <= hi + eps**2 / (4 * (hi - lo)) + 1e-15
         assert u.min() >= lo - eps**2 / (4 * (hi - lo)) - 1e-15
         inside = (s > lo + 10 * eps) & (s < hi - 10 * eps)
         np.testing.assert_allclose(u[inside], s[inside], atol=eps)
         np.testing.assert_allclose(u[s > hi + 100 * eps], hi, atol=eps / 100)
+    # Switched off, the control is the unconstrained one exactly, with slope 1.
+    assert all(saturate(x, lo, hi, 0.0, 0.3) == (x, 1.0) for x in s[::500])
 
 
 ROOM = """horizon = 1.0

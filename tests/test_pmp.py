@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from leapfrog_planner import Flow, ModelError, OptimalControlProblem, VehicleModel, derive
+from leapfrog_planner.compiled.kernels import model_info
 
 finite = st.floats(-5.0, 5.0, allow_nan=False, allow_infinity=False)
 z_points = st.lists(finite, min_size=6, max_size=6).map(np.array)
@@ -22,6 +23,12 @@ axle_length = st.floats(0.3, 3.0)
 
 def kernels(model: str):
     return Flow(OptimalControlProblem.create(model)).kernels
+
+
+def all_parameters(model: str, robot=()) -> np.ndarray:
+    """The kernels' parameter vector: the robot's (in order) and the controls' bounds (off)."""
+    info = model_info(model)
+    return np.array(info.parameter_values(dict(zip(info.robot_parameters, robot, strict=True))))
 
 
 def spec_canonical(model: str, z, p):
@@ -40,7 +47,7 @@ def spec_canonical(model: str, z, p):
         u = np.array([v, w])
         cost = (v * v + w * w) / 2
     else:
-        r, b = p
+        r, b = p[:2]  # the robot's parameters come first
         a = -(r / 2) * (l1 * c + l2 * s)
         wr, wl = a - (r / b) * l3, a + (r / b) * l3
         u = np.array([wr, wl])
@@ -67,7 +74,8 @@ def test_unicycle_control_law_is_the_spec_one():
     # Numerically: the derived running cost on the law is (v^2 + omega^2) / 2.
     at = {th: 0.3, l1: -1.5, l2: 2.0, l3: 0.7}
     vv = 1.5 * np.cos(0.3) - 2.0 * np.sin(0.3)
-    assert float(sysm.running_cost.subs(at)) == pytest.approx((vv**2 + 0.7**2) / 2, rel=1e-14)
+    (cost,) = sysm.on_law([sysm.running_cost])
+    assert float(cost.subs(at)) == pytest.approx((vv**2 + 0.7**2) / 2, rel=1e-14)
 
 
 @pytest.mark.parametrize("model", ["unicycle", "diff-drive"])
@@ -76,7 +84,7 @@ def test_unicycle_control_law_is_the_spec_one():
 def test_generated_rhs_is_the_spec_canonical_system(model, z, r, b):
     """``model_augmented`` (k = 0) against the canonical system written out by hand."""
     K = kernels(model)
-    p = np.array([r, b]) if model == "diff-drive" else np.zeros(0)
+    p = all_parameters(model, (r, b) if model == "diff-drive" else ())
     out = np.empty(7)
     K.model_augmented(z, p, np.zeros(0), 0, out)
     zdot, cost, u_spec = spec_canonical(model, z, p)
@@ -119,7 +127,7 @@ def sympy_dH_du():
 def test_derived_controls_satisfy_dH_du_zero_and_minimise_H(sympy_dH_du, model, z, r, b, du):
     K = kernels(model)
     params = (r, b) if model == "diff-drive" else ()
-    p = np.array(params, dtype=float)
+    p = all_parameters(model, params)
     u = np.empty(2)
     K.controls(z, p, u)
     grad, H, hess = sympy_dH_du[model]
@@ -144,16 +152,17 @@ def test_derived_controls_satisfy_dH_du_zero_and_minimise_H(sympy_dH_du, model, 
 def test_hamiltonian_kernel_matches_sympy(model):
     sysm = derive(model)
     m = sysm.model
-    f = sp.lambdify([*m.states, *sysm.costates, *m.parameters], sysm.hamiltonian_on_extremal())
+    (h_law,) = sysm.on_law([sysm.model_hamiltonian()])
+    f = sp.lambdify([*m.states, *sysm.costates, *m.parameters], h_law)
     K = kernels(model)
     rng = np.random.default_rng(1)
     params = (0.7, 1.3) if model == "diff-drive" else ()
     for z in rng.uniform(-3, 3, size=(20, 6)):
-        h = K.hamiltonian_model(z, np.array(params, dtype=float))
+        h = K.hamiltonian_model(z, all_parameters(model, params))
         assert h == pytest.approx(f(*z, *params), rel=1e-13, abs=1e-13)
         # On the control law H = L + lambda^T f = -L for these models (L quadratic, f linear in u).
         out = np.empty(7)
-        K.model_augmented(z, np.array(params, dtype=float), np.zeros(0), 0, out)
+        K.model_augmented(z, all_parameters(model, params), np.zeros(0), 0, out)
         assert h == pytest.approx(-out[6], rel=1e-12, abs=1e-13)
 
 
@@ -162,7 +171,7 @@ def test_double_integrator_derivation(double_integrator):
     x1, x2, x3 = double_integrator.states
     l1, l2, l3 = sysm.costates
     assert list(sysm.control_law) == [-l3, -l2]
-    rhs = sysm.rhs()
+    rhs = sysm.on_law(sysm.rhs())
     assert [sp.simplify(e) for e in rhs] == [x3, -l2, -l3, 0, 0, -l1]
 
 

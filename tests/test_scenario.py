@@ -156,12 +156,16 @@ def test_diff_drive_defaults_filled_in():
 # --------------------------------------------------------------------------- problem
 
 
+def robot_parameters(problem) -> tuple[float, ...]:
+    return tuple(problem.parameter(n) for n in problem.model.robot_parameters)
+
+
 def test_problem_diff_drive():
     s = load_scenario_text(FULL)
     p = s.problem()
     assert isinstance(p, OptimalControlProblem)
     assert p.model.name == "diff-drive"
-    assert p.parameters == (0.5, 1.25)
+    assert robot_parameters(p) == (0.5, 1.25)
     assert p.penalty.weight == 50.0
     assert p.penalty.exponent == 3
     np.testing.assert_array_equal(p.obstacles, [[2.0, 0.0, 0.5], [2.0, 2.0, 0.25]])
@@ -171,7 +175,7 @@ def test_problem_paper_case():
     s = load_scenario("paper-case-4")
     p = s.problem()
     assert p.model.name == "unicycle"
-    assert p.parameters == ()
+    assert robot_parameters(p) == ()
     assert p.penalty.weight == 100.0 and p.penalty.exponent == 2
     np.testing.assert_array_equal(p.obstacles, s.obstacles)
     # Penalty is W at an obstacle centre.
@@ -180,7 +184,18 @@ def test_problem_paper_case():
 
 def test_problem_wheel_radius_only():
     s = load_scenario_text(BASE + '[robot]\nmodel = "diff-drive"\nwheel_radius = 0.5\n')
-    assert s.problem().parameters == (0.5, 2.0)
+    assert robot_parameters(s.problem()) == (0.5, 2.0)
+
+
+def test_problem_bounds_are_parameters_of_the_same_kernels():
+    s = load_scenario_text(BASE + '[robot]\nmodel = "diff-drive"\nwheel_radius = 0.5\n')
+    bounded = dataclasses.replace(s, control_bounds={"omega_L": (-2.0, 3.0)})
+    free, p = s.problem(), bounded.problem()
+    assert p.model.kernels is free.model.kernels  # one kernel set: bounds compile nothing
+    assert robot_parameters(p) == robot_parameters(free) == (0.5, 2.0)
+    on = {n: p.parameter(n) for n in ("omega_L_min", "omega_L_max", "omega_L_bounded")}
+    assert on == {"omega_L_min": -2.0, "omega_L_max": 3.0, "omega_L_bounded": 1.0}
+    assert p.parameter("omega_R_bounded") == free.parameter("omega_L_bounded") == 0.0
 
 
 # --------------------------------------------------------------------------- round trips

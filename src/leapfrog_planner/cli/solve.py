@@ -273,7 +273,6 @@ def solve(
         [sc.model],
         show=not quiet,
         methods=[planner.settings.leapfrog.method],
-        bounded=tuple(sc.control_bounds),
     )
     result = planner.plan() if quiet else _plan_with_progress(planner)
     if outputs["--json"]:

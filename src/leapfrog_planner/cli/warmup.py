@@ -74,37 +74,35 @@ def _heal(exc: Exception) -> None:
     os.execv(sys.executable, [sys.executable, "-m", "leapfrog_planner.cli", *sys.argv[1:]])
 
 
-def ensure_compiled(models, show: bool = True, methods=None, bounded=()) -> None:
-    """Warm the kernels of ``models`` up before any timed work (with ``bounded``, the control
-    names a scenario bounds, those of the bounded variant too). When that takes long (a fresh
+def ensure_compiled(models, show: bool = True, methods=None) -> None:
+    """Warm the kernels of ``models`` up before any timed work (one kernel set per model serves
+    every scenario of it, bounded controls included). When that takes long (a fresh
     cache: numba compiles), say so, on a terminal and off it (a script, a notebook, CI): what is
     compiling, that it happens once per machine, and how long it took. A damaged cache is
     cleared and the command run again. Given ``methods``, only the kernels of those local
     methods (a plan with one method loads 0.08 s less)."""
     try:
         for model in dict.fromkeys(models):
-            _ensure_compiled(model, (), show, methods)
-            if bounded:
-                _ensure_compiled(model, tuple(bounded), show, methods)
+            _ensure_compiled(model, show, methods)
     except Exception as exc:
         _heal(exc)
 
 
-def _ensure_compiled(model: str, bounded: tuple[str, ...], show: bool, methods) -> None:
+def _ensure_compiled(model: str, show: bool, methods) -> None:
     from ..planning.warmup import warm_up
 
-    what = f"{model} kernels" + (f" with {', '.join(bounded)} bounded" if bounded else "")
+    what = f"{model} kernels"
     note = f"compiling the {what}, once per machine (about 40 s)"
     if not show:
         with held_interrupts():
-            warm_up(model, methods, bounded)
+            warm_up(model, methods)
         return
     if not err.is_terminal:  # a plain line, said when the loading turns out to be compiling
         timer = threading.Timer(COMPILING_AFTER_S, lambda: _line(f"{note} ..."))
         timer.start()
         try:
             with held_interrupts():
-                seconds = warm_up(model, methods, bounded)
+                seconds = warm_up(model, methods)
         finally:
             timer.cancel()
     else:
@@ -113,7 +111,7 @@ def _ensure_compiled(model: str, bounded: tuple[str, ...], show: bool, methods) 
             timer.start()
             try:
                 with held_interrupts():
-                    seconds = warm_up(model, methods, bounded)
+                    seconds = warm_up(model, methods)
             finally:
                 timer.cancel()
     if seconds > COMPILING_AFTER_S:
@@ -126,36 +124,19 @@ def _line(text: str) -> None:
 
 @click.command()
 @click.argument("models", nargs=-1)
-@click.option(
-    "--bounded",
-    default=None,
-    help="also the kernels of the models with these controls bounded, comma-separated (e.g."
-    " v,omega): each set of bounded controls compiles a kernel set of its own",
-)
-def warmup(models, bounded):
+def warmup(models):
     """Compile the kernels of MODELS (default: every built-in model) ahead of time.
 
     The first plan of a model on a machine compiles its kernels (about 40 s); they are cached on
-    disk, and later runs load them in well under a second."""
-    from ..compiled.kernels import model_info
+    disk, and later runs load them in well under a second. One kernel set per model serves every
+    scenario: obstacles, maps, bounds on the controls and the robot's size are data."""
     from ..model import MODELS
 
     unknown = [m for m in models if m not in MODELS]
     if unknown:
         raise click.UsageError(f"unknown model {unknown[0]!r} (known: {', '.join(MODELS)})")
-    names = tuple(n.strip() for n in bounded.split(",")) if bounded else ()
     for model in models or MODELS:
-        controls = model_info(model).controls
-        wrong = [n for n in names if n not in controls]
-        if wrong:
-            raise click.UsageError(
-                f"--bounded: {model} has no control {wrong[0]!r} (its controls: "
-                f"{', '.join(controls)})"
-            )
-    for model in models or MODELS:
-        for variant in ((), names) if names else ((),):
-            t0 = time.perf_counter()
-            _ensure_compiled(model, variant, True, None)
-            what = model + (f" with {', '.join(variant)} bounded" if variant else "")
-            console.print(f"{what}: ready in {time.perf_counter() - t0:.1f} s", highlight=False)
+        t0 = time.perf_counter()
+        _ensure_compiled(model, True, None)
+        console.print(f"{model}: ready in {time.perf_counter() - t0:.1f} s", highlight=False)
     return EXIT_OK

@@ -8,12 +8,15 @@ Obstacles, end states and parameters are arguments, never constants of the code.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
+from ..model import get_model
 from ..model.base import VehicleModel
+from ..model.bounds import boundable
 from .status import kernel_constants
 
 CODEGEN_VERSION = "1"
@@ -45,18 +48,36 @@ class _Printer(PythonCodePrinter):
 
 
 def _cse_block(exprs, names, pad):
-    """Lines reading the used inputs and computing shared subexpressions; and the reduced exprs."""
+    """Lines reading the used inputs and computing shared subexpressions; and the reduced exprs.
+
+    With ``names.controls`` (see :class:`_Names`), the controls ``u0``... and their slopes
+    ``g0``... are computed in the block too: the law's subexpressions first, then the
+    saturation, then what depends on the controls (one CSE over all, so the trigonometry the
+    law and the equations share is computed once)."""
     pr = _Printer()
+    law = names.controls.law if names.controls else ()
     subs, reduced = sp.cse(
-        [sp.sympify(e).xreplace(names) for e in exprs],
+        [sp.sympify(e).xreplace(names) for e in (*law, *exprs)],
         symbols=sp.numbered_symbols("c"),
         optimizations="basic",
     )
+    law_code, reduced = reduced[: len(law)], reduced[len(law) :]
+    late = {sp.Symbol(n) for n in names.controls.outputs} if names.controls else set()
+    early, after = [], []
+    for sym, value in subs:  # in dependency order: what needs a control, after the controls
+        if value.free_symbols & late:
+            late.add(sym)
+            after.append((sym, value))
+        else:
+            early.append((sym, value))
     used = set().union(
-        set(), *(e.free_symbols for e in reduced), *(v.free_symbols for _, v in subs)
+        *(e.free_symbols for e in (*law_code, *reduced)), *(v.free_symbols for _, v in subs)
     )
     lines = [f"{pad}{n} = {src}" for n, src in names.values_source if sp.Symbol(n) in used]
-    lines += [f"{pad}{s} = {pr.doprint(v)}" for s, v in subs]
+    lines += [f"{pad}{s} = {pr.doprint(v)}" for s, v in early]
+    if names.controls:
+        lines += [f"{pad}{line}" for line in names.controls.lines(pr.doprint(c) for c in law_code)]
+    lines += [f"{pad}{s} = {pr.doprint(v)}" for s, v in after]
     return lines, [pr.doprint(e) for e in reduced]
 
 
@@ -72,47 +93,69 @@ def _function(name, args, exprs, targets, names, first=()):
     return "\n".join(lines)
 
 
-class _Names(dict):
-    """Maps model symbols to code names, remembering how each name is read from the arrays."""
+@dataclass(frozen=True)
+class _Saturation:
+    """How a block computes the controls: the law without bounds, then
+    :func:`..model.bounds.saturate` with the parameters of each control's bounds."""
 
-    def __init__(self, z_syms, p_syms, u_syms=()):
+    law: tuple[sp.Expr, ...]
+    calls: tuple[tuple[int, ...], ...]  # per control: indices in p of lo, hi, switch, width
+
+    @classmethod
+    def of(cls, sysm) -> _Saturation:
+        m = sysm.model
+        index = {s: i for i, s in enumerate(m.parameters)}
+        calls = tuple(
+            tuple(index[s] for s in (lo, hi, on, m.smoothing)) for _, lo, hi, on in m.control_bounds
+        )
+        return cls(sysm.control_law, calls)
+
+    @property
+    def outputs(self) -> list[str]:
+        return [f"{v}{i}" for i in range(len(self.law)) for v in "ug"]
+
+    def lines(self, law_code) -> list[str]:
+        return [
+            f"u{i}, g{i} = saturate({code}, {', '.join(f'p[{j}]' for j in call)})"
+            for i, (code, call) in enumerate(zip(law_code, self.calls, strict=True))
+        ]
+
+
+class _Names(dict):
+    """Maps model symbols to code names, remembering how each name is read from the arrays.
+    With ``controls`` (a :class:`_Saturation`), the model's controls and slopes (``controls``
+    and ``slopes``, symbols) are computed in the block instead."""
+
+    def __init__(self, z_syms, p_syms, u_syms=(), controls=None, symbols=((), ())):
         super().__init__()
         self.values_source = []
+        self.controls = controls
         for i, s in enumerate(z_syms):
             self._add(s, f"z{i}", f"z[{i}]")
         for i, s in enumerate(p_syms):
             self._add(s, f"p{i}", f"p[{i}]")
         for i, s in enumerate(u_syms):
             self._add(s, f"u{i}", f"u[{i}]")
+        for prefix, syms in zip("ug", symbols, strict=True):
+            self.update({s: sp.Symbol(f"{prefix}{i}") for i, s in enumerate(syms)})
 
     def _add(self, sym, name, source):
         self[sym] = sp.Symbol(name)
         self.values_source.append((name, source))
 
 
-def model_source(model: VehicleModel) -> str:
-    """The model part of the generated module (the template is appended to it)."""
-    from ..model.pmp import derive
-
-    sysm = derive(model)
+def _header(model: VehicleModel) -> str:
+    """The module's imports, constants and the model's metadata (so a warm start needs no
+    SymPy)."""
     nx, nz = model.nx, 2 * model.nx
-    z = sysm.z
-    names = _Names(z, model.parameters)
-    names_u = _Names(z, model.parameters, model.controls)
-
-    rhs = sysm.rhs()
-    jac = sysm.jacobian()
-    nonzero = [(i, j) for i in range(nz) for j in range(nz) if jac[i, j] != 0]
-    # d(H)/du with u free: the penalty does not depend on u, so the model part is all of it.
-    dHdu = [sp.diff(sysm.hamiltonian.subs(sysm.penalty, 0), u) for u in model.controls]
-
-    header = "\n".join(
+    return "\n".join(
         [
             f"# Generated by leapfrog_planner.compiled.codegen (version {CODEGEN_VERSION}) for"
             f" model {model.name!r}. Do not edit.",
             "import math\n",
             "import numpy as np",
             "from numba import njit\n",
+            "from leapfrog_planner.model.bounds import saturate\n",
             *kernel_constants(),
             f"NX = {nx}",
             f"NZ = {nz}",
@@ -135,6 +178,29 @@ def model_source(model: VehicleModel) -> str:
             'INLINE = "always"',
         ]
     )
+
+
+def model_source(model: VehicleModel) -> str:
+    """The model part of the generated module (the template is appended to it)."""
+    from ..model.pmp import derive
+
+    sysm = derive(boundable(get_model(model)))
+    model = sysm.model
+    nx, nz = model.nx, 2 * model.nx
+    z = sysm.z
+    # The canonical system at the controls u*(z), computed in each function that needs them.
+    names = _Names(
+        z, model.parameters, controls=_Saturation.of(sysm), symbols=(model.controls, sysm.slopes)
+    )
+    names_u = _Names(z, model.parameters, model.controls)  # functions taking u as an argument
+
+    rhs = sysm.rhs()
+    jac = sysm.jacobian()
+    nonzero = [(i, j) for i in range(nz) for j in range(nz) if jac[i, j] != 0]
+    # d(H)/du with u free: the penalty does not depend on u, so the model part is all of it.
+    dHdu = [sp.diff(sysm.hamiltonian.subs(sysm.penalty, 0), u) for u in model.controls]
+
+    header = _header(model)
     # Linearisation data for the affine costate guess: f, df/dx, df/du and d2L/du2 at (x, u).
     xu_names = _Names(model.states, model.parameters, model.controls)
     xu_names.values_source = [(n, src.replace("z[", "x[")) for n, src in xu_names.values_source]
@@ -164,14 +230,14 @@ def model_source(model: VehicleModel) -> str:
         _function(
             "controls",
             ["z", "p", "u"],
-            list(sysm.control_law),
+            list(model.controls),
             [f"u[{i}] = {{expr}}" for i in range(model.nu)],
             names,
         ),
         _function(
             "hamiltonian_model",
             ["z", "p"],
-            [sysm.hamiltonian_on_extremal()],
+            [sysm.model_hamiltonian()],
             ["return {expr}"],
             names,
         ),

@@ -26,6 +26,7 @@ from .._cache import cache_dir, copy_atomic, copy_compiled, numba_cache_of, writ
 from ..errors import ModelError
 from ..model import MODELS, builtin_source, get_model
 from ..model.aid import PlanningAid
+from ..model.bounds import bound_parameters
 from .cache_key import cache_key
 
 log = logging.getLogger(__name__)
@@ -186,6 +187,13 @@ class ModelInfo:
         return tuple(
             float(overrides.get(n, d)) for n, d in zip(self.parameters, self.defaults, strict=True)
         )
+
+    @property
+    def robot_parameters(self) -> tuple[str, ...]:
+        """The model's own parameters (the robot's dimensions): all but the controls' bounds,
+        which the planner sets from a scenario's bounds."""
+        extra = set(bound_parameters(self.controls))
+        return tuple(p for p in self.parameters if p not in extra)
 
     @property
     def kernels(self) -> ModuleType:

@@ -29,9 +29,10 @@ class VehicleModel:
     description: str = ""
     # Control names as shown to users (plots, JSON); the symbols may be terse.
     control_names: tuple[str, ...] = field(default=())
-    # Bounded controls, (index, lower, upper) with parameter symbols, clipped smoothly with the
-    # width ``smoothing`` (see :mod:`.bounds`); empty for free controls.
-    control_bounds: tuple[tuple[int, sp.Symbol, sp.Symbol], ...] = ()
+    # The controls' bounds, (index, lower, upper, switch) with parameter symbols, clipped
+    # smoothly with the width ``smoothing`` where the switch is 1; set by
+    # :func:`.bounds.boundable` for every control (empty in a model as its author writes it).
+    control_bounds: tuple[tuple[int, sp.Symbol, sp.Symbol, sp.Symbol], ...] = ()
     smoothing: sp.Symbol | None = None
     # A parameter that widens the model while Leapfrog runs, continued to the robot's own value
     # afterwards (the car's turn assist; see :mod:`.aid`); None for models that need none.
@@ -77,7 +78,7 @@ class VehicleModel:
             *(sp.srepr(p) for p in self.parameters),
             *(sp.srepr(e) for e in self.dynamics),
             sp.srepr(self.running_cost),
-            *(f"bound {i}: {sp.srepr(lo)} {sp.srepr(hi)}" for i, lo, hi in self.control_bounds),
+            *(f"bound {i}: {' '.join(map(sp.srepr, b))}" for i, *b in self.control_bounds),
             f"aid: {self.aid.as_tuple() if self.aid else None}",
         ]
         return "\n".join(parts)

@@ -18,21 +18,27 @@ import sympy as sp
 from ..errors import ModelError
 from . import get_model
 from .base import VehicleModel
-from .bounds import smooth_clip
 
 
 @dataclass(frozen=True)
 class CanonicalSystem:
-    """The Pontryagin boundary value problem of a model, as SymPy expressions."""
+    """The Pontryagin boundary value problem of a model, as SymPy expressions.
+
+    The equations are written at the control ``u`` (the model's control symbols), which on an
+    extremal is ``u*(z)``: the unconstrained minimiser :attr:`control_law` for a free control,
+    its smooth clip for a bounded one (see :mod:`.bounds`). :meth:`jacobian` is the derivative
+    along ``u = u*(z)``, through the slopes ``du*/ds``.
+    """
 
     model: VehicleModel
     costates: tuple[sp.Symbol, ...]
     penalty: sp.Expr  # P(x, y), an undefined function of the position
     hamiltonian: sp.Expr  # L_u + P + lambda^T f, with u free
-    control_law: tuple[sp.Expr, ...]  # u*(x, lambda)
-    state_equations: tuple[sp.Expr, ...]  # xdot with u = u*
-    costate_equations: tuple[sp.Expr, ...]  # lambdadot with u = u*, including -grad P
-    running_cost: sp.Expr  # L_u(x, u*(x, lambda)), without P
+    control_law: tuple[sp.Expr, ...]  # s(x, lambda): dH/du = 0, no bounds
+    slopes: tuple[sp.Expr, ...]  # du*/ds per control: 1 if it has no bounds, else a symbol
+    state_equations: tuple[sp.Expr, ...]  # xdot = dH/dlambda at u
+    costate_equations: tuple[sp.Expr, ...]  # lambdadot = -dH/dx at u, including -grad P
+    running_cost: sp.Expr  # L_u(x, u), without P
 
     @property
     def z(self) -> tuple[sp.Symbol, ...]:
@@ -42,18 +48,25 @@ class CanonicalSystem:
         """Expressions with P set to zero: the part the generated code computes symbolically."""
         return [e.subs(self.penalty, 0).doit() for e in exprs]
 
+    def on_law(self, exprs):
+        """Expressions at ``u = s(z)``, the control law without bounds."""
+        sub = dict(zip(self.model.controls, self.control_law, strict=True))
+        return [sp.sympify(e).subs(sub) for e in exprs]
+
     def rhs(self) -> list[sp.Expr]:
-        """The model part of ``zdot = G(z)`` (the penalty terms are added by compiled code)."""
+        """The model part of ``zdot = G(z, u)`` (the penalty terms are added by compiled code)."""
         return self.without_penalty([*self.state_equations, *self.costate_equations])
 
     def jacobian(self) -> sp.Matrix:
-        """The model part of ``DG = dG/dz``, for the variational equations."""
-        return sp.Matrix(self.rhs()).jacobian(sp.Matrix(self.z))
+        """The model part of ``DG = dG/dz`` along ``u = u*(z)``, for the variational equations:
+        ``G_z + G_u diag(slopes) ds/dz``."""
+        G, z, u = sp.Matrix(self.rhs()), sp.Matrix(self.z), sp.Matrix(self.model.controls)
+        ds_dz = sp.diag(*self.slopes) * sp.Matrix(self.control_law).jacobian(z)
+        return G.jacobian(z) + G.jacobian(u) * ds_dz
 
-    def hamiltonian_on_extremal(self) -> sp.Expr:
-        """``H(x, lambda, u*(x, lambda))`` without the penalty (which is added numerically)."""
-        sub = dict(zip(self.model.controls, self.control_law, strict=True))
-        return self.hamiltonian.subs(sub).subs(self.penalty, 0)
+    def model_hamiltonian(self) -> sp.Expr:
+        """``H(x, lambda, u)`` without the penalty (which is added numerically)."""
+        return self.hamiltonian.subs(self.penalty, 0)
 
     def describe(self) -> str:
         """Readable text of H, the control law and the state and costate equations."""
@@ -70,16 +83,16 @@ class CanonicalSystem:
             "Hamiltonian:",
             f"  H = {sp.sstr(self.hamiltonian)}",
             "",
-            "control law (dH/du = 0):",
+            "control law (dH/du = 0; a bounded control is clipped smoothly to its bounds):",
         ]
         lines += [
             f"  {u} = {sp.sstr(e)}" for u, e in zip(m.controls, self.control_law, strict=True)
         ]
-        lines += ["", "state equations:"]
+        lines += ["", "state equations (at the control u):"]
         lines += [
             f"  d{x}/dt = {sp.sstr(e)}" for x, e in zip(m.states, self.state_equations, strict=True)
         ]
-        lines += ["", "costate equations:"]
+        lines += ["", "costate equations (at the control u):"]
         lines += [
             f"  d{lam}/dt = {sp.sstr(e)}"
             for lam, e in zip(self.costates, self.costate_equations, strict=True)
@@ -114,24 +127,24 @@ def _derive_cached(model: VehicleModel) -> CanonicalSystem:
     if len(sols) != 1 or set(sols[0]) != set(us):
         raise ModelError(f"model {model.name!r}: dH/du = 0 has no unique solution for {us}")
     law = [sp.simplify(sols[0][u]) for u in us]
-    for i, lo, hi in model.control_bounds:  # saturate smoothly (see .bounds)
-        law[i] = smooth_clip(law[i], lo, hi, model.smoothing)
-    law = tuple(law)
-    on_law = dict(zip(us, law, strict=True))
+    slopes = [sp.Integer(1)] * len(us)
+    for i, *_ in model.control_bounds:  # saturated smoothly at run time (see .bounds)
+        slopes[i] = sp.Symbol(f"du_ds_{i + 1}", positive=True)
 
     # No simplify here: it turns cos^2 into cos(2 theta), which reads worse and computes
-    # slower; factor keeps the products of the control law visible.
-    xdot = tuple(sp.factor(sp.diff(H, lam).subs(on_law)) for lam in lams)
-    ldot = tuple(sp.factor((-sp.diff(H, x)).subs(on_law)) for x in xs)
+    # slower; factor keeps the products visible.
+    xdot = tuple(sp.factor(sp.diff(H, lam)) for lam in lams)
+    ldot = tuple(sp.factor(-sp.diff(H, x)) for x in xs)
     return CanonicalSystem(
         model=model,
         costates=lams,
         penalty=penalty,
         hamiltonian=H,
-        control_law=law,
+        control_law=tuple(law),
+        slopes=tuple(slopes),
         state_equations=xdot,
         costate_equations=ldot,
-        running_cost=model.running_cost.subs(on_law),
+        running_cost=model.running_cost,
     )
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..integrate.flow import Flow, Trajectory
 from ..integrate.problem import OptimalControlProblem
-from ..model.bounds import SMOOTHING, bound_names
+from ..model.bounds import bound_parameters
 from .bounded import STOPPED
 from .leapfrog import LeapfrogSolution, LeapfrogStatus
 from .path_ranking import estimated_costs
@@ -132,7 +132,7 @@ def unlike_robot(problem: OptimalControlProblem, tr: Trajectory, ctx: Context) -
     followed as timed that drives faster than the robot can). The bounds and their smoothing
     are judged by the controls alone: they do not change the dynamics."""
     controls = problem.model.controls
-    bounds = {SMOOTHING, *(name for c in controls for name in bound_names(c))}
+    bounds = set(bound_parameters(controls))
     names = problem.model.parameters
     why = [
         f"{name} {mine:g} (the robot's {own:g})"

@@ -24,7 +24,7 @@ from ..bvp.multiple_shooting import MultipleShootingSystem, solve_multiple_shoot
 from ..bvp.shooting import ShootingSettings, solve_shooting
 from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
-from ..model.bounds import SMOOTHING, bound_names
+from ..model.bounds import SMOOTHING, bound_names, switch_name
 from .leapfrog import Arcs, LeapfrogSolution, LeapfrogStatus
 from .results import piecewise_trajectory
 
@@ -187,10 +187,9 @@ def continue_to_bounds(
 
 
 def _what(problem: OptimalControlProblem) -> str:
-    names, values = problem.model.parameters, problem.parameters
     parts = []
-    if SMOOTHING in names:
-        width = values[names.index(SMOOTHING)]
+    if any(problem.parameter(switch_name(c)) for c in problem.model.controls):
+        width = problem.parameter(SMOOTHING)
         parts.append(f"controls saturated sharply at the bounds, smoothing width {width:.2g}")
     aid = problem.model.aid
     if aid is not None:

@@ -248,7 +248,7 @@ class Scenario:
         info = model_info(model)
         given = {} if self.model_parameters is None else c.table(self.model_parameters, "robot")
         positive = dict(zip(info.parameters, info.positive, strict=True))
-        allowed = (*ROBOT_KEYS, *info.parameters, *info.controls)
+        allowed = (*ROBOT_KEYS, *info.robot_parameters, *info.controls)
         c.known_keys(given, allowed, "robot", f" for model {model!r}")
         checked = {}
         for k, v in given.items():
@@ -257,8 +257,8 @@ class Scenario:
             checked[k] = c.number(v, key_path("robot", k), gt=0 if positive[k] else None)
             if positive[k]:
                 c.in_range(checked[k], key_path("robot", k), checks.PARAMETER_RANGE)
-        values = info.parameter_values(checked)
-        return model, dict(zip(info.parameters, values, strict=True))
+        values = dict(zip(info.parameters, info.parameter_values(checked), strict=True))
+        return model, {name: values[name] for name in info.robot_parameters}
 
     def _check_bounds(self, c: ScenarioCheck, model: str) -> dict[str, tuple[float, float]]:
         """``[robot] <control> = [min, max]``: finite, ``min < max``, for the model's controls."""
@@ -315,18 +315,17 @@ class Scenario:
 
     def problem(self, smoothing: float | None = None) -> OptimalControlProblem:
         """The optimal control problem: model, obstacle penalty and model parameters. With
-        control bounds, the bounded variant of the model, its controls saturating smoothly with
-        width ``smoothing`` (default: the widest of :attr:`smoothing_widths`)."""
-        model, parameters = self.model, dict(self.model_parameters)
+        control bounds, the bounded controls saturate smoothly with width ``smoothing``
+        (default: the widest of :attr:`smoothing_widths`): parameters of the same kernels."""
+        parameters = dict(self.model_parameters)
         if self.control_bounds:
-            from ..model import get_model
-            from ..model.bounds import SMOOTHING, bound_names, bounded_model
+            from ..model.bounds import SMOOTHING, bound_names, switch_name
 
-            model = bounded_model(get_model(self.model), tuple(self.control_bounds))
             for name, (lo, hi) in self.control_bounds.items():
                 parameters.update(zip(bound_names(name), (lo, hi), strict=True))
+                parameters[switch_name(name)] = 1.0
             parameters[SMOOTHING] = self.smoothing_widths[0] if smoothing is None else smoothing
-        info = model_info(model)
+        info = model_info(self.model)
         world = None if self.map is None else self.map.obstacles(self.robot_radius)
         penalty = ObstaclePenalty(self.footprint_obstacles, self.weight, self.exponent, world)
         return OptimalControlProblem(info, penalty, info.parameter_values(parameters))

@@ -25,11 +25,10 @@ RUNS = (
 )
 
 
-def warm_up(model: str = "unicycle", methods=None, bounded: tuple[str, ...] = ()) -> float:
+def warm_up(model: str = "unicycle", methods=None) -> float:
     """Compile (or load from the disk cache) every kernel of ``model``, or only those that the
-    local ``methods`` (and their multiple-shooting final solve) use; with ``bounded`` (control
-    names), those of the model with these controls bounded, a kernel set of its own. Returns
-    the seconds taken (about 40 on a fresh machine, well under one once cached)."""
+    local ``methods`` (and their multiple-shooting final solve) use. Returns the seconds taken
+    (about 40 on a fresh machine, well under one once cached)."""
     t0 = time.perf_counter()
     extra = [0.0] * (model_info(model).nx - 3)  # a model's further states (the car's steering)
     sc = Scenario(
@@ -39,7 +38,6 @@ def warm_up(model: str = "unicycle", methods=None, bounded: tuple[str, ...] = ()
         goal=[1.0, 0.3, 0.5, *extra],
         obstacles=[[0.5, 0.25, 0.1]],
         model=model,
-        control_bounds={name: (-20.0, 20.0) for name in bounded},
     )
     runs = RUNS
     if methods is not None:
