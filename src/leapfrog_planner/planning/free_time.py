@@ -33,7 +33,6 @@ from typing import Protocol
 import numpy as np
 from scipy.optimize import brentq
 
-from .. import checks
 from ..bvp.shooting import ShootingSettings
 from ..integrate.flow import Flow, Trajectory
 from ..integrate.problem import OptimalControlProblem
@@ -126,8 +125,7 @@ class TimeSearch:
 
     def __init__(self, problem, settings: ShootingSettings, k: float, limits, ends, first: Arcs):
         self.problem, self.settings, self.k, self.ends = problem, settings, k, ends
-        lo, hi = limits
-        self.limits = (max(lo, checks.HORIZON_RANGE[0]), min(hi, checks.HORIZON_RANGE[1]))
+        self.limits = limits
         self.flow = Flow(problem, settings.integrator)
         self.points = [self._point(first)]
         self.solves = 0
@@ -224,7 +222,6 @@ def first_horizon(scenario: Scenario, shortest: float, effort: float, estimate) 
     if free.guess is not None:
         return free.guess
     lo, hi = free.limits()
-    lo, hi = max(lo, checks.HORIZON_RANGE[0]), min(hi, checks.HORIZON_RANGE[1])
     speed = math.sqrt(free.time_weight / effort)
     grid = np.clip(max(shortest, 0.1) / speed * FIRST_GRID, lo, hi)
     costs = [estimate(T) + free.time_weight * T for T in grid]
@@ -393,8 +390,7 @@ def _total(r: PlanResult, k: float) -> float:
 
 
 def _step(result: PlanResult, k: float, source: str) -> TimeStep:
-    T = result.task.horizon
-    return TimeStep(T, _hamiltonian(result), result.cost + k * T, source)
+    return TimeStep(result.task.horizon, _hamiltonian(result), _total(result, k), source)
 
 
 def _hamiltonian(result: PlanResult) -> float:

@@ -52,8 +52,10 @@ class FreeTime:
         return {"cost": cost, "time": time} if time else {"cost": cost}
 
     def limits(self) -> tuple[float, float]:
-        """The bounds of ``T`` (0 and infinity when none were given)."""
-        return self.bounds if self.bounds is not None else (0.0, math.inf)
+        """The range ``T`` is searched in: the bounds given, within the horizons a scenario
+        may have."""
+        lo, hi = self.bounds if self.bounds is not None else (0.0, math.inf)
+        return max(lo, checks.HORIZON_RANGE[0]), min(hi, checks.HORIZON_RANGE[1])
 
 
 def free_time_from_tables(
@@ -101,5 +103,4 @@ def provisional_horizon(free: FreeTime, start: np.ndarray, goal: np.ndarray, eff
         return free.guess
     speed = math.sqrt(free.time_weight / effort)
     distance = max(float(np.hypot(*(goal[:2] - start[:2]))), 0.1)
-    lo, hi = free.limits()
-    return float(np.clip(distance / speed, max(lo, checks.HORIZON_RANGE[0]), min(hi, 1e6)))
+    return float(np.clip(distance / speed, *free.limits()))
