@@ -127,12 +127,17 @@ def _cli(args, cwd):
 
 
 def test_a_result_file_alone_gives_its_figures_and_exports(saved, tmp_path):
-    """In a folder holding only the JSON file: plot and export need nothing else."""
+    """In a folder holding only the JSON file: plot and export need nothing else. Only the
+    figures asked for are written: the path figure by default, not beside other figures."""
     (tmp_path / "r.json").write_bytes((saved / "r.json").read_bytes())
     p = _cli(["plot", "r.json", "--controls", "c.png", "--animate", "a.gif"], tmp_path)
     assert p.returncode == 0, p.stderr
-    for name in ("r.png", "c.png", "a.gif"):
+    for name in ("c.png", "a.gif"):
         assert (tmp_path / name).stat().st_size > 1000
+    assert not (tmp_path / "r.png").exists()
+    p = _cli(["plot", "r.json"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "r.png").stat().st_size > 1000
     p = _cli(
         ["export", "r.json", "--csv", "r.csv", "--ros-path", "r.yaml", "--dt", "0.1"], tmp_path
     )
