@@ -504,7 +504,30 @@ def test_existing_file_wins_over_builtin(tmp_path, monkeypatch):
     np.testing.assert_array_equal(s.goal, [2.0, 0.0, 0.0])
 
 
-def test_bad_dict_input():
+def test_a_result_file_given_as_a_scenario_says_so_and_how_to_reach_the_builtin(
+    tmp_path, monkeypatch
+):
+    """`solve paper-case-4 --json paper-case-4` leaves a result file of the built-in's name."""
+    (tmp_path / "paper-case-4").write_text('{"schema": 2, "status": "converged", "cost": 4.6}')
+    (tmp_path / "r.json").write_text('{"schema": 2, "status": "converged", "cost": 4.6}')
+    (tmp_path / "other.json").write_text('{"horizon": 1.0}')
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario("paper-case-4")
+    assert str(info.value) == (
+        "paper-case-4: a planning result (JSON), not a scenario (TOML); paper-case-4 is also a"
+        " built-in scenario: builtin:paper-case-4 loads it"
+    )
+    assert info.value.__cause__ is None and info.value.__suppress_context__
+    with pytest.raises(ScenarioError, match=r"^r\.json: a planning result \(JSON\), not a sce"):
+        load_scenario("r.json")
+    with pytest.raises(ScenarioError, match=r"^other\.json: JSON, not TOML"):
+        load_scenario("other.json")
+    builtin = load_scenario("builtin:paper-case-4")
+    assert builtin.source == "builtin:paper-case-4" and builtin.name == "paper-case-4"
+    monkeypatch.chdir(tmp_path.parent)
+    assert builtin == load_scenario("paper-case-4")
+
     with pytest.raises(ScenarioError, match=r"^<dict>: expected a table"):
         scenario_from_dict([1, 2, 3])
     data = load_scenario("paper-case-2").to_dict()

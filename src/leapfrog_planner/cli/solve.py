@@ -243,7 +243,7 @@ def solve(
 ):
     """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm."""
     from ..planning.planner import Planner
-    from ..planning.scenario import load_scenario
+    from ..planning.scenario import builtin_scenarios, load_scenario
 
     if plot_path is not None and Path(plot_path).suffix.lower() not in (".png", ".pdf", ".svg"):
         raise click.UsageError("--plot: the file must end in .png, .pdf or .svg")
@@ -255,6 +255,9 @@ def solve(
     }
     distinct_outputs(outputs)
     sc = load_scenario(scenario)
+    if scenario in builtin_scenarios() and sc.source == scenario:
+        note = f"the file {scenario}, not the built-in scenario (builtin:{scenario} is that one)"
+        err.print(f"note: {note}", soft_wrap=True)
     if (horizon, cruise_speed, time_weight) != (None, None, None):
         sc = with_horizon(sc, horizon, cruise_speed, time_weight)
     if map_file is not None:
