@@ -629,7 +629,7 @@ goal = [1.0, 0.0, 0.0]
 method = "nleq-err"
 partitions = 4
 initial_paths = 2
-tolerance = 1e-4
+reduce_tol = 1e-4
 max_sweeps = 7
 """
     sc = load_scenario_text(text)
@@ -641,6 +641,26 @@ max_sweeps = 7
     bad = load_scenario_text(text.replace("partitions = 4", "partitions = 1"))
     with pytest.raises(ScenarioError, match=r"^<string>: solver\.partitions: .*>= 2, got 1$"):
         Planner(bad)  # the file's error: names the source and the key
+
+
+def test_a_setting_has_one_name_in_a_file_and_as_an_option_and_tolerance_says_which_it_means():
+    text = "horizon = 1.0\nstart = [0.0, 0.0, 0.0]\ngoal = [1.0, 0.0, 0.0]\n[solver]\n"
+    from_file = Planner(load_scenario_text(text + "reduce_tol = 1e-4\n")).settings
+    assert from_file == Planner(load_scenario_text(text), reduce_tol=1e-4).settings
+    with pytest.raises(ScenarioError) as info:
+        load_scenario_text(text + "tolerance = 1e-4\n")
+    assert "solver.tolerance: unknown key (did you mean 'reduce_tol', the relative cost" in str(
+        info.value
+    )
+    with pytest.raises(SettingsError) as info:
+        PlannerSettings.from_options(tolerance=1e-8)
+    assert str(info.value).startswith(
+        "unknown option 'tolerance' (did you mean 'reduce_tol', the relative cost decrease that"
+        " ends a sweep level, or 'final_shooting', whose root.tol is the final solve's |F|"
+        " tolerance? known: "
+    )
+    s = PlannerSettings.from_options(final_shooting={"root": {"tol": 1e-8}})
+    assert s.leapfrog.final_shooting.root.tol == 1e-8
 
 
 def test_parallel_paths_give_the_same_result_as_sequential(planned):

@@ -64,7 +64,7 @@ exponent = 3
 method = "mnm"
 partitions = 8
 initial_paths = 3
-tolerance = 1e-9
+reduce_tol = 1e-9
 max_sweeps = 40
 
 [[obstacles]]
@@ -200,7 +200,7 @@ def test_full_round_trip():
         "method": "mnm",
         "partitions": 8,
         "initial_paths": 3,
-        "tolerance": 1e-9,
+        "reduce_tol": 1e-9,
         "max_sweeps": 40,
     }
     text = s.to_toml()
@@ -209,7 +209,7 @@ def test_full_round_trip():
     assert back == s
     np.testing.assert_array_equal(back.waypoints, s.waypoints)
     assert back.solver == s.solver
-    assert type(back.solver["tolerance"]) is float
+    assert type(back.solver["reduce_tol"]) is float
     assert scenario_from_dict(s.to_dict()) == s
 
 
@@ -423,8 +423,8 @@ BAD = [
     ("solver-method-int", BASE + "[solver]\nmethod = 3\n", ["solver.method: expected a string"]),
     (
         "solver-tol-bool",
-        BASE + "[solver]\ntolerance = true\n",
-        ["solver.tolerance", "boolean true"],
+        BASE + "[solver]\nreduce_tol = true\n",
+        ["solver.reduce_tol", "boolean true"],
     ),
     ("solver-not-table", "solver = 3\n" + BASE, ["solver: expected a table"]),
     ("robot-not-table", 'robot = "diff-drive"\n' + BASE, ["robot: expected a table"]),

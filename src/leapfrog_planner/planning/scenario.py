@@ -39,13 +39,14 @@ __all__ = [
     "scenario_from_dict",
 ]
 
-#: Keys allowed in the optional ``[solver]`` table and the Python type each value must have.
+#: Keys allowed in the optional ``[solver]`` table (planner settings, by their names) and the
+#: Python type each value must have.
 #: ``float`` accepts integers (converted); ``int`` rejects floats; booleans are neither.
 SOLVER_KEYS: dict[str, type] = {
     "method": str,
     "partitions": int,
     "initial_paths": int,
-    "tolerance": float,
+    "reduce_tol": float,
     "max_sweeps": int,
 }
 
