@@ -528,6 +528,8 @@ def test_a_result_file_given_as_a_scenario_says_so_and_how_to_reach_the_builtin(
     monkeypatch.chdir(tmp_path.parent)
     assert builtin == load_scenario("paper-case-4")
 
+
+def test_bad_dict_input():
     with pytest.raises(ScenarioError, match=r"^<dict>: expected a table"):
         scenario_from_dict([1, 2, 3])
     data = load_scenario("paper-case-2").to_dict()
