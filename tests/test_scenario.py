@@ -529,6 +529,28 @@ def test_a_result_file_given_as_a_scenario_says_so_and_how_to_reach_the_builtin(
     assert builtin == load_scenario("paper-case-4")
 
 
+@pytest.mark.parametrize(
+    "content",
+    [
+        b"horizon = [",  # the TOML parser's error
+        b"\xff\xfe",  # the decoder's
+        b"horizon = 1.0\nstart = [0, 0, 0]\ngoal = [1, 0, 0]\n[robot]\nradius = -1\n",  # a check's
+        BASE.encode() + b"\n[[obstacles]]\ncenter = [0.0, 0.0]\nradius = 0.1\n",
+    ],
+)
+def test_a_scenario_error_shows_one_traceback_not_a_chain(tmp_path, content):
+    import traceback
+
+    from leapfrog_planner import plan
+
+    (tmp_path / "s.toml").write_bytes(content)
+    with pytest.raises(ScenarioError) as info:
+        plan(tmp_path / "s.toml")
+    e = info.value
+    assert e.__cause__ is None and e.__suppress_context__
+    assert "".join(traceback.format_exception(e)).count("Traceback") == 1
+
+
 def test_bad_dict_input():
     with pytest.raises(ScenarioError, match=r"^<dict>: expected a table"):
         scenario_from_dict([1, 2, 3])

@@ -27,7 +27,9 @@ class ScenarioCheck:
 
     def fail(self, key: str, message: str) -> NoReturn:
         text = f"{self.source}: {key}: {message}" if key else f"{self.source}: {message}"
-        raise ScenarioError(" ".join(text.splitlines()))
+        # Often raised while handling the error it words (a check's, the TOML parser's): the
+        # message says it all, so the traceback shows this error alone.
+        raise ScenarioError(" ".join(text.splitlines())) from None
 
     def _named(self, check, *args, **kw):
         """``check`` (of :mod:`..checks`) with this file's name in front of its message."""
