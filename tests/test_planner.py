@@ -643,6 +643,18 @@ max_sweeps = 7
         Planner(bad)  # the file's error: names the source and the key
 
 
+def test_plan_takes_a_dict_of_a_scenario_files_tables():
+    import leapfrog_planner
+
+    d = load_scenario("paper-case-2").to_dict()
+    assert Planner(d).scenario == leapfrog_planner.scenario_from_dict(d)
+    assert Planner(d).scenario == load_scenario("paper-case-2")
+    r = leapfrog_planner.plan({"horizon": 1.0, "start": [0, 0, 0], "goal": [1, 0, 0]}, threads=1)
+    assert r.success and r.cost == pytest.approx(0.5, rel=1e-6)  # 1/2 * v^2 * T with v = 1
+    with pytest.raises(ScenarioError, match=r"^<dict>: goal: missing required key"):
+        plan({"horizon": 1.0, "start": [0, 0, 0]})
+
+
 def test_a_setting_has_one_name_in_a_file_and_as_an_option_and_tolerance_says_which_it_means():
     text = "horizon = 1.0\nstart = [0.0, 0.0, 0.0]\ngoal = [1.0, 0.0, 0.0]\n[solver]\n"
     from_file = Planner(load_scenario_text(text + "reduce_tol = 1e-4\n")).settings

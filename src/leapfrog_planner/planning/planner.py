@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -32,7 +34,7 @@ from .result_files import plain
 from .results import PlanResult, Validation, validate_arcs
 from .runner import PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest
-from .scenario import Scenario, load_scenario
+from .scenario import Scenario, load_scenario, scenario_from_dict
 from .search import STAGES, Search, next_round, select_paths
 from .settings import PlannerSettings
 
@@ -44,13 +46,13 @@ class Planner:
 
     def __init__(
         self,
-        scenario: Scenario | str,
+        scenario: Scenario | Mapping[str, Any] | str | Path,
         settings: PlannerSettings | None = None,
         *,
         progress: Callable[[PlanEvent], None] | None = None,
         **options,
     ):
-        self.scenario = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+        self.scenario = as_scenario(scenario)
         self.settings = PlannerSettings.of_scenario(self.scenario, settings, **options)
         self.runner = Runner(self.scenario, self.settings, self.scenario.problem(), progress)
         self.robot = self.runner.robot  # the scenario's own problem, without planning aids
@@ -235,8 +237,21 @@ class Planner:
         return choose_answer(runs, ctx)
 
 
-def plan(scenario: Scenario | str, *, progress=None, **options) -> PlanResult:
-    """Plan ``scenario`` (an object, a file or a built-in name) with Leapfrog.
+def as_scenario(scenario: Scenario | Mapping[str, Any] | str | Path) -> Scenario:
+    """``scenario`` itself, or the scenario of a dict (the tables of a scenario file), of a file
+    or of a built-in name."""
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, Mapping):
+        return scenario_from_dict(scenario)
+    return load_scenario(scenario)
+
+
+def plan(
+    scenario: Scenario | Mapping[str, Any] | str | Path, *, progress=None, **options
+) -> PlanResult:
+    """Plan ``scenario`` (an object, a dict of a scenario file's tables, a file or a built-in
+    name) with Leapfrog.
 
     Options: ``method`` (``newton``, ``modified-newton``, ``nleq-err``), ``partitions``,
     ``initial_paths``, ``final`` (``auto``, ``shooting``, ``multiple-shooting``), and the other
