@@ -655,6 +655,26 @@ def test_plan_takes_a_dict_of_a_scenario_files_tables():
         plan({"horizon": 1.0, "start": [0, 0, 0]})
 
 
+def test_a_plan_that_runs_fewer_initial_paths_than_asked_says_why():
+    """Two discs leave four ways round them; waypoints fix one. The default (up to 3) is no
+    request: nothing is said."""
+    assert len(Planner("paper-case-2", initial_paths=5).initial_paths()) == 4
+    r = plan("paper-case-2", initial_paths=5, threads=1)
+    assert r.success
+    assert r.message.endswith(
+        "; 4 initial paths ran, not the 5 asked: no more distinct paths round the obstacles"
+        " were found"
+    )
+    d = load_scenario("paper-case-2").to_dict()
+    d["waypoints"] = [[1.0, 0.6]]
+    r = plan(d, initial_paths=5, threads=1)
+    assert r.success and len({x.label for x in r.search}) == 1
+    assert r.message.endswith(
+        "; 1 initial path ran, not the 5 asked: the waypoints fix the way round the obstacles"
+    )
+    assert "initial path" not in plan(d, threads=1).message
+
+
 def test_a_setting_has_one_name_in_a_file_and_as_an_option_and_tolerance_says_which_it_means():
     text = "horizon = 1.0\nstart = [0.0, 0.0, 0.0]\ngoal = [1.0, 0.0, 0.0]\n[solver]\n"
     from_file = Planner(load_scenario_text(text + "reduce_tol = 1e-4\n")).settings

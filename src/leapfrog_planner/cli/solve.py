@@ -425,6 +425,7 @@ def _summary(r) -> Table:
             ("its clearance", clearance),
         ]
     rows += [("time limit", part) for part in r.message.split("; ") if "time limit" in part]
+    rows += [("initial paths", part) for part in r.message.split("; ") if "initial path" in part]
     rows += [
         ("sweeps", str(r.sweeps)),
         ("Newton iterations", f"{r.newton_iterations}  ({r.f_evals} F evaluations)"),

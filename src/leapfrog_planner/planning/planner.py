@@ -35,7 +35,7 @@ from .results import PlanResult, Validation, validate_arcs
 from .runner import PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest
 from .scenario import Scenario, load_scenario, scenario_from_dict
-from .search import STAGES, Search, next_round, select_paths
+from .search import STAGES, Search, fewer_paths_note, next_round, select_paths
 from .settings import PlannerSettings
 
 __all__ = ["PlanEvent", "Planner", "PlannerSettings", "plan"]
@@ -78,7 +78,8 @@ class Planner:
     def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
         """The paths a plan runs first, keeping ``margin`` (default: the settings') from the
         obstacles: the ``initial_paths`` of least estimated cost, one per family
-        (:func:`.search.select_paths`).
+        (:func:`.search.select_paths`), or fewer where fewer exist (waypoints fix the way round
+        the obstacles; two discs leave four ways): the plan's message then says so.
 
         Where an end heading points away from the chord, three-point turns are ranked with the
         paths of the homotopy classes. Elsewhere they are planned too, but the best one runs
@@ -146,7 +147,7 @@ class Planner:
         fixed = dataclasses.replace(self.scenario, horizon=horizon, free_time=None)
         paths = max(self.settings.initial_paths, FREE_TIME_PATHS)
         settings = dataclasses.replace(self.settings, initial_paths=paths)
-        return Planner(fixed, settings, progress=self.progress)._plan()
+        return Planner(fixed, settings, progress=self.progress)._plan(self.settings.initial_paths)
 
     def problem_at(self, weight: float) -> OptimalControlProblem:
         """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
@@ -184,7 +185,9 @@ class Planner:
         effort = straight_effort(get_model(s.model), s.model_parameters)
         return first_horizon(s, min(p.length for p in paths), effort, estimate)
 
-    def _plan(self) -> PlanResult:
+    def _plan(self, asked: int | None = None) -> PlanResult:
+        """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for
+        (default: the settings'), a note in the message when fewer ran."""
         t_begin = time.perf_counter()
         limit = self.settings.time_limit
         self.runner.deadline = t_begin + limit if limit is not None else float("inf")
@@ -224,10 +227,13 @@ class Planner:
         result = plan_result(
             self.scenario, plain(self.settings), method, runs, chosen, problem, timing
         )
+        notes = [
+            fewer_paths_note(self.scenario, asked or self.settings.initial_paths, len(paths[0]))
+        ]
         if cut:  # said in the message, whatever the answer
-            note = f"the time limit of {limit:g} s cut the search short"
-            result = dataclasses.replace(result, message=f"{result.message}; {note}")
-        return result
+            notes.append(f"the time limit of {limit:g} s cut the search short")
+        message = "; ".join([result.message, *filter(None, notes)])
+        return dataclasses.replace(result, message=message)
 
     def choose(self, runs: list[PathRun]) -> Chosen:
         """The answer ``runs`` give (:func:`.answer.choose_answer`)."""
