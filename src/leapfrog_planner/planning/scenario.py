@@ -221,9 +221,8 @@ class Scenario:
         points = [("start", start[:2]), ("goal", goal[:2])]
         if waypoints is not None:
             points += [(f"waypoints[{i}]", w) for i, w in enumerate(waypoints)]
-        grown = obstacles + np.array([0.0, 0.0, robot_radius])
         for key, p in points:
-            c.outside(p, key, grown if robot_radius else obstacles)
+            c.outside(p, key, obstacles, robot_radius)
         if self.map is not None:
             self._check_map(c, exponent, points, robot_radius)
 

@@ -97,5 +97,5 @@ class ScenarioCheck:
     def obstacles(self, value) -> np.ndarray:
         return self._named(checks.obstacles, value)
 
-    def outside(self, point, key: str, obstacles: np.ndarray) -> None:
-        self._named(checks.outside, point, key, obstacles)
+    def outside(self, point, key: str, obstacles: np.ndarray, robot_radius: float = 0.0) -> None:
+        self._named(checks.outside, point, key, obstacles, robot_radius=robot_radius)
