@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from tests.test_cli import cli_env
 
-from leapfrog_planner.planning.export import ExportError, ros_path
+from leapfrog_planner.planning.export import ExportError, ros_path, write_csv
 from leapfrog_planner.planning.planner import plan
 from leapfrog_planner.planning.result_files import ResultFileError
 from leapfrog_planner.planning.results import PlanResult
@@ -101,6 +101,18 @@ def test_resampling_is_uniform_and_ends_at_the_horizon(case4):
     for bad in (0.0, -1.0, 2.0, float("nan")):
         with pytest.raises(ExportError):
             case4.resample(bad)
+
+
+def test_the_csv_writes_each_number_shortest_and_exact(case4, tmp_path):
+    """``0.03``, not ``0.029999999999999999``: the shortest text that reads back bit for bit."""
+    write_csv(case4, tmp_path / "r.csv", 0.03)
+    header, *rows = (tmp_path / "r.csv").read_text().splitlines()
+    cols = case4.resample(0.03)
+    assert header.split(",") == ["t", "x", "y", "theta", "v", "omega"]
+    assert rows[1].split(",")[0] == "0.03" and len(rows) == len(cols["t"])
+    for i, row in enumerate(rows):
+        for name, cell in zip(header.split(","), row.split(","), strict=True):
+            assert cell == repr(float(cell)) and float(cell) == cols[name][i]
 
 
 def test_a_ros_path_has_unit_quaternions_and_stamps_from_the_start(case4):
