@@ -201,6 +201,13 @@ BAD = [
         BASE + "\n[solver]\npartitions = 1\n",
     ),
     Bad("derive-unknown-model", ("derive", "tank"), r"unknown model 'tank'"),
+    Bad(
+        "bounded-speed-too-slow",
+        SOLVE,
+        r"\.toml: horizon: the goal is 2 away and the speed at most 1\.5: it takes at least"
+        r" 1\.33333 s, longer than T = 1$",
+        BASE + "[robot]\nv = [-1.5, 1.5]\n",
+    ),
 ]
 
 

@@ -35,6 +35,7 @@ from .results import PlanResult, Validation, validate_arcs
 from .runner import PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest
 from .scenario import Scenario, load_scenario, scenario_from_dict
+from .scenario_time import check_horizon
 from .search import STAGES, Search, fewer_paths_note, next_round, select_paths
 from .settings import PlannerSettings
 
@@ -52,8 +53,13 @@ class Planner:
         progress: Callable[[PlanEvent], None] | None = None,
         **options,
     ):
-        self.scenario = as_scenario(scenario)
-        self.settings = PlannerSettings.of_scenario(self.scenario, settings, **options)
+        scenario = as_scenario(scenario)
+        if scenario.free_time is None:  # refused at once, not after a plan that cannot succeed
+            check_horizon(scenario)
+        self._setup(scenario, PlannerSettings.of_scenario(scenario, settings, **options), progress)
+
+    def _setup(self, scenario: Scenario, settings: PlannerSettings, progress) -> None:
+        self.scenario, self.settings = scenario, settings
         self.runner = Runner(self.scenario, self.settings, self.scenario.problem(), progress)
         self.robot = self.runner.robot  # the scenario's own problem, without planning aids
         aid = self.robot.model.aid
@@ -147,7 +153,9 @@ class Planner:
         fixed = dataclasses.replace(self.scenario, horizon=horizon, free_time=None)
         paths = max(self.settings.initial_paths, FREE_TIME_PATHS)
         settings = dataclasses.replace(self.settings, initial_paths=paths)
-        return Planner(fixed, settings, progress=self.progress)._plan(self.settings.initial_paths)
+        planner = Planner.__new__(Planner)  # no check_horizon: the search may probe any T
+        planner._setup(fixed, settings, self.progress)
+        return planner._plan(self.settings.initial_paths)
 
     def problem_at(self, weight: float) -> OptimalControlProblem:
         """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""

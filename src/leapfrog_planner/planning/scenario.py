@@ -27,7 +27,7 @@ from ..model import MODELS
 from .scenario_checks import ScenarioCheck, key_path
 from .scenario_files import decode_text, not_toml, path_exists, read_scenario_file
 from .scenario_map import ScenarioMap, map_from_tables
-from .scenario_time import FREE, FreeTime, free_time_from_tables, provisional_horizon
+from .scenario_time import FREE, FreeTime, free_time_from_tables, provisional_horizon, too_short
 from .scenario_toml import toml_key, toml_state, toml_value
 
 __all__ = [
@@ -203,16 +203,11 @@ class Scenario:
             return None
         if not isinstance(free, FreeTime):
             c.fail("free_time", f"expected a FreeTime or None, got {describe(free)}")
-        if free.bounds is not None and "v" in bounds:
-            vmax = max(abs(v) for v in bounds["v"])
-            distance = float(np.hypot(*(goal[:2] - start[:2])))
-            if distance > vmax * free.bounds[1]:
-                c.fail(
-                    "time.bounds",
-                    f"the goal is {distance:.6g} away and the speed at most {vmax:g}: it takes at"
-                    f" least {distance / vmax:.6g} s, longer than the longest T allowed,"
-                    f" {free.bounds[1]:g}",
-                )
+        if free.bounds is not None:
+            longest = f"the longest T allowed, {free.bounds[1]:g}"
+            why = too_short(start, goal, bounds, free.bounds[1], longest)
+            if why is not None:
+                c.fail("time.bounds", why)
         return free
 
     def _check_ends(self, c, start, goal, waypoints, obstacles, robot_radius, exponent) -> None:

@@ -103,3 +103,43 @@ def provisional_horizon(free: FreeTime, start: np.ndarray, goal: np.ndarray, eff
     distance = max(float(np.hypot(*(goal[:2] - start[:2]))), 0.1)
     lo, hi = free.limits()
     return float(np.clip(distance / speed, max(lo, checks.HORIZON_RANGE[0]), min(hi, 1e6)))
+
+
+def check_reachable(c: ScenarioCheck, key: str, start, goal, bounds, longest: float, what: str):
+    """Refuse a task whose bounded speed cannot cover the straight distance from ``start`` to
+    ``goal`` in ``longest`` seconds (``what`` names that time, ``key`` the key to blame)."""
+    if "v" not in bounds:
+        return
+    vmax = max(abs(v) for v in bounds["v"])
+    distance = float(np.hypot(*(goal[:2] - start[:2])))
+    if distance > vmax * longest:
+        c.fail(
+            key,
+            f"the goal is {distance:.6g} away and the speed at most {vmax:g}: it takes at least"
+            f" {distance / vmax:.6g} s, longer than {what}",
+        )
+
+
+def too_short(start, goal, bounds, longest: float, what: str) -> str | None:
+    """Why ``longest`` seconds (``what`` names them) are too short for a bounded speed to cover
+    the straight distance from ``start`` to ``goal``; None when they are not, or without a
+    bound on ``v``."""
+    if "v" not in bounds:
+        return None
+    vmax = max(abs(v) for v in bounds["v"])
+    distance = float(np.hypot(*(goal[:2] - start[:2])))
+    if distance <= vmax * longest:
+        return None
+    return (
+        f"the goal is {distance:.6g} away and the speed at most {vmax:g}: it takes at least"
+        f" {distance / vmax:.6g} s, longer than {what}"
+    )
+
+
+def check_horizon(scenario) -> None:
+    """Refuse a fixed horizon too short for the scenario's bounded speed (:func:`too_short`)
+    before anything is planned: no plan could succeed."""
+    T = scenario.horizon
+    why = too_short(scenario.start, scenario.goal, scenario.control_bounds, T, f"T = {T:g}")
+    if why is not None:
+        ScenarioCheck(scenario.source or scenario.name).fail("horizon", why)
