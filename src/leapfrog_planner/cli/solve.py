@@ -241,7 +241,8 @@ def solve(
     options,
     quiet,
 ):
-    """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm."""
+    """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm. A file wins
+    over a built-in of the same name; builtin:NAME is always the built-in."""
     from ..planning.planner import Planner
     from ..planning.scenario import builtin_scenarios, load_scenario
 
