@@ -201,6 +201,13 @@ BAD = [
         BASE + "\n[solver]\npartitions = 1\n",
     ),
     Bad("derive-unknown-model", ("derive", "tank"), r"unknown model 'tank'"),
+    Bad(
+        "bounded-speed-too-slow",
+        SOLVE,
+        r"\.toml: horizon: the goal is 2 away and the speed at most 1\.5: it takes at least"
+        r" 1\.33333 s, longer than T = 1$",
+        BASE + "[robot]\nv = [-1.5, 1.5]\n",
+    ),
 ]
 
 
@@ -412,3 +419,19 @@ def test_solve_warms_up_only_the_method_it_plans_with(monkeypatch):
     warmup.warm_up("unicycle")
     assert {o.get("method") for o in seen} >= {"modified-newton", "newton", "nleq-err"}
     assert any(o.get("final") == "multiple-shooting" for o in seen)
+
+
+def test_a_file_named_like_a_builtin_is_used_and_the_note_says_how_to_get_the_builtin(tmp_path):
+    (tmp_path / "paper-case-1").write_text(load_scenario("paper-case-1").to_toml())
+    run = run_cli(["solve", "paper-case-1", "--quiet"], tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert not_compile_notices(run.stderr) == [
+        "note: the file paper-case-1, not the built-in scenario (builtin:paper-case-1 is that one)"
+    ]
+    (tmp_path / "paper-case-1").write_text('{"schema": 2, "status": "converged"}')
+    run = run_cli(["solve", "paper-case-1", "--quiet"], tmp_path)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert not_compile_notices(run.stderr) == [
+        "error: paper-case-1: a planning result (JSON), not a scenario (TOML); paper-case-1 is"
+        " also a built-in scenario: builtin:paper-case-1 loads it"
+    ]

@@ -44,9 +44,16 @@ def test_radius_and_margin_are_read_written_and_checked():
         load_scenario_text(ROOM.replace("margin = 0.02", "margin = 'x'"))
     # The footprint at the start may not overlap an obstacle (a point there would be fine).
     close = ROOM.replace("start = [0.0, 0.0, 0.0]", "start = [0.75, 0.0, 0.0]")
-    with pytest.raises(ScenarioError, match=r"start: .* is inside obstacles\[0\]"):
+    with pytest.raises(ScenarioError) as info:
         load_scenario_text(close)
+    assert str(info.value) == (  # the radii as written, the robot's and the obstacle's
+        "<string>: start: the robot (radius 0.1) at (0.75, 0.0) overlaps obstacles[0]"
+        " (center (1.0, 0.1), radius 0.2)"
+    )
     load_scenario_text(close.replace("radius = 0.1\n", ""))
+    wide = ROOM.replace("radius = 0.1", "radius = 0.3").replace("[0.0, 0.0, 0.0]", "[0.6, 0.0, 0]")
+    with pytest.raises(ScenarioError, match=r"robot \(radius 0\.3\) .*, radius 0\.2\)$"):
+        load_scenario_text(wide)
 
 
 def test_a_round_robot_is_a_point_among_grown_obstacles():

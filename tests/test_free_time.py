@@ -20,7 +20,7 @@ import pytest
 from leapfrog_planner.errors import ScenarioError
 from leapfrog_planner.model import get_model
 from leapfrog_planner.model.cruise import straight_effort
-from leapfrog_planner.planning.planner import plan
+from leapfrog_planner.planning.planner import Planner, plan
 from leapfrog_planner.planning.results import PlanResult
 from leapfrog_planner.planning.scenario import load_scenario, load_scenario_text
 from leapfrog_planner.planning.scenario_time import FreeTime
@@ -227,6 +227,22 @@ def test_a_goal_out_of_reach_within_the_longest_t_is_refused_at_once():
     with pytest.raises(ScenarioError) as e:
         load_scenario_text(text + "[time]\nbounds = [0.5, 2.0]\n", "f.toml")
     assert "it takes at least 10 s, longer than the longest T allowed, 2" in str(e.value)
+
+
+def test_a_fixed_horizon_too_short_for_the_bounded_speed_is_refused_before_planning():
+    """2 m to go at most 1.5 m/s in T = 1: one line, from the same check as the free time's,
+    before anything is planned (it used to plan for seconds and fail)."""
+    text = "horizon = 1.0\nstart = [0, 0, 0]\ngoal = [2, 0, 0]\n[robot]\nv = [-1.5, 1.5]\n"
+    sc = load_scenario_text(text, "b.toml")  # a valid task description; no plan can meet it
+    with pytest.raises(ScenarioError) as e:
+        Planner(sc)
+    assert str(e.value) == (
+        "b.toml: horizon: the goal is 2 away and the speed at most 1.5: it takes at least"
+        " 1.33333 s, longer than T = 1"
+    )
+    assert Planner(dataclasses.replace(sc, horizon=1.4)).scenario.horizon == 1.4
+    free = load_scenario_text(text.replace("1.0", '"free"') + "[cost]\ncruise_speed = 1.0\n")
+    assert Planner(free).scenario.free_time is not None  # its T is the planner's to choose
 
 
 def test_the_command_line_plans_a_free_time_and_refuses_bad_input(tmp_path):

@@ -629,7 +629,7 @@ goal = [1.0, 0.0, 0.0]
 method = "nleq-err"
 partitions = 4
 initial_paths = 2
-tolerance = 1e-4
+reduce_tol = 1e-4
 max_sweeps = 7
 """
     sc = load_scenario_text(text)
@@ -641,6 +641,58 @@ max_sweeps = 7
     bad = load_scenario_text(text.replace("partitions = 4", "partitions = 1"))
     with pytest.raises(ScenarioError, match=r"^<string>: solver\.partitions: .*>= 2, got 1$"):
         Planner(bad)  # the file's error: names the source and the key
+
+
+def test_plan_takes_a_dict_of_a_scenario_files_tables():
+    import leapfrog_planner
+
+    d = load_scenario("paper-case-2").to_dict()
+    assert Planner(d).scenario == leapfrog_planner.scenario_from_dict(d)
+    assert Planner(d).scenario == load_scenario("paper-case-2")
+    r = leapfrog_planner.plan({"horizon": 1.0, "start": [0, 0, 0], "goal": [1, 0, 0]}, threads=1)
+    assert r.success and r.cost == pytest.approx(0.5, rel=1e-6)  # 1/2 * v^2 * T with v = 1
+    with pytest.raises(ScenarioError, match=r"^<dict>: goal: missing required key"):
+        plan({"horizon": 1.0, "start": [0, 0, 0]})
+
+
+def test_a_plan_that_runs_fewer_initial_paths_than_asked_says_why():
+    """Two discs leave four ways round them; waypoints fix one. The default (up to 3) is no
+    request: nothing is said."""
+    assert len(Planner("paper-case-2", initial_paths=5).initial_paths()) == 4
+    r = plan("paper-case-2", initial_paths=5, threads=1)
+    assert r.success
+    assert r.message.endswith(
+        "; 4 initial paths ran, not the 5 asked: no more distinct paths round the obstacles"
+        " were found"
+    )
+    d = load_scenario("paper-case-2").to_dict()
+    d["waypoints"] = [[1.0, 0.6]]
+    r = plan(d, initial_paths=5, threads=1)
+    assert r.success and len({x.label for x in r.search}) == 1
+    assert r.message.endswith(
+        "; 1 initial path ran, not the 5 asked: the waypoints fix the way round the obstacles"
+    )
+    assert "initial path" not in plan(d, threads=1).message
+
+
+def test_a_setting_has_one_name_in_a_file_and_as_an_option_and_tolerance_says_which_it_means():
+    text = "horizon = 1.0\nstart = [0.0, 0.0, 0.0]\ngoal = [1.0, 0.0, 0.0]\n[solver]\n"
+    from_file = Planner(load_scenario_text(text + "reduce_tol = 1e-4\n")).settings
+    assert from_file == Planner(load_scenario_text(text), reduce_tol=1e-4).settings
+    with pytest.raises(ScenarioError) as info:
+        load_scenario_text(text + "tolerance = 1e-4\n")
+    assert "solver.tolerance: unknown key (did you mean 'reduce_tol', the relative cost" in str(
+        info.value
+    )
+    with pytest.raises(SettingsError) as info:
+        PlannerSettings.from_options(tolerance=1e-8)
+    assert str(info.value).startswith(
+        "unknown option 'tolerance' (did you mean 'reduce_tol', the relative cost decrease that"
+        " ends a sweep level, or 'final_shooting', whose root.tol is the final solve's |F|"
+        " tolerance? known: "
+    )
+    s = PlannerSettings.from_options(final_shooting={"root": {"tol": 1e-8}})
+    assert s.leapfrog.final_shooting.root.tol == 1e-8
 
 
 def test_parallel_paths_give_the_same_result_as_sequential(planned):

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from tests.test_cli import cli_env
 
-from leapfrog_planner.planning.export import ExportError, ros_path
+from leapfrog_planner.planning.export import ExportError, ros_path, write_csv
 from leapfrog_planner.planning.planner import plan
 from leapfrog_planner.planning.result_files import ResultFileError
 from leapfrog_planner.planning.results import PlanResult
@@ -103,6 +103,18 @@ def test_resampling_is_uniform_and_ends_at_the_horizon(case4):
             case4.resample(bad)
 
 
+def test_the_csv_writes_each_number_shortest_and_exact(case4, tmp_path):
+    """``0.03``, not ``0.029999999999999999``: the shortest text that reads back bit for bit."""
+    write_csv(case4, tmp_path / "r.csv", 0.03)
+    header, *rows = (tmp_path / "r.csv").read_text().splitlines()
+    cols = case4.resample(0.03)
+    assert header.split(",") == ["t", "x", "y", "theta", "v", "omega"]
+    assert rows[1].split(",")[0] == "0.03" and len(rows) == len(cols["t"])
+    for i, row in enumerate(rows):
+        for name, cell in zip(header.split(","), row.split(","), strict=True):
+            assert cell == repr(float(cell)) and float(cell) == cols[name][i]
+
+
 def test_a_ros_path_has_unit_quaternions_and_stamps_from_the_start(case4):
     msg = ros_path(case4, 0.25, "odom")
     assert msg["header"]["frame_id"] == "odom" and len(msg["poses"]) == 5
@@ -127,12 +139,17 @@ def _cli(args, cwd):
 
 
 def test_a_result_file_alone_gives_its_figures_and_exports(saved, tmp_path):
-    """In a folder holding only the JSON file: plot and export need nothing else."""
+    """In a folder holding only the JSON file: plot and export need nothing else. Only the
+    figures asked for are written: the path figure by default, not beside other figures."""
     (tmp_path / "r.json").write_bytes((saved / "r.json").read_bytes())
     p = _cli(["plot", "r.json", "--controls", "c.png", "--animate", "a.gif"], tmp_path)
     assert p.returncode == 0, p.stderr
-    for name in ("r.png", "c.png", "a.gif"):
+    for name in ("c.png", "a.gif"):
         assert (tmp_path / name).stat().st_size > 1000
+    assert not (tmp_path / "r.png").exists()
+    p = _cli(["plot", "r.json"], tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "r.png").stat().st_size > 1000
     p = _cli(
         ["export", "r.json", "--csv", "r.csv", "--ros-path", "r.yaml", "--dt", "0.1"], tmp_path
     )

@@ -64,7 +64,7 @@ exponent = 3
 method = "mnm"
 partitions = 8
 initial_paths = 3
-tolerance = 1e-9
+reduce_tol = 1e-9
 max_sweeps = 40
 
 [[obstacles]]
@@ -215,7 +215,7 @@ def test_full_round_trip():
         "method": "mnm",
         "partitions": 8,
         "initial_paths": 3,
-        "tolerance": 1e-9,
+        "reduce_tol": 1e-9,
         "max_sweeps": 40,
     }
     text = s.to_toml()
@@ -224,7 +224,7 @@ def test_full_round_trip():
     assert back == s
     np.testing.assert_array_equal(back.waypoints, s.waypoints)
     assert back.solver == s.solver
-    assert type(back.solver["tolerance"]) is float
+    assert type(back.solver["reduce_tol"]) is float
     assert scenario_from_dict(s.to_dict()) == s
 
 
@@ -438,8 +438,8 @@ BAD = [
     ("solver-method-int", BASE + "[solver]\nmethod = 3\n", ["solver.method: expected a string"]),
     (
         "solver-tol-bool",
-        BASE + "[solver]\ntolerance = true\n",
-        ["solver.tolerance", "boolean true"],
+        BASE + "[solver]\nreduce_tol = true\n",
+        ["solver.reduce_tol", "boolean true"],
     ),
     ("solver-not-table", "solver = 3\n" + BASE, ["solver: expected a table"]),
     ("robot-not-table", 'robot = "diff-drive"\n' + BASE, ["robot: expected a table"]),
@@ -517,6 +517,53 @@ def test_existing_file_wins_over_builtin(tmp_path, monkeypatch):
     s = load_scenario("paper-case-1")
     assert s.source == "paper-case-1"
     np.testing.assert_array_equal(s.goal, [2.0, 0.0, 0.0])
+
+
+def test_a_result_file_given_as_a_scenario_says_so_and_how_to_reach_the_builtin(
+    tmp_path, monkeypatch
+):
+    """`solve paper-case-4 --json paper-case-4` leaves a result file of the built-in's name."""
+    (tmp_path / "paper-case-4").write_text('{"schema": 2, "status": "converged", "cost": 4.6}')
+    (tmp_path / "r.json").write_text('{"schema": 2, "status": "converged", "cost": 4.6}')
+    (tmp_path / "other.json").write_text('{"horizon": 1.0}')
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario("paper-case-4")
+    assert str(info.value) == (
+        "paper-case-4: a planning result (JSON), not a scenario (TOML); paper-case-4 is also a"
+        " built-in scenario: builtin:paper-case-4 loads it"
+    )
+    assert info.value.__cause__ is None and info.value.__suppress_context__
+    with pytest.raises(ScenarioError, match=r"^r\.json: a planning result \(JSON\), not a sce"):
+        load_scenario("r.json")
+    with pytest.raises(ScenarioError, match=r"^other\.json: JSON, not TOML"):
+        load_scenario("other.json")
+    builtin = load_scenario("builtin:paper-case-4")
+    assert builtin.source == "builtin:paper-case-4" and builtin.name == "paper-case-4"
+    monkeypatch.chdir(tmp_path.parent)
+    assert builtin == load_scenario("paper-case-4")
+
+
+@pytest.mark.parametrize(
+    "content",
+    [
+        b"horizon = [",  # the TOML parser's error
+        b"\xff\xfe",  # the decoder's
+        b"horizon = 1.0\nstart = [0, 0, 0]\ngoal = [1, 0, 0]\n[robot]\nradius = -1\n",  # a check's
+        BASE.encode() + b"\n[[obstacles]]\ncenter = [0.0, 0.0]\nradius = 0.1\n",
+    ],
+)
+def test_a_scenario_error_shows_one_traceback_not_a_chain(tmp_path, content):
+    import traceback
+
+    from leapfrog_planner import plan
+
+    (tmp_path / "s.toml").write_bytes(content)
+    with pytest.raises(ScenarioError) as info:
+        plan(tmp_path / "s.toml")
+    e = info.value
+    assert e.__cause__ is None and e.__suppress_context__
+    assert "".join(traceback.format_exception(e)).count("Traceback") == 1
 
 
 def test_bad_dict_input():

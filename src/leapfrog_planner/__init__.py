@@ -34,6 +34,7 @@ _LAZY = {
     "Scenario": ".planning.scenario",
     "builtin_scenarios": ".planning.scenario",
     "load_scenario": ".planning.scenario",
+    "scenario_from_dict": ".planning.scenario",
     "VehicleModel": ".model.base",
     "CanonicalSystem": ".model.pmp",
     "derive": ".model.pmp",
@@ -94,5 +95,6 @@ __all__ = [
     "model_info",
     "obstacle_penalty",
     "plan",
+    "scenario_from_dict",
     "solve_shooting",
 ]

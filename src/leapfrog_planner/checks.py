@@ -123,12 +123,20 @@ def obstacles(value: Any, key: str = "obstacles", *, error=ScenarioError) -> np.
     return obs
 
 
-def outside(point, key: str, obs: np.ndarray, *, error=ScenarioError) -> None:
-    """Refuse a point strictly inside an obstacle (on the edge is allowed)."""
+def outside(
+    point, key: str, obs: np.ndarray, *, error=ScenarioError, robot_radius: float = 0.0
+) -> None:
+    """Refuse a point strictly inside an obstacle, or a robot of ``robot_radius`` there that
+    overlaps one (touching is allowed). The message gives the obstacle as written."""
     px, py = float(point[0]), float(point[1])
     for j, (cx, cy, r) in enumerate(obs.tolist()):
-        if math.hypot(px - cx, py - cy) < r:  # Python floats: overflow gives inf
+        if math.hypot(px - cx, py - cy) < r + robot_radius:  # Python floats: overflow gives inf
+            where = fmt_point((px, py))
+            what = (
+                f"the robot (radius {robot_radius:g}) at {where} overlaps"
+                if robot_radius
+                else f"{where} is inside"
+            )
             raise error(
-                f"{key}: {fmt_point((px, py))} is inside obstacles[{j}]"
-                f" (center {fmt_point((cx, cy))}, radius {float(r)!r})"
+                f"{key}: {what} obstacles[{j}] (center {fmt_point((cx, cy))}, radius {float(r)!r})"
             )

@@ -24,11 +24,25 @@ class SettingsError(LeapfrogError, ValueError):
     """An unknown option, or an option with a value outside its range."""
 
 
+#: Words that name no setting but that a user may reach for, and the settings they may mean.
+MEANT = {
+    "tolerance": (
+        ("reduce_tol", "the relative cost decrease that ends a sweep level"),
+        ("final_shooting", "whose root.tol is the final solve's |F| tolerance"),
+    ),
+}
+
+
 def did_you_mean(word: str, allowed) -> str:
-    """``"did you mean 'x'? "`` for the nearest of ``allowed`` to ``word`` (``""`` if none)."""
+    """``"did you mean 'x'? "`` for the nearest of ``allowed`` to ``word``, or the settings of
+    ``allowed`` that :data:`MEANT` lists for it (``""`` if none)."""
     import difflib
 
-    hint = difflib.get_close_matches(str(word), [str(a) for a in allowed], n=1)
+    allowed = [str(a) for a in allowed]
+    meant = [f"{name!r}, {what}," for name, what in MEANT.get(str(word), ()) if name in allowed]
+    if meant:
+        return f"did you mean {' or '.join(meant)[:-1]}? "
+    hint = difflib.get_close_matches(str(word), allowed, n=1)
     return f"did you mean {hint[0]!r}? " if hint else ""
 
 

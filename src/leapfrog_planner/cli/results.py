@@ -32,15 +32,18 @@ def _figure_option(value: str | None, option: str, inputs) -> Path | None:
 @click.command()
 @click.argument("result")
 @click.option(
-    "--out", default=None, help="the path figure (PNG, PDF or SVG)  [default: RESULT.png]"
+    "--out",
+    default=None,
+    help="the path figure (PNG, PDF or SVG)  [default: RESULT.png when no other figure is asked]",
 )
-@click.option("--controls", default=None, help="also the controls and costates against time")
-@click.option("--convergence", default=None, help="also the junctions and cost sweep by sweep")
-@click.option("--animate", default=None, help="also an animated GIF of the sweeps")
+@click.option("--controls", default=None, help="the controls and costates against time")
+@click.option("--convergence", default=None, help="the junctions and cost sweep by sweep")
+@click.option("--animate", default=None, help="an animated GIF of the sweeps")
 def plot(result, out, controls, convergence, animate):
     """Draw the figures of a RESULT file written by `solve --json` or `--npz`."""
     inputs = [result]
-    out = out if out is not None else str(Path(result).with_suffix(".png"))
+    if out is None and controls is None and convergence is None and animate is None:
+        out = str(Path(result).with_suffix(".png"))  # only what was asked is written
     if animate is not None and Path(animate).suffix.lower() != ".gif":
         raise click.UsageError("--animate: the file must end in .gif")
     outputs = {

@@ -241,9 +241,10 @@ def solve(
     options,
     quiet,
 ):
-    """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm."""
+    """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm. A file wins
+    over a built-in of the same name; builtin:NAME is always the built-in."""
     from ..planning.planner import Planner
-    from ..planning.scenario import load_scenario
+    from ..planning.scenario import builtin_scenarios, load_scenario
 
     if plot_path is not None and Path(plot_path).suffix.lower() not in (".png", ".pdf", ".svg"):
         raise click.UsageError("--plot: the file must end in .png, .pdf or .svg")
@@ -255,6 +256,9 @@ def solve(
     }
     distinct_outputs(outputs)
     sc = load_scenario(scenario)
+    if scenario in builtin_scenarios() and sc.source == scenario:
+        note = f"the file {scenario}, not the built-in scenario (builtin:{scenario} is that one)"
+        err.print(f"note: {note}", soft_wrap=True)
     if (horizon, cruise_speed, time_weight) != (None, None, None):
         sc = with_horizon(sc, horizon, cruise_speed, time_weight)
     if map_file is not None:
@@ -421,6 +425,7 @@ def _summary(r) -> Table:
             ("its clearance", clearance),
         ]
     rows += [("time limit", part) for part in r.message.split("; ") if "time limit" in part]
+    rows += [("initial paths", part) for part in r.message.split("; ") if "initial path" in part]
     rows += [
         ("sweeps", str(r.sweeps)),
         ("Newton iterations", f"{r.newton_iterations}  ({r.f_evals} F evaluations)"),

@@ -51,8 +51,13 @@ PAPER_TABLE1 = {
     4: (2.79, 113.36, 106.75),
 }
 
-# Independent reference optima (direct method, CasADi with IPOPT), about 1e-5 relative.
-REFERENCE_COST = {1: 10.32320, 2: 21.20621, 3: 3.274137, 4: 5.663875}
+# Independent reference optima (direct method, CasADi with IPOPT), about 1e-5 relative. Case 4:
+# the direct method from a straight line ends at 5.663875 (clearance 0.008), a local optimum;
+# its multistart confirms the cheaper 4.5852479 (clearance 0.039) that the planner finds.
+REFERENCE_COST = {1: 10.32320, 2: 21.20621, 3: 3.274137, 4: 4.5852479}
+# Local optima once taken for references, said beside the table so that no reader takes them
+# for the optimum (nor a cheaper cost for an error).
+LOCAL_REFERENCE = {4: (5.663875, 0.008)}
 
 # A cost this far above the reference is another (worse) local optimum, not rounding.
 LOCAL_OPTIMUM_GAP = 1e-4
@@ -328,6 +333,13 @@ def comparison_markdown(result: PaperResult) -> str:
             f"| {rel:.1e} | {p_nm} | {t_nm:.3f} | {nm_ratio} | {p_mnm} | {t_mnm:.3f} "
             f"| {mnm_ratio} |"
         )
+    for case, (cost, clearance) in LOCAL_REFERENCE.items():
+        lines += [
+            "",
+            f"Case {case}: the direct method from a straight line ends at {cost} (clearance "
+            f"{clearance}), a local optimum; Leapfrog finds {REFERENCE_COST[case]}, cheaper, "
+            "which the direct method's multistart confirms: that is the reference above.",
+        ]
     lines += ["", "NM against MNM (time ratio NM / MNM; the paper's in brackets):", ""]
     for c in result.cases:
         _, p_nm, p_mnm = PAPER_TABLE1[c.case]

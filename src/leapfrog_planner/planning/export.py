@@ -79,8 +79,9 @@ def write_csv(result, path, dt: float) -> Path:
     table = np.column_stack(list(cols.values()))
     header = ",".join(cols)
 
-    def write(tmp):
-        np.savetxt(tmp, table, delimiter=",", header=header, comments="", fmt="%.17g")
+    def write(tmp):  # each number as Python writes it: the shortest text that reads back exact
+        lines = [header, *(",".join(map(repr, row)) for row in table.tolist())]
+        Path(tmp).write_text("\n".join(lines) + "\n", encoding="utf-8")
 
     write_atomic(path, write)
     return Path(path)

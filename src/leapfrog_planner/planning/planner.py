@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -32,8 +34,9 @@ from .result_files import plain
 from .results import PlanResult, Validation, validate_arcs
 from .runner import PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest
-from .scenario import Scenario, load_scenario
-from .search import STAGES, Search, next_round, select_paths
+from .scenario import Scenario, load_scenario, scenario_from_dict
+from .scenario_time import refuse_unreachable
+from .search import STAGES, Search, fewer_paths_note, next_round, select_paths
 from .settings import PlannerSettings
 
 __all__ = ["PlanEvent", "Planner", "PlannerSettings", "plan"]
@@ -44,14 +47,19 @@ class Planner:
 
     def __init__(
         self,
-        scenario: Scenario | str,
+        scenario: Scenario | Mapping[str, Any] | str | Path,
         settings: PlannerSettings | None = None,
         *,
         progress: Callable[[PlanEvent], None] | None = None,
         **options,
     ):
-        self.scenario = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-        self.settings = PlannerSettings.of_scenario(self.scenario, settings, **options)
+        scenario = as_scenario(scenario)
+        if scenario.free_time is None:  # refused at once, not after a plan that cannot succeed
+            refuse_unreachable(scenario)
+        self._setup(scenario, PlannerSettings.of_scenario(scenario, settings, **options), progress)
+
+    def _setup(self, scenario: Scenario, settings: PlannerSettings, progress) -> None:
+        self.scenario, self.settings = scenario, settings
         self.runner = Runner(self.scenario, self.settings, self.scenario.problem(), progress)
         self.robot = self.runner.robot  # the scenario's own problem, without planning aids
         aid = self.robot.model.aid
@@ -76,7 +84,8 @@ class Planner:
     def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
         """The paths a plan runs first, keeping ``margin`` (default: the settings') from the
         obstacles: the ``initial_paths`` of least estimated cost, one per family
-        (:func:`.search.select_paths`).
+        (:func:`.search.select_paths`), or fewer where fewer exist (waypoints fix the way round
+        the obstacles; two discs leave four ways): the plan's message then says so.
 
         Where an end heading points away from the chord, three-point turns are ranked with the
         paths of the homotopy classes. Elsewhere they are planned too, but the best one runs
@@ -144,7 +153,9 @@ class Planner:
         fixed = dataclasses.replace(self.scenario, horizon=horizon, free_time=None)
         paths = max(self.settings.initial_paths, FREE_TIME_PATHS)
         settings = dataclasses.replace(self.settings, initial_paths=paths)
-        return Planner(fixed, settings, progress=self.progress)._plan()
+        planner = Planner.__new__(Planner)  # not refused: the search may probe any T
+        planner._setup(fixed, settings, self.progress)
+        return planner._plan(self.settings.initial_paths)
 
     def problem_at(self, weight: float) -> OptimalControlProblem:
         """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
@@ -182,7 +193,9 @@ class Planner:
         effort = straight_effort(get_model(s.model), s.model_parameters)
         return first_horizon(s, min(p.length for p in paths), effort, estimate)
 
-    def _plan(self) -> PlanResult:
+    def _plan(self, asked: int | None = None) -> PlanResult:
+        """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for
+        (default: the settings'), a note in the message when fewer ran."""
         t_begin = time.perf_counter()
         limit = self.settings.time_limit
         self.runner.deadline = t_begin + limit if limit is not None else float("inf")
@@ -222,10 +235,13 @@ class Planner:
         result = plan_result(
             self.scenario, plain(self.settings), method, runs, chosen, problem, timing
         )
+        notes = [
+            fewer_paths_note(self.scenario, asked or self.settings.initial_paths, len(paths[0]))
+        ]
         if cut:  # said in the message, whatever the answer
-            note = f"the time limit of {limit:g} s cut the search short"
-            result = dataclasses.replace(result, message=f"{result.message}; {note}")
-        return result
+            notes.append(f"the time limit of {limit:g} s cut the search short")
+        message = "; ".join([result.message, *filter(None, notes)])
+        return dataclasses.replace(result, message=message)
 
     def choose(self, runs: list[PathRun]) -> Chosen:
         """The answer ``runs`` give (:func:`.answer.choose_answer`)."""
@@ -235,8 +251,21 @@ class Planner:
         return choose_answer(runs, ctx)
 
 
-def plan(scenario: Scenario | str, *, progress=None, **options) -> PlanResult:
-    """Plan ``scenario`` (an object, a file or a built-in name) with Leapfrog.
+def as_scenario(scenario: Scenario | Mapping[str, Any] | str | Path) -> Scenario:
+    """``scenario`` itself, or the scenario of a dict (the tables of a scenario file), of a file
+    or of a built-in name."""
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, Mapping):
+        return scenario_from_dict(scenario)
+    return load_scenario(scenario)
+
+
+def plan(
+    scenario: Scenario | Mapping[str, Any] | str | Path, *, progress=None, **options
+) -> PlanResult:
+    """Plan ``scenario`` (an object, a dict of a scenario file's tables, a file or a built-in
+    name) with Leapfrog.
 
     Options: ``method`` (``newton``, ``modified-newton``, ``nleq-err``), ``partitions``,
     ``initial_paths``, ``final`` (``auto``, ``shooting``, ``multiple-shooting``), and the other

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import re
-import stat
 import tomllib
 import unicodedata
 from collections.abc import Mapping
@@ -26,8 +25,9 @@ from ..errors import ScenarioError, describe, short
 from ..integrate.problem import ObstaclePenalty, OptimalControlProblem
 from ..model import MODELS
 from .scenario_checks import ScenarioCheck, key_path
+from .scenario_files import decode_text, not_toml, path_exists, read_scenario_file
 from .scenario_map import ScenarioMap, map_from_tables
-from .scenario_time import FREE, FreeTime, free_time_from_tables, provisional_horizon
+from .scenario_time import FREE, FreeTime, free_time_from_tables, provisional_horizon, too_short
 from .scenario_toml import toml_key, toml_state, toml_value
 
 __all__ = [
@@ -39,13 +39,14 @@ __all__ = [
     "scenario_from_dict",
 ]
 
-#: Keys allowed in the optional ``[solver]`` table and the Python type each value must have.
+#: Keys allowed in the optional ``[solver]`` table (planner settings, by their names) and the
+#: Python type each value must have.
 #: ``float`` accepts integers (converted); ``int`` rejects floats; booleans are neither.
 SOLVER_KEYS: dict[str, type] = {
     "method": str,
     "partitions": int,
     "initial_paths": int,
-    "tolerance": float,
+    "reduce_tol": float,
     "max_sweeps": int,
 }
 
@@ -202,16 +203,11 @@ class Scenario:
             return None
         if not isinstance(free, FreeTime):
             c.fail("free_time", f"expected a FreeTime or None, got {describe(free)}")
-        if free.bounds is not None and "v" in bounds:
-            vmax = max(abs(v) for v in bounds["v"])
-            distance = float(np.hypot(*(goal[:2] - start[:2])))
-            if distance > vmax * free.bounds[1]:
-                c.fail(
-                    "time.bounds",
-                    f"the goal is {distance:.6g} away and the speed at most {vmax:g}: it takes at"
-                    f" least {distance / vmax:.6g} s, longer than the longest T allowed,"
-                    f" {free.bounds[1]:g}",
-                )
+        if free.bounds is not None:
+            longest = f"the longest T allowed, {free.bounds[1]:g}"
+            why = too_short(start, goal, bounds, free.bounds[1], longest)
+            if why is not None:
+                c.fail("time.bounds", why)
         return free
 
     def _check_ends(self, c, start, goal, waypoints, obstacles, robot_radius, exponent) -> None:
@@ -220,9 +216,8 @@ class Scenario:
         points = [("start", start[:2]), ("goal", goal[:2])]
         if waypoints is not None:
             points += [(f"waypoints[{i}]", w) for i, w in enumerate(waypoints)]
-        grown = obstacles + np.array([0.0, 0.0, robot_radius])
         for key, p in points:
-            c.outside(p, key, grown if robot_radius else obstacles)
+            c.outside(p, key, obstacles, robot_radius)
         if self.map is not None:
             self._check_map(c, exponent, points, robot_radius)
 
@@ -502,7 +497,7 @@ def load_scenario_text(text: str | bytes, source: str = "<string>") -> Scenario:
     """A scenario from TOML text; ``source`` names it in error messages and ``Scenario.source``."""
     source = str(source)
     if isinstance(text, bytes | bytearray):
-        text = _decode(bytes(text), source)
+        text = decode_text(bytes(text), source)
     try:
         data = tomllib.loads(text)
     except RecursionError:
@@ -512,17 +507,8 @@ def load_scenario_text(text: str | bytes, source: str = "<string>") -> Scenario:
         if "(at end of document)" in message:  # tomllib gives no line number here
             last = text.count("\n") + (0 if text.endswith("\n") else 1)
             message = message.replace("(at end of document)", f"(at end of document, line {last})")
-        ScenarioCheck(source).fail("", f"invalid TOML: {message}")
+        ScenarioCheck(source).fail("", not_toml(text) or f"invalid TOML: {message}")
     return scenario_from_dict(data, source)
-
-
-def _decode(raw: bytes, source: str) -> str:
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        ScenarioCheck(source).fail(
-            "", f"not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start})"
-        )
 
 
 def _builtin_dir():
@@ -531,6 +517,11 @@ def _builtin_dir():
 
 def _natural_key(name: str):
     return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name)]
+
+
+def _load_builtin(name: str) -> Scenario:
+    raw = _builtin_dir().joinpath(f"{name}.toml").read_bytes()
+    return load_scenario_text(decode_text(raw, _BUILTIN_PREFIX + name), _BUILTIN_PREFIX + name)
 
 
 def builtin_scenarios() -> list[str]:
@@ -543,55 +534,25 @@ def builtin_scenarios() -> list[str]:
     return sorted(names, key=_natural_key)
 
 
-#: A scenario file larger than this is refused (10,000 obstacles take about 600 kB).
-MAX_FILE_BYTES = 16 * 2**20
-
-
-def _read_file(path: Path, name: str) -> bytes:
-    """The bytes of a scenario file, at most :data:`MAX_FILE_BYTES`. A FIFO without a writer
-    reads as empty instead of blocking; a device that never ends (``/dev/zero``) hits the cap."""
-    c = ScenarioCheck(name)
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    except OSError as exc:
-        c.fail("", f"cannot read file: {exc.strerror or exc}")
-    chunks, size = [], 0
-    try:
-        mode = os.fstat(fd).st_mode
-        if stat.S_ISDIR(mode):
-            c.fail("", "is a directory, not a scenario file")
-        os.set_blocking(fd, True)
-        while size <= MAX_FILE_BYTES and (chunk := os.read(fd, 1 << 20)):
-            chunks.append(chunk)
-            size += len(chunk)
-    except OSError as exc:
-        c.fail("", f"cannot read file: {exc.strerror or exc}")
-    finally:
-        os.close(fd)
-    if size > MAX_FILE_BYTES:
-        c.fail("", f"larger than {MAX_FILE_BYTES // 2**20} MB, not a scenario file")
-    return b"".join(chunks)
-
-
-def _exists(path: Path) -> bool:
-    try:
-        return path.exists() or path.is_symlink()
-    except OSError:  # e.g. a name too long for the file system: not a file we can read
-        return False
-
-
 def load_scenario(path_or_name: str | Path) -> Scenario:
-    """A scenario from a file path or, when no such file exists, a built-in name."""
+    """A scenario from a file path or, when no such file exists, a built-in name;
+    ``"builtin:NAME"`` is always the built-in, even beside a file called NAME."""
     text_name = str(path_or_name)
-    path = Path(path_or_name)
-    if text_name and "\0" not in text_name and _exists(path):
-        raw = _read_file(path, text_name)
-        return load_scenario_text(_decode(raw, text_name), text_name)
     names = builtin_scenarios()
-    if isinstance(path_or_name, str) and path_or_name in names:
-        raw = _builtin_dir().joinpath(f"{path_or_name}.toml").read_bytes()
-        source = _BUILTIN_PREFIX + path_or_name
-        return load_scenario_text(_decode(raw, source), source)
+    name = text_name.removeprefix(_BUILTIN_PREFIX) if isinstance(path_or_name, str) else None
+    if name in names and name != text_name:
+        return _load_builtin(name)
+    if text_name and "\0" not in text_name and path_exists(Path(path_or_name)):
+        raw = read_scenario_file(Path(path_or_name), text_name)
+        try:
+            return load_scenario_text(decode_text(raw, text_name), text_name)
+        except ScenarioError as e:
+            if text_name not in names:
+                raise
+            also = f"{text_name} is also a built-in scenario: {_BUILTIN_PREFIX}{text_name} loads it"
+            raise ScenarioError(f"{e}; {also}") from None
+    if name in names:
+        return _load_builtin(name)
     raise ScenarioError(
         f"no scenario file or built-in named {short(text_name, 80)}"
         f" (built-ins: {', '.join(names) or 'none'})"

@@ -27,7 +27,9 @@ class ScenarioCheck:
 
     def fail(self, key: str, message: str) -> NoReturn:
         text = f"{self.source}: {key}: {message}" if key else f"{self.source}: {message}"
-        raise ScenarioError(" ".join(text.splitlines()))
+        # Often raised while handling the error it words (a check's, the TOML parser's): the
+        # message says it all, so the traceback shows this error alone.
+        raise ScenarioError(" ".join(text.splitlines())) from None
 
     def _named(self, check, *args, **kw):
         """``check`` (of :mod:`..checks`) with this file's name in front of its message."""
@@ -95,5 +97,5 @@ class ScenarioCheck:
     def obstacles(self, value) -> np.ndarray:
         return self._named(checks.obstacles, value)
 
-    def outside(self, point, key: str, obstacles: np.ndarray) -> None:
-        self._named(checks.outside, point, key, obstacles)
+    def outside(self, point, key: str, obstacles: np.ndarray, robot_radius: float = 0.0) -> None:
+        self._named(checks.outside, point, key, obstacles, robot_radius=robot_radius)

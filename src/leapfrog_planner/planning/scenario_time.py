@@ -104,3 +104,28 @@ def provisional_horizon(free: FreeTime, start: np.ndarray, goal: np.ndarray, eff
     speed = math.sqrt(free.time_weight / effort)
     distance = max(float(np.hypot(*(goal[:2] - start[:2]))), 0.1)
     return float(np.clip(distance / speed, *free.limits()))
+
+
+def too_short(start, goal, bounds, longest: float, what: str) -> str | None:
+    """Why ``longest`` seconds (``what`` names them) are too short for a bounded speed to cover
+    the straight distance from ``start`` to ``goal``; None when they are not, or without a
+    bound on ``v``."""
+    if "v" not in bounds:
+        return None
+    vmax = max(abs(v) for v in bounds["v"])
+    distance = float(np.hypot(*(goal[:2] - start[:2])))
+    if distance <= vmax * longest:
+        return None
+    return (
+        f"the goal is {distance:.6g} away and the speed at most {vmax:g}: it takes at least"
+        f" {distance / vmax:.6g} s, longer than {what}"
+    )
+
+
+def refuse_unreachable(scenario) -> None:
+    """Refuse a fixed horizon too short for the scenario's bounded speed (:func:`too_short`)
+    before anything is planned: no plan could succeed."""
+    T = scenario.horizon
+    why = too_short(scenario.start, scenario.goal, scenario.control_bounds, T, f"T = {T:g}")
+    if why is not None:
+        ScenarioCheck(scenario.source or scenario.name).fail("horizon", why)

@@ -140,6 +140,20 @@ def select_paths(
     return paths, extras
 
 
+def fewer_paths_note(scenario: Scenario, asked: int, ran: int) -> str:
+    """Why a plan ran fewer initial paths than the ``asked`` (an ``initial_paths`` other than
+    the default, which asks for up to 3): waypoints allow one way round the obstacles, and
+    elsewhere there may be fewer distinct ways than asked. ``""`` when none is due."""
+    if ran >= asked or asked == PlannerSettings().initial_paths:
+        return ""
+    why = (
+        "the waypoints fix the way round the obstacles"
+        if scenario.waypoints is not None and len(scenario.waypoints)
+        else "no more distinct paths round the obstacles were found"
+    )
+    return f"{ran} initial path{'s' if ran > 1 else ''} ran, not the {asked} asked: {why}"
+
+
 Stage = Callable[[Search, Round, list[PathRun]], list[RunRequest]]
 
 

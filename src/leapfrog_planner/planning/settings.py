@@ -76,15 +76,14 @@ class PlannerSettings:
     def of_scenario(cls, scenario, base: PlannerSettings | None = None, **options):
         """The settings of ``scenario``'s ``[solver]`` table over ``base``, with ``options`` on
         top; a bad value in the file is the file's error, which names it."""
-        from_file = {SOLVER_KEYS[k]: v for k, v in scenario.solver.items()}
-        for key, name in SOLVER_KEYS.items():
-            if name in from_file:
-                try:
-                    cls.from_options(base, **{name: from_file[name]})
-                except SettingsError as e:  # "partitions: must be ..." -> "solver.partitions: ..."
-                    source = scenario.source or scenario.name
-                    why = str(e).removeprefix(f"{name}: ")
-                    raise ScenarioError(f"{source}: solver.{key}: {why}") from None
+        from_file = dict(scenario.solver)  # the [solver] keys are the settings' names
+        for name in from_file:
+            try:
+                cls.from_options(base, **{name: from_file[name]})
+            except SettingsError as e:  # "partitions: must be ..." -> "solver.partitions: ..."
+                source = scenario.source or scenario.name
+                why = str(e).removeprefix(f"{name}: ")
+                raise ScenarioError(f"{source}: solver.{name}: {why}") from None
         return cls.from_options(base, **{**from_file, **options})
 
 
@@ -119,13 +118,3 @@ def updated(base, options: Mapping, prefix: str, **ready):
     except (TypeError, ValueError, OverflowError) as e:  # a value of the wrong kind
         what = ", ".join(f"{prefix}{k} = {describe(v)}" for k, v in options.items())
         raise SettingsError(f"{what}: not accepted ({type(e).__name__})") from None
-
-
-#: A scenario's ``[solver]`` keys, and the settings they set.
-SOLVER_KEYS = {
-    "method": "method",
-    "partitions": "partitions",
-    "initial_paths": "initial_paths",
-    "max_sweeps": "max_sweeps",
-    "tolerance": "reduce_tol",
-}
