@@ -79,6 +79,19 @@ def test_health_and_plans_while_the_solver_is_prepared(gate):
         assert r.status_code == 200 and r.json()["status"] == "converged"
 
 
+def test_the_other_processes_start_once_the_first_has_compiled(gate):
+    """The first process alone compiles the kernels into the disk cache; the others start
+    when it is ready, and load them from there."""
+    app = create_app(workers=2, queue=4, time_limit=30.0, models=("unicycle",))
+    with TestClient(app) as client:
+        time.sleep(0.5)
+        h = client.get("/api/health").json()
+        assert len(h["pids"]) == 1 and h["ready"] == 0
+        (gate / "unicycle").touch()
+        _until(lambda: client.get("/api/health").json()["ready"] == 2)
+        assert len(client.get("/api/health").json()["pids"]) == 2
+
+
 def test_a_solver_that_fails_to_start_is_said_and_not_waited_for(gate, monkeypatch):
     monkeypatch.setattr(pool_module, "WORKER", "tests.no_such_module")
     app = create_app(workers=1, queue=4, time_limit=30.0, models=("unicycle",))

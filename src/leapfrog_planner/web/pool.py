@@ -190,8 +190,14 @@ class SolvePool:
 
     def _start_rest(self, first: _Worker) -> None:
         self._ready(first)
-        rest = [self._spawn() for _ in range(self.workers - 1)] if not self._closed else []
-        for w in rest:
+        for _ in range(self.workers - 1):
+            if self._closed:
+                return
+            try:
+                w = self._spawn()
+            except (OSError, RuntimeError) as e:  # RuntimeError: the pool closed meanwhile
+                log.error("could not start a solver process: %s", e)
+                return
             threading.Thread(target=self._ready, args=(w,), daemon=True).start()
 
     def wait_ready(self, timeout: float = START_TIMEOUT_S) -> bool:
