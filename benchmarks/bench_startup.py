@@ -1,7 +1,7 @@
 """Start-up: how long a new process takes before and around the plan, and how soon
 ``leapfrog serve`` answers.
 
-    python benchmarks/bench_startup.py [--runs 10] [--cold]
+    python benchmarks/bench_startup.py [--runs 10] [--cold] [--serve]
 
 1. ``leapfrog solve paper-case-4`` as a new process with a warm kernel cache (median of
    ``--runs``, target 0.5 s), beside what it is made of: ``python -c pass``, ``import numba``,
@@ -10,7 +10,8 @@
 2. ``leapfrog --help`` and ``leapfrog solve --help``.
 3. ``leapfrog serve``: seconds from its start to its first ``/api/health`` answer (target 2 s)
    and to its first ready solver process. ``--cold``: in a fresh, empty kernel cache (the
-   solver compiles every model: minutes, and the machine is loaded meanwhile).
+   solver compiles every model: minutes, and the machine is loaded meanwhile); ``--serve``:
+   this section alone.
 
 No assertions: it prints figures (wall seconds, each a whole process) and PASS or MISS against
 the targets of the issue, and the load average, since the machine may be shared.
@@ -94,17 +95,26 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+def plan(port: int) -> None:
+    body = json.dumps({"scenario": {"name": "line", "horizon": 1.0, "start": [0, 0, 0],
+                                    "goal": [1, 0, 0]}}).encode()  # fmt: skip
+    req = urllib.request.Request(f"http://127.0.0.1:{port}/api/plan", body,
+                                 {"Content-Type": "application/json"})  # fmt: skip
+    urllib.request.urlopen(req, timeout=60).read()
+
+
 def bench_serve(cold: bool) -> None:
     print(f"3. leapfrog serve, {'cold (an empty kernel cache)' if cold else 'warm'} cache")
     env = dict(os.environ)
     folder = tempfile.TemporaryDirectory(prefix="leapfrog-cold-") if cold else None
-    if folder is not None:
+    if folder is not None:  # numba's cache of the package's own functions too
         env["LEAPFROG_CACHE_DIR"] = folder.name
+        env["NUMBA_CACHE_DIR"] = os.path.join(folder.name, "numba")
     port = free_port()
     argv = [*CLI, "serve", "--port", str(port), "--workers", "1"]
     t0 = time.perf_counter()
     proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    first = None
+    first, model = None, None
     try:
         while proc.poll() is None and time.perf_counter() - t0 < 900:
             try:
@@ -113,13 +123,19 @@ def bench_serve(cold: bool) -> None:
             except OSError:
                 time.sleep(0.02)
                 continue
+            at = (h.get("preparing") or {}).get("model")
             if first is None:
-                first = time.perf_counter() - t0
+                first, model = time.perf_counter() - t0, at
                 said = verdict(first, TARGET_HEALTH_S)
                 print(f"   first /api/health answer {first:7.2f} s {said}")
-                print(f"     it said: ready {h['ready']}, preparing {h['preparing']}")
+                print(f"     it said: ready {h['ready']}, preparing {h.get('preparing')}")
+            elif at != model and at is not None:
+                print(f"     {time.perf_counter() - t0:7.2f} s: preparing the {at} kernels")
+                model = at
             if h["ready"] >= 1:
                 print(f"   a solver process ready   {time.perf_counter() - t0:7.2f} s")
+                plan(port)
+                print(f"   a first plan answered    {time.perf_counter() - t0:7.2f} s")
                 break
             time.sleep(0.5)
     finally:
@@ -133,9 +149,11 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=10)
     ap.add_argument("--cold", action="store_true", help="serve with an empty kernel cache")
+    ap.add_argument("--serve", action="store_true", help="only section 3")
     args = ap.parse_args(argv)
     print("load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()), f"cpus {os.cpu_count()}")
-    bench_solve(args.runs)
+    if not args.serve:
+        bench_solve(args.runs)
     bench_serve(args.cold)
     return 0
 
