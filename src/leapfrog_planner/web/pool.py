@@ -222,7 +222,8 @@ class SolvePool:
         try:
             w.wait_ready(START_TIMEOUT_S)
         except (PoolError, EOFError, OSError) as e:
-            log.error("solver process failed to start: %s", e)
+            if not self._closed:  # not a server stopped while its solver was being prepared
+                log.error("solver process failed to start: %s", e)
             self._drop(w)
             return
         with self._lock:
