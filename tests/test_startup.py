@@ -1,6 +1,6 @@
 """A warm start spends its time on the plan: a ``leapfrog solve`` process imports neither SymPy
 (its kernels are generated already) nor the parts of SciPy and the plotting and web libraries
-that the run does not use, and ``leapfrog --help`` imports none of the numerics."""
+that the run does not use, and ``leapfrog --help`` imports neither numba nor those."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def test_a_warm_solve_imports_nothing_it_does_not_use(scenario):
     assert loaded == []
 
 
-def test_help_imports_none_of_the_numerics():
+def test_help_imports_neither_numba_scipy_sympy_nor_the_plots_or_the_server():
     for args in (["--help"], ["solve", "--help"], ["serve", "--help"]):
         modules = _imported(args)
         assert "click" in modules
