@@ -36,6 +36,7 @@ HEAVY = {"initial_paths": 16, "partitions": 256}
 @pytest.fixture(scope="module")
 def client():
     with TestClient(create_app(workers=1, queue=4, time_limit=30.0)) as c:
+        assert c.app.state.pool.wait_ready()  # the server answers at once; its solver is warming
         yield c
 
 
@@ -43,6 +44,7 @@ def client():
 def tight():
     """One solver process, nothing waiting, half a second per solve."""
     with TestClient(create_app(workers=1, queue=0, time_limit=0.5)) as c:
+        assert c.app.state.pool.wait_ready()
         yield c
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -15,6 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
+from tests.gated_worker import GATE
 from tests.serving import free_port, wait_ready
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -28,6 +30,7 @@ pytestmark = pytest.mark.skipif(
 webdriver = pytest.importorskip("selenium.webdriver")
 pytest.importorskip("uvicorn")
 
+from selenium.common.exceptions import WebDriverException  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
@@ -252,3 +255,54 @@ def test_a_map_is_opened_and_planned_on(server, browser, tmp_path):
     assert (0, 0, 0) in colors  # its occupied cells
     assert (0x15, 0x65, 0xC0) in colors  # the path over it
     assert elapsed < 15.0
+
+
+@pytest.fixture
+def preparing_server(tmp_path):
+    """``leapfrog serve`` whose solver waits at each model until its gate is opened (a fresh
+    machine compiling the kernels): see :mod:`tests.gated_worker`."""
+    port = free_port()
+    code = (
+        "import sys\n"
+        "from leapfrog_planner.web import pool\n"
+        "pool.WORKER = 'tests.gated_worker'\n"
+        "from leapfrog_planner.cli import run\n"
+        "run()\n"
+    )
+    root = str(Path(__file__).resolve().parent.parent)
+    env = {**os.environ, GATE: str(tmp_path), "PYTHONPATH": os.pathsep.join([root + "/src", root])}
+    argv = [sys.executable, "-c", code, "serve", "--port", str(port), "--workers", "1"]
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, env=env)
+    try:
+        yield f"http://127.0.0.1:{port}", tmp_path
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+def test_the_page_shows_the_solver_being_prepared_then_plans(preparing_server, browser):
+    url, gate = preparing_server
+    wait = WebDriverWait(browser, WAIT)
+    for _ in range(100):  # the server answers within moments of its start
+        try:
+            browser.get(url)
+            break
+        except WebDriverException:
+            time.sleep(0.1)
+    banner = browser.find_element(By.ID, "preparing")
+    wait.until(lambda d: banner.is_displayed())
+    assert _text(browser, "preparing-text").startswith(
+        "Preparing the solver: the unicycle kernels (model 1 of 3)"
+    )
+    bar = browser.find_element(By.ID, "preparing-bar")
+    assert (bar.get_attribute("value"), bar.get_attribute("max")) == ("0", "3")
+    (gate / "unicycle").touch()
+    wait.until(lambda d: "(model 2 of 3)" in _text(d, "preparing-text"))
+    assert bar.get_attribute("value") == "1"
+    assert _text(browser, "cost") == "–"  # paper case 1 waits for the solver
+    assert not browser.find_element(By.ID, "error").is_displayed()
+    for model in ("diff-drive", "car"):
+        (gate / model).touch()
+    WebDriverWait(browser, 60).until(lambda d: not banner.is_displayed())
+    wait.until(lambda d: _text(d, "status").startswith("converged"))  # planned once it was ready
+    assert not browser.find_element(By.ID, "error").is_displayed()

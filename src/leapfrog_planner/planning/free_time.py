@@ -31,7 +31,6 @@ from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..bvp.shooting import ShootingSettings
 from ..integrate.flow import Flow, Trajectory
@@ -194,6 +193,8 @@ class TimeSearch:
             a = b
 
     def _bracketed(self, a: _Point, b: _Point) -> _Point:
+        from scipy.optimize import brentq  # only here: SciPy's optimize takes 0.1 s to import
+
         def g(u):
             p = self.at(u**-0.5)
             if self.met(p):

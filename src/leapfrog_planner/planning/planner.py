@@ -22,7 +22,6 @@ from ..bvp.shooting import ShootingSettings
 from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
 from ..model import get_model
-from ..model.cruise import straight_effort
 from .answer import Chosen, Context, choose_answer
 from .free_time import FREE_TIME_PATHS, first_horizon, plan_free_time
 from .initial_path import InitialPath, initial_paths, points_away
@@ -189,6 +188,8 @@ class Planner:
 
         def estimate(T: float) -> float:
             return float(np.min(estimated_costs(self.problem, paths, T, ends=ends)))
+
+        from ..model.cruise import straight_effort  # SymPy: only for a free horizon
 
         effort = straight_effort(get_model(s.model), s.model_parameters)
         return first_horizon(s, min(p.length for p in paths), effort, estimate)

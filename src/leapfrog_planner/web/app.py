@@ -11,11 +11,14 @@
 - ``POST /api/toml``, ``/api/result.json``, ``/api/result.csv``: the downloads (the scenario file
   with the page's options in its ``[solver]`` table; the result as ``leapfrog solve --json`` and
   ``leapfrog export --csv`` write it).
-- ``GET /api/health``: the pool's state and counts.
+- ``GET /api/health``: the pool's state and counts: ``ready`` solver processes, and while one
+  warms up (a first start on a machine compiles the kernels, minutes), ``preparing``: its model,
+  how many of the models are done, the seconds so far. The server answers from its start on.
 
 Every error is JSON, ``{"error": "<one line>"}``: 400 for bad input (the command line's message),
 404/405 for a wrong address or method, 409 for a request superseded by a newer one of the same
-session, 413 for a body too large, 503 when the pool is full, 504 past the time limit.
+session, 413 for a body too large, 503 when the pool is full or no solver process is ready yet
+(with ``Retry-After``), 504 past the time limit.
 """
 
 from __future__ import annotations
@@ -55,8 +58,9 @@ MAX_SESSIONS = 4096
 STATIC = resources.files("leapfrog_planner.web").joinpath("static")
 
 
-def error(message: str, status: int) -> JSONResponse:
-    return JSONResponse({"error": " ".join(str(message).splitlines())}, status_code=status)
+def error(message: str, status: int, headers: dict | None = None) -> JSONResponse:
+    body = {"error": " ".join(str(message).splitlines())}
+    return JSONResponse(body, status_code=status, headers=headers)
 
 
 class _Latest:
@@ -241,7 +245,7 @@ def _download(body: bytes, media_type: str, name: str) -> Response:
 #: Errors as JSON ``{"error": "<one line>"}`` with their status.
 HANDLERS = {
     RequestError: lambda r, e: error(str(e), e.status),
-    PoolError: lambda r, e: error(str(e), e.status),
+    PoolError: lambda r, e: error(str(e), e.status, getattr(e, "headers", None)),
     HTTPException: lambda r, e: error(e.detail, e.status_code),
     Exception: _internal,
 }

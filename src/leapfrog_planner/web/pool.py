@@ -7,7 +7,11 @@ requests are admitted at once; one more is refused at once (:class:`PoolFull`, H
 instead of piling up. A request still waiting when a newer one of the same session arrives is
 dropped (:class:`Superseded`): the page only wants the answer to its latest edit.
 
-:meth:`SolvePool.run` blocks; the web application calls it from a thread.
+:meth:`SolvePool.start` returns at once: the processes warm up in the background (on a fresh
+machine the first compiles the kernels, about a minute a model), each saying which model it is
+at (``preparing`` in :meth:`SolvePool.stats`); while none is ready, a request is refused at once
+with that progress (:class:`Preparing`, HTTP 503). :meth:`SolvePool.run` blocks; the web
+application calls it from a thread.
 """
 
 from __future__ import annotations
@@ -28,6 +32,9 @@ log = logging.getLogger(__name__)
 
 #: How long a worker may take to start (a fresh machine compiles the kernels: about 40 s a model).
 START_TIMEOUT_S = 900.0
+
+#: The module a solver process runs (``python -m WORKER THREADS MODEL...``).
+WORKER = "leapfrog_planner.web.worker"
 
 
 class PoolError(Exception):
@@ -52,30 +59,70 @@ class WorkerLost(PoolError):
     status = 500
 
 
+class Preparing(PoolError):
+    """No solver process is ready yet: they are loading (or compiling) the kernels."""
+
+    status = 503
+    headers = {"Retry-After": "2"}
+
+
+def preparing_text(progress: dict) -> str:
+    """What ``progress`` (see :meth:`_Worker.progress`) says, in words."""
+    done, total, model = progress["models_done"], progress["models"], progress["model"]
+    where = f"the {model} kernels, model {done + 1} of {total}, " if model else ""
+    return (
+        f"the solver is being prepared ({where}{progress['seconds']:.0f} s so far; the first"
+        " start on a machine compiles the kernels, about a minute a model)"
+    )
+
+
 class _Worker:
     """One solver process (``python -m leapfrog_planner.web.worker``), and the two ends of the
     pipes the server talks to it through. A process of its own rather than a multiprocessing
     child: nothing of the server's main module is imported again in it."""
 
     def __init__(self, models, threads: int):
-        argv = [sys.executable, "-m", "leapfrog_planner.web.worker", str(threads), *models]
+        argv = [sys.executable, "-m", WORKER, str(threads), *models]
         self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
         self.send = Connection(os.dup(self.proc.stdin.fileno()), readable=False)
         self.recv = Connection(os.dup(self.proc.stdout.fileno()), writable=False)
         self.proc.stdin.close()
         self.proc.stdout.close()
+        self.models = tuple(models)
+        self.started = time.monotonic()
+        self.warming: tuple[int, float] | None = (0, self.started)  # model index, since when
+        self.ready = False
 
     def wait_ready(self, timeout: float) -> None:
-        if not self.recv.poll(timeout):
-            raise WorkerLost(f"a solver process did not start within {timeout:g} s")
-        try:
-            kind, value = self.recv.recv()
-        except EOFError:
-            raise WorkerLost(
-                f"a solver process ended as it started (exit code {self.proc.wait()})"
-            ) from None
-        if kind != "ready":
-            raise WorkerLost(str(value))
+        """Wait for ``("ready", pid)``, noting the ``("warming", index)`` messages before it."""
+        end = self.started + timeout
+        while True:
+            if not self.recv.poll(max(0.0, end - time.monotonic())):
+                raise WorkerLost(f"a solver process did not start within {timeout:g} s")
+            try:
+                kind, value = self.recv.recv()
+            except EOFError:
+                raise WorkerLost(
+                    f"a solver process ended as it started (exit code {self.proc.wait()})"
+                ) from None
+            if kind == "warming":
+                self.warming = (int(value), time.monotonic())
+            elif kind == "ready":
+                return
+            else:
+                raise WorkerLost(str(value))
+
+    def progress(self) -> dict:
+        """Where its warm-up is: the model, how many are done, the seconds so far."""
+        index, since = self.warming or (len(self.models), self.started)
+        now = time.monotonic()
+        return {
+            "model": self.models[index] if index < len(self.models) else None,
+            "models_done": index,
+            "models": len(self.models),
+            "model_seconds": round(now - since, 1),
+            "seconds": round(now - self.started, 1),
+        }
 
     def call(self, job, limit: float):
         self.send.send(job)
@@ -120,24 +167,50 @@ class SolvePool:
         # worker asks the kernel to kill it when the thread that started it ends (measured:
         # started from a short-lived thread, workers were killed under load, exit -9).
         self._spawner = ThreadPoolExecutor(1, thread_name_prefix="leapfrog-serve-spawn")
-        self.counts = {"solved": 0, "time_limit": 0, "full": 0, "superseded": 0, "lost": 0}
+        self.counts = {
+            "solved": 0,
+            "time_limit": 0,
+            "full": 0,
+            "superseded": 0,
+            "lost": 0,
+            "not_ready": 0,
+        }
 
     # ------------------------------------------------------------------ life cycle
 
     def start(self) -> None:
-        """Start the processes and return once they are warm: the first alone (on a fresh
-        machine it compiles the kernels into the disk cache), then the others together (they
-        load them from there)."""
+        """Start the processes and return at once; they warm up in the background: the first
+        alone (on a fresh machine it compiles the kernels into the disk cache), then the others
+        together (they load them from there). :meth:`wait_ready` waits for the first."""
         if self._started:
             return
         self._started = True
-        self._ready(self._spawn())
-        rest = [self._spawn() for _ in range(self.workers - 1)]
-        threads = [threading.Thread(target=self._ready, args=(w,), daemon=True) for w in rest]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
+        first = self._spawn()
+        threading.Thread(target=self._start_rest, args=(first,), daemon=True).start()
+
+    def _start_rest(self, first: _Worker) -> None:
+        self._ready(first)
+        for _ in range(self.workers - 1):
+            if self._closed:
+                return
+            try:
+                w = self._spawn()
+            except (OSError, RuntimeError) as e:  # RuntimeError: the pool closed meanwhile
+                log.error("could not start a solver process: %s", e)
+                return
+            threading.Thread(target=self._ready, args=(w,), daemon=True).start()
+
+    def wait_ready(self, timeout: float = START_TIMEOUT_S) -> bool:
+        """Wait until a process is ready (true), none is left starting, or ``timeout`` s."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            with self._lock:
+                if any(w.ready for w in self._all):
+                    return True
+                if not self._all or self._closed:
+                    return False
+            time.sleep(0.05)
+        return False
 
     def _spawn(self) -> _Worker:
         w = self._spawner.submit(_Worker, self.models, self.threads).result()
@@ -149,9 +222,12 @@ class SolvePool:
         try:
             w.wait_ready(START_TIMEOUT_S)
         except (PoolError, EOFError, OSError) as e:
-            log.error("solver process failed to start: %s", e)
+            if not self._closed:  # not a server stopped while its solver was being prepared
+                log.error("solver process failed to start: %s", e)
             self._drop(w)
             return
+        with self._lock:
+            w.warming, w.ready = None, not self._closed
         if self._closed:
             self._drop(w)
         else:
@@ -203,7 +279,9 @@ class SolvePool:
 
     def run(self, job, stale: Callable[[], bool] | None = None):
         """The worker's answer to ``job`` (call it inside :meth:`admitted`, from a thread).
-        ``stale`` is asked once a worker is free: true drops the job (:class:`Superseded`)."""
+        ``stale`` is asked once a worker is free: true drops the job (:class:`Superseded`).
+        While no process is ready yet and one is warming up, :class:`Preparing` at once."""
+        self._check_prepared()
         w = self._next_idle()
         if stale is not None and stale():
             self._idle.put(w)
@@ -242,6 +320,23 @@ class SolvePool:
             if not alive or self._closed:
                 raise WorkerLost("no solver process is running (see the server's log)")
 
+    def _check_prepared(self) -> None:
+        with self._lock:
+            if any(w.ready for w in self._all):
+                return
+            progress = self._preparing()
+        if progress is None:
+            return  # nothing starting: _next_idle says no process is running
+        self._count("not_ready")
+        raise Preparing(f"{preparing_text(progress)}; try again when /api/health says ready")
+
+    def _preparing(self) -> dict | None:
+        """The progress of the warm-up furthest along (call it holding the lock)."""
+        warming = [w for w in self._all if w.warming is not None]
+        if not warming:
+            return None
+        return max((w.progress() for w in warming), key=lambda p: p["models_done"])
+
     def _count(self, key: str) -> None:
         with self._lock:
             self.counts[key] += 1
@@ -250,7 +345,8 @@ class SolvePool:
         with self._lock:
             return {
                 "workers": self.workers,
-                "ready": self._idle.qsize() + self._busy,
+                "ready": sum(w.ready for w in self._all),
+                "preparing": self._preparing(),
                 "busy": self._busy,
                 "admitted": self._admitted,
                 "capacity": self.capacity,

@@ -97,15 +97,18 @@ def answer(job, threads: int = 0) -> tuple[str, object]:
         return "error", f"{type(e).__name__}: {' '.join(str(e).splitlines())}"
 
 
-def warm(models) -> None:
+def warm(models, send) -> None:
+    """Warm the kernels of ``models`` up, saying ``("warming", index)`` before each model."""
     from ..planning.warmup import warm_up
 
-    for model in models:
+    for index, model in enumerate(models):
+        send.send(("warming", index))
         warm_up(model)
 
 
 def serve(receive, send, models, threads: int) -> None:
-    """The process's loop: warm up, say ``("ready", pid)``, then answer jobs."""
+    """The process's loop: warm up (saying which model it is at), say ``("ready", pid)``, then
+    answer jobs."""
     from ..batch.orphans import die_with_parent
 
     die_with_parent()
@@ -113,7 +116,7 @@ def serve(receive, send, models, threads: int) -> None:
     # (interrupted inside numba, a process can die of a segmentation fault).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        warm(models)
+        warm(models, send)
     except Exception as e:
         send.send(("error", f"warm-up failed: {type(e).__name__}: {e}"))
         return

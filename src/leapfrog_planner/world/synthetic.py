@@ -34,7 +34,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from .. import checks
 from ..errors import ScenarioError, require_integer
@@ -430,6 +429,8 @@ def _shape(canvas: _Canvas, centre, r: float, w: float, gap: float) -> None:
         mask = np.zeros(x.shape, dtype=bool)
         for x0, x1, y0, y1 in _bars(kind, r, w):
             mask |= (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+    from scipy import ndimage  # only here: SciPy's image module takes 0.15 s to import
+
     mask &= np.hypot(dx, dy) <= r  # never beyond the disc, whatever the rounding
     mask = ndimage.binary_opening(mask, structure=np.ones((2, 2), dtype=bool))  # no slivers
     canvas.occ[i0:i1, j0:j1] |= mask

@@ -412,6 +412,12 @@ async function planNow() {
     const body = await resp.json();
     if (my !== seq) return; // a newer request is on its way
     if (resp.status === 409) return;
+    if (resp.status === 503 && resp.headers.has("Retry-After")) { // no solver process ready yet
+      waitingForSolver = true; // planned again as soon as one is
+      showError("");
+      watchSolver();
+      return;
+    }
     if (!resp.ok) {
       showError(body.error || `error ${resp.status}`);
       state.result = null;
@@ -429,6 +435,53 @@ async function planNow() {
     if (e.name !== "AbortError" && my === seq) showError(`no answer from the server (${e.message})`);
   } finally {
     if (my === seq) $("busy").hidden = true;
+  }
+}
+
+// ------------------------------------------------------------------ the solver's warm-up
+
+// A first start on a machine compiles the kernels (about a minute a model): until a solver
+// process is ready the server answers a plan with 503, and /api/health says how far it is.
+let waitingForSolver = false, watching = false;
+
+async function health() {
+  try {
+    return await (await fetch("/api/health")).json();
+  } catch (e) {
+    return null;
+  }
+}
+
+function preparingText(p) {
+  const where = p.model ? `the ${p.model} kernels (model ${p.models_done + 1} of ${p.models}), ` : "";
+  return `Preparing the solver: ${where}${p.seconds.toFixed(0)} s so far. A first start on a ` +
+    "machine compiles the kernels, about a minute a model; the plan runs as soon as it is ready.";
+}
+
+// Show the warm-up's progress until a solver process is ready, then plan what waited for it.
+async function watchSolver() {
+  if (watching) return;
+  watching = true;
+  let h = await health();
+  while (h === null || h.ready === 0) {
+    if (h !== null && h.preparing === null) { // nothing is starting: the server says why in its log
+      showError("no solver process is running (see the server's log)");
+      break;
+    }
+    if (h !== null) {
+      $("preparing-text").textContent = preparingText(h.preparing);
+      $("preparing-bar").max = h.preparing.models;
+      $("preparing-bar").value = h.preparing.models_done;
+      $("preparing").hidden = false;
+    }
+    await new Promise((resolve) => setTimeout(resolve, 1000));
+    h = await health();
+  }
+  watching = false;
+  $("preparing").hidden = true;
+  if (waitingForSolver && h !== null && h.ready > 0) {
+    waitingForSolver = false;
+    schedule(0);
   }
 }
 
@@ -727,4 +780,5 @@ function wire() {
 }
 
 wire();
+watchSolver();
 loadBuiltins().catch((e) => showError(`could not load the scenarios (${e.message})`));

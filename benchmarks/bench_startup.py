@@ -1,0 +1,162 @@
+"""Start-up: how long a new process takes before and around the plan, and how soon
+``leapfrog serve`` answers.
+
+    python benchmarks/bench_startup.py [--runs 10] [--cold] [--serve]
+
+1. ``leapfrog solve paper-case-4`` as a new process with a warm kernel cache (median of
+   ``--runs``, target 0.5 s), beside what it is made of: ``python -c pass``, ``import numba``,
+   a process that imports the planner and loads the kernels the plan needs but does not plan,
+   and the same that plans (its in-process plan time printed too).
+2. ``leapfrog --help`` and ``leapfrog solve --help``.
+3. ``leapfrog serve``: seconds from its start to its first ``/api/health`` answer (target 2 s)
+   and to its first ready solver process. ``--cold``: in a fresh, empty kernel cache (the
+   solver compiles every model: minutes, and the machine is loaded meanwhile); ``--serve``:
+   this section alone.
+
+No assertions: it prints figures (wall seconds, each a whole process) and PASS or MISS against
+the targets of the issue, and the load average, since the machine may be shared.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+
+TARGET_SOLVE_S = 0.5
+TARGET_HEALTH_S = 2.0
+CLI = [sys.executable, "-m", "leapfrog_planner.cli"]
+
+#: Imports and loads the kernels of a plan of paper case 4 as ``leapfrog solve`` does; plans it
+#: when PLAN is true. Ends as the command does (no interpreter teardown).
+PARTS = """
+import os, sys
+from leapfrog_planner.cli.warmup import ensure_compiled
+from leapfrog_planner.planning.planner import Planner
+from leapfrog_planner.planning.scenario import load_scenario
+sc = load_scenario("paper-case-4")
+planner = Planner(sc)
+ensure_compiled([sc.model], show=False, methods=[planner.settings.leapfrog.method])
+if {plan}:
+    print(planner.plan().wall_time_s, flush=True)
+os._exit(0)
+"""
+
+
+def wall(argv: list[str], env=None) -> tuple[float, str]:
+    t = time.perf_counter()
+    p = subprocess.run(argv, capture_output=True, text=True, env=env, check=False)
+    return time.perf_counter() - t, p.stdout
+
+
+def median_wall(argv: list[str], runs: int) -> tuple[float, list[str]]:
+    wall(argv)  # a warm-up run (it compiles, the first time on a machine)
+    times, outs = [], []
+    for _ in range(runs):
+        t, out = wall(argv)
+        times.append(t)
+        outs.append(out)
+    return statistics.median(times), outs
+
+
+def verdict(value: float, target: float) -> str:
+    return f"(target {target:g} s) {'PASS' if value <= target else 'MISS'}"
+
+
+def bench_solve(runs: int) -> None:
+    print(f"1. a new process, warm kernel cache (median of {runs} runs, wall s)")
+    for label, argv in (
+        ("python -c pass", [sys.executable, "-c", "pass"]),
+        ("python -c 'import numba'", [sys.executable, "-c", "import numba"]),
+        ("imports + the plan's kernels", [sys.executable, "-c", PARTS.format(plan=False)]),
+    ):
+        print(f"   {label:<36}{median_wall(argv, runs)[0]:7.3f}")
+    t, outs = median_wall([sys.executable, "-c", PARTS.format(plan=True)], runs)
+    plan = statistics.median(float(o.split()[-1]) for o in outs if o.strip())
+    print(f"   {'the same, and the plan':<36}{t:7.3f}   (the plan itself {plan:.3f})")
+    t, _ = median_wall([*CLI, "solve", "paper-case-4"], runs)
+    print(f"   {'leapfrog solve paper-case-4':<36}{t:7.3f}   {verdict(t, TARGET_SOLVE_S)}")
+    print("2. help")
+    for args in (["--help"], ["solve", "--help"]):
+        t, _ = median_wall([*CLI, *args], runs)
+        print(f"   {'leapfrog ' + ' '.join(args):<36}{t:7.3f}")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def plan(port: int) -> None:
+    body = json.dumps({"scenario": {"name": "line", "horizon": 1.0, "start": [0, 0, 0],
+                                    "goal": [1, 0, 0]}}).encode()  # fmt: skip
+    req = urllib.request.Request(f"http://127.0.0.1:{port}/api/plan", body,
+                                 {"Content-Type": "application/json"})  # fmt: skip
+    urllib.request.urlopen(req, timeout=60).read()
+
+
+def bench_serve(cold: bool) -> None:
+    print(f"3. leapfrog serve, {'cold (an empty kernel cache)' if cold else 'warm'} cache")
+    env = dict(os.environ)
+    folder = tempfile.TemporaryDirectory(prefix="leapfrog-cold-") if cold else None
+    if folder is not None:  # numba's cache of the package's own functions too
+        env["LEAPFROG_CACHE_DIR"] = folder.name
+        env["NUMBA_CACHE_DIR"] = os.path.join(folder.name, "numba")
+    port = free_port()
+    argv = [*CLI, "serve", "--port", str(port), "--workers", "1"]
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    first, model = None, None
+    try:
+        while proc.poll() is None and time.perf_counter() - t0 < 900:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health", timeout=5) as r:
+                    h = json.load(r)
+            except OSError:
+                time.sleep(0.02)
+                continue
+            at = (h.get("preparing") or {}).get("model")
+            if first is None:
+                first, model = time.perf_counter() - t0, at
+                said = verdict(first, TARGET_HEALTH_S)
+                print(f"   first /api/health answer {first:7.2f} s {said}")
+                print(f"     it said: ready {h['ready']}, preparing {h.get('preparing')}")
+            elif at != model and at is not None:
+                print(f"     {time.perf_counter() - t0:7.2f} s: preparing the {at} kernels")
+                model = at
+            if h["ready"] >= 1:
+                print(f"   a solver process ready   {time.perf_counter() - t0:7.2f} s")
+                plan(port)
+                print(f"   a first plan answered    {time.perf_counter() - t0:7.2f} s")
+                break
+            time.sleep(0.5)
+    finally:
+        proc.terminate()
+        proc.wait(10)
+        if folder is not None:
+            folder.cleanup()
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=10)
+    ap.add_argument("--cold", action="store_true", help="serve with an empty kernel cache")
+    ap.add_argument("--serve", action="store_true", help="only section 3")
+    args = ap.parse_args(argv)
+    print("load average {:.2f} {:.2f} {:.2f}".format(*os.getloadavg()), f"cpus {os.cpu_count()}")
+    if not args.serve:
+        bench_solve(args.runs)
+    bench_serve(args.cold)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,33 @@
+"""A solver process of ``leapfrog serve`` standing in for one on a fresh machine: before it
+warms each model up it waits until the file of that model's name appears in the folder
+``$LEAPFROG_TEST_GATE`` (a real first start compiles for about a minute a model), so that a
+test sees the server while its solver is being prepared and decides when that ends."""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+from leapfrog_planner.planning import warmup
+from leapfrog_planner.web import worker
+
+GATE = "LEAPFROG_TEST_GATE"
+
+
+def gated(warm_up):
+    """``warm_up``, waiting first until the gate of its model is open."""
+
+    def wait_then_warm_up(model, *args, **kwargs):
+        gate = Path(os.environ[GATE]) / model
+        while not gate.exists():
+            time.sleep(0.02)
+        return warm_up(model, *args, **kwargs)
+
+    return wait_then_warm_up
+
+
+if __name__ == "__main__":
+    warmup.warm_up = gated(warmup.warm_up)
+    worker.main(sys.argv[1:])

@@ -1,0 +1,145 @@
+"""``leapfrog serve`` answers from its start, also while its solver processes are being prepared
+(a fresh machine compiles the kernels, about a minute a model): ``/api/health`` says which model
+they are at and how far; a plan asked before then is refused at once with that progress (503,
+``Retry-After``) and answered as soon as a process is ready. A fresh machine is stood in for by
+solver processes that wait at each model until the test opens its gate
+(:mod:`tests.gated_worker`)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("starlette")
+pytest.importorskip("httpx2")
+
+from starlette.testclient import TestClient  # noqa: E402
+from tests.gated_worker import GATE  # noqa: E402
+from tests.serving import free_port  # noqa: E402
+
+from leapfrog_planner.planning.scenario import load_scenario  # noqa: E402
+from leapfrog_planner.web import pool as pool_module  # noqa: E402
+from leapfrog_planner.web.app import create_app  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE1 = load_scenario("paper-case-1").to_dict()
+
+
+@pytest.fixture
+def gate(tmp_path, monkeypatch):
+    """The folder of the gates; solver processes run the gated stand-in."""
+    monkeypatch.setenv(GATE, str(tmp_path))
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(ROOT / "src"), str(ROOT)]))
+    monkeypatch.setattr(pool_module, "WORKER", "tests.gated_worker")
+    return tmp_path
+
+
+def _until(check, timeout=60.0):
+    end = time.monotonic() + timeout
+    while not check():
+        assert time.monotonic() < end, "never happened"
+        time.sleep(0.02)
+
+
+def test_health_and_plans_while_the_solver_is_prepared(gate):
+    app = create_app(workers=1, queue=4, time_limit=30.0, models=("unicycle", "diff-drive"))
+    with TestClient(app) as client:
+        h = client.get("/api/health").json()
+        assert h["ready"] == 0 and len(h["pids"]) == 1
+        assert h["preparing"]["model"] == "unicycle"
+        assert (h["preparing"]["models_done"], h["preparing"]["models"]) == (0, 2)
+
+        r = client.post("/api/plan", json={"scenario": CASE1})
+        assert r.status_code == 503 and r.headers["retry-after"] == "2"
+        message = r.json()["error"]
+        assert message.startswith("the solver is being prepared (the unicycle kernels, model 1")
+        assert message.endswith("try again when /api/health says ready")
+        assert client.get("/").status_code == 200  # the page and the scenarios meanwhile
+        assert client.get("/api/scenarios").status_code == 200
+
+        (gate / "unicycle").touch()
+        _until(lambda: (client.get("/api/health").json()["preparing"] or {}).get("models_done"))
+        h = client.get("/api/health").json()
+        assert h["ready"] == 0 and h["preparing"]["model"] == "diff-drive"
+        assert client.post("/api/plan", json={"scenario": CASE1}).status_code == 503
+
+        (gate / "diff-drive").touch()
+        assert app.state.pool.wait_ready()
+        h = client.get("/api/health").json()
+        assert h["ready"] == 1 and h["preparing"] is None and h["not_ready"] == 2
+        r = client.post("/api/plan", json={"scenario": CASE1})
+        assert r.status_code == 200 and r.json()["status"] == "converged"
+
+
+def test_the_other_processes_start_once_the_first_has_compiled(gate):
+    """The first process alone compiles the kernels into the disk cache; the others start
+    when it is ready, and load them from there."""
+    app = create_app(workers=2, queue=4, time_limit=30.0, models=("unicycle",))
+    with TestClient(app) as client:
+        time.sleep(0.5)
+        h = client.get("/api/health").json()
+        assert len(h["pids"]) == 1 and h["ready"] == 0
+        (gate / "unicycle").touch()
+        _until(lambda: client.get("/api/health").json()["ready"] == 2)
+        assert len(client.get("/api/health").json()["pids"]) == 2
+
+
+def test_a_solver_that_fails_to_start_is_said_and_not_waited_for(gate, monkeypatch):
+    monkeypatch.setattr(pool_module, "WORKER", "tests.no_such_module")
+    app = create_app(workers=1, queue=4, time_limit=30.0, models=("unicycle",))
+    with TestClient(app) as client:
+        assert not app.state.pool.wait_ready()
+        h = client.get("/api/health").json()
+        assert h["ready"] == 0 and h["preparing"] is None and h["pids"] == []
+        r = client.post("/api/plan", json={"scenario": CASE1})
+        assert r.status_code == 500
+        assert r.json()["error"] == "no solver process is running (see the server's log)"
+
+
+def _get(url: str):
+    try:
+        with urllib.request.urlopen(url, timeout=5) as r:
+            return r.status, json.load(r)
+    except urllib.error.HTTPError as e:
+        return e.code, json.load(e)
+
+
+def test_the_command_answers_before_its_solver_is_ready(gate):
+    """``leapfrog serve`` itself: its health answers while the solver waits at its gate."""
+    port = free_port()
+    code = (
+        "import sys\n"
+        "from leapfrog_planner.web import pool\n"
+        "pool.WORKER = 'tests.gated_worker'\n"
+        "from leapfrog_planner.cli import run\n"
+        "sys.argv[0] = 'leapfrog'\n"
+        "run()\n"
+    )
+    argv = [sys.executable, "-c", code, "serve", "--port", str(port), "--workers", "1"]
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        end = time.monotonic() + 60
+        while True:
+            try:
+                status, h = _get(url + "/api/health")
+                break
+            except OSError:
+                assert proc.poll() is None, proc.stderr.read().decode()
+                assert time.monotonic() < end, "leapfrog serve never answered"
+                time.sleep(0.05)
+        assert status == 200 and h["ready"] == 0 and h["preparing"]["model"] == "unicycle"
+        for model in ("unicycle", "diff-drive", "car"):
+            (gate / model).touch()
+        _until(lambda: _get(url + "/api/health")[1]["ready"] == 1)
+    finally:
+        proc.terminate()
+        proc.wait(10)
