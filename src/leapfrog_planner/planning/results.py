@@ -237,6 +237,9 @@ class PlanResult:
     # With a free final time: the price of time, the T chosen and how (then ``cost`` includes
     # the price of time, ``energy + penalty + time_weight T``); None for a fixed horizon.
     free_time: FreeTimeReport | None = None
+    # How the result was made (versions, platform, date, the call: see :mod:`.rerun`):
+    # metadata, which comparisons of answers leave out. None in a file of schema 2 or older.
+    provenance: dict | None = None
 
     @classmethod
     def load(cls, path) -> PlanResult:
