@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import zipfile
 from dataclasses import asdict, fields, is_dataclass
 from pathlib import Path
@@ -384,8 +385,11 @@ def save_npz(r, path) -> None:
 def is_result_file(path) -> bool:
     """Whether the file ``path`` holds a saved result rather than a scenario, told by its
     content whatever its name: a zip (NPZ) or a JSON object (a TOML file never starts with
-    ``{``). False for a name that is no file (a built-in scenario's)."""
+    ``{``). False for a name that is no regular file (a built-in scenario's; a FIFO is not
+    opened: without a writer, opening it would wait for ever)."""
     try:
+        if not os.path.isfile(path):
+            return False
         with open(path, "rb") as fh:
             head = fh.read(4096)
     except OSError:
