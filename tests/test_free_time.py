@@ -184,7 +184,9 @@ def test_a_free_time_result_and_scenario_round_trip(tmp_path):
     r.save_json(path)
     back = PlanResult.load(path)
     assert back.free_time == r.free_time and back.cost == r.cost
-    assert back.task == sc.__class__(**{**_fields(sc), "horizon": r.free_time.horizon})
+    # (the recorded scenario's [solver] table is the settings used: tests/test_rerun.py)
+    task = dataclasses.replace(back.task, solver={})
+    assert task == sc.__class__(**{**_fields(sc), "horizon": r.free_time.horizon})
 
 
 def _fields(sc) -> dict:

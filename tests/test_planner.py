@@ -23,6 +23,7 @@ from leapfrog_planner._atomic import write_atomic
 from leapfrog_planner.bvp.shooting import solve_shooting
 from leapfrog_planner.errors import LeapfrogError, ScenarioError, SettingsError
 from leapfrog_planner.planning.planner import PlanEvent, Planner, PlannerSettings, plan
+from leapfrog_planner.planning.result_files import SCHEMA
 from leapfrog_planner.planning.results import LeapfrogResult, PlanStatus
 from leapfrog_planner.planning.scenario import Scenario, load_scenario, load_scenario_text
 
@@ -332,7 +333,7 @@ def saved(planned, tmp_path_factory):
 def test_json_has_the_stable_keys_with_the_right_types(saved):
     r, folder = saved
     d = json.loads((folder / "result.json").read_text())
-    assert d["schema"] == 2
+    assert d["schema"] == SCHEMA == 3
     assert d["status"] == "converged"
     for k in NUMBER_KEYS:
         assert isinstance(d[k], float) and math.isfinite(d[k]), k

@@ -117,9 +117,11 @@ def folder(tmp_path_factory) -> Path:
 
 
 def _ordered(commands: list[str]) -> list[list[str]]:
-    """Commands in waves: one that reads a file another writes runs after it (solve before plot
-    and export; generate before the sweeps of its folder; sweeps before report)."""
-    first = [c for c in commands if re.match(r"leapfrog (solve|generate|sweep --n)", c)]
+    """Commands in waves: one that reads a file another writes runs after it (solve before plot,
+    export and the re-run of its result; generate before the sweeps of its folder; sweeps before
+    report)."""
+    writes = r"leapfrog (solve (?!\S+\.(json|npz)\b)|generate|sweep --n)"
+    first = [c for c in commands if re.match(writes, c)]
     second = [c for c in commands if c not in first and not c.startswith("leapfrog report")]
     third = [c for c in commands if c.startswith("leapfrog report")]
     return [first, second, third]

@@ -8,7 +8,7 @@ import json
 import math
 import subprocess
 import sys
-from dataclasses import fields
+from dataclasses import fields, replace
 
 import numpy as np
 import pytest
@@ -19,6 +19,7 @@ from leapfrog_planner.planning.planner import plan
 from leapfrog_planner.planning.result_files import ResultFileError
 from leapfrog_planner.planning.results import PlanResult
 from leapfrog_planner.planning.scenario import load_scenario
+from leapfrog_planner.planning.settings import PlannerSettings
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +67,9 @@ def test_a_saved_result_loads_back_field_for_field(case4, saved, name):
                 np.testing.assert_array_equal(x.trajectory.x, y.trajectory.x)
         else:
             _same(a, b)
-    assert r.task == load_scenario("paper-case-4")
+    # The scenario planned, its [solver] table written from the settings used (one truth).
+    assert replace(r.task, solver={}) == load_scenario("paper-case-4")
+    assert r.task.solver == PlannerSettings.from_dict(r.settings).solver_table()
     assert r.settings["leapfrog"]["method"] == "modified-newton"
 
 
@@ -166,7 +169,8 @@ def test_a_result_file_alone_gives_its_figures_and_exports(saved, tmp_path):
     "content, says",
     [
         ('{"schema": 2, "status": "conv', "not a leapfrog result file"),
-        ('{"schema": 1, "status": "converged"}', "schema 1"),
+        ('{"schema": 99, "status": "converged"}', "schema 99"),
+        ('{"schema": 1, "status": "converged"}', "damaged result file"),
         ('{"schema": 2, "status": "converged"}', "damaged result file"),
         ("[1, 2]", "not a leapfrog result file"),
         (b"PK\x03\x04garbage", "not a leapfrog result file"),

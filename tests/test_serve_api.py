@@ -154,7 +154,7 @@ def test_result_downloads_are_the_command_lines_files(client):
     r = client.post("/api/result.json", json={"scenario": CASE4})
     assert r.status_code == 200 and r.headers["content-disposition"].endswith('.json"')
     d = r.json()
-    assert d["schema"] == 2 and d["cost"] == pytest.approx(4.585248, abs=1e-6)
+    assert d["schema"] == 3 and d["cost"] == pytest.approx(4.585248, abs=1e-6)
     assert d["scenario_file"]["obstacles"] == CASE4["obstacles"]
     r = client.post("/api/result.csv", json={"scenario": CASE4})
     assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv")

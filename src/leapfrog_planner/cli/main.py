@@ -14,7 +14,7 @@ from .batch import generate, report, sweep
 from .common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, err
 from .ctrl_c import interrupted
 from .experiments import bench, paper
-from .results import export, plot
+from .results import export, plot, schema
 from .serve import serve
 from .solve import derive, scenarios, shoot, solve
 from .warmup import warmup
@@ -33,6 +33,7 @@ for command in (
     scenarios,
     plot,
     export,
+    schema,
     warmup,
     paper,
     bench,

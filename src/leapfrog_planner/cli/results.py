@@ -1,5 +1,6 @@
 """Commands on a saved result: ``plot`` (its figures) and ``export`` (CSV or a ROS path). A
-result file carries its scenario, so nothing else is needed."""
+result file carries its scenario, so nothing else is needed. ``schema``: the JSON Schema of a
+result file."""
 
 from __future__ import annotations
 
@@ -18,8 +19,8 @@ def _load(path: str):
     if not Path(path).is_file():
         raise click.UsageError(f"{path!r}: no such file")
     result = PlanResult.load(path)
-    if result.task is None:  # pragma: no cover - every schema-2 file has one
-        raise click.UsageError(f"{path!r}: the result does not hold its scenario")
+    if result.task is None:  # a file of schema 1
+        raise click.UsageError(f"{path!r}: the result does not hold its scenario (schema 1)")
     return result
 
 
@@ -113,4 +114,25 @@ def export(result, csv_path, ros_path, dt, frame):
     for path in outputs.values():
         if path is not None:
             console.print(f"wrote {path}", markup=False, highlight=False)
+    return EXIT_OK
+
+
+@click.command()
+@click.option("--out", default=None, help="write it to this file  [default: print it]")
+def schema(out):
+    """Print the JSON Schema of a result file (of `solve --json`), or write it with --out."""
+    import json
+
+    from ..planning.result_schema import result_schema
+
+    path = output_path(out, "--out")
+    text = json.dumps(result_schema(), indent=2) + "\n"
+    if path is None:
+        click.echo(text, nl=False)
+    else:
+        from .._atomic import write_atomic
+
+        write_output(
+            lambda p: write_atomic(p, lambda tmp: Path(tmp).write_text(text)), path, "--out"
+        )
     return EXIT_OK

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import math
+import shlex
+import sys
 from pathlib import Path
 
 import click
@@ -242,8 +244,17 @@ def solve(
     quiet,
 ):
     """Plan SCENARIO (a TOML file or a built-in name) with the Leapfrog algorithm. A file wins
-    over a built-in of the same name; builtin:NAME is always the built-in."""
+    over a built-in of the same name; builtin:NAME is always the built-in.
+
+    Given a saved result in its place (a JSON or NPZ file of `solve --json/--npz`, recognised by
+    its content), re-plan the scenario it records with the settings it records, and say in one
+    line whether the answer reproduces (the same status, cost and trajectory, bit for bit).
+    Exit codes then: 0 it reproduces a converged answer, 1 it reproduces an answer that did
+    not converge, 3 it differs from the recorded answer; bad input is 2, as always.
+    """
     from ..planning.planner import Planner
+    from ..planning.rerun import with_call
+    from ..planning.result_files import is_result_file
     from ..planning.scenario import builtin_scenarios, load_scenario
 
     if plot_path is not None and Path(plot_path).suffix.lower() not in (".png", ".pdf", ".svg"):
@@ -255,6 +266,14 @@ def solve(
         "--plot": output_path(plot_path, "--plot", inputs),
     }
     distinct_outputs(outputs)
+    if is_result_file(scenario):
+        given = [method, partitions, initial_paths, final, map_file, time_limit, horizon]
+        if any(v is not None for v in [*given, cruise_speed, time_weight]) or options:
+            raise click.UsageError(
+                "a result re-plans with the scenario and settings it records: planning options"
+                " are not accepted with it (plan its scenario to change them)"
+            )
+        return _rerun(scenario, outputs, quiet)
     sc = load_scenario(scenario)
     if scenario in builtin_scenarios() and sc.source == scenario:
         note = f"the file {scenario}, not the built-in scenario (builtin:{scenario} is that one)"
@@ -279,6 +298,30 @@ def solve(
         methods=[planner.settings.leapfrog.method],
     )
     result = planner.plan() if quiet else _plan_with_progress(planner)
+    result = with_call(result, command_line())
+    _write_outputs(result, sc, outputs)
+    if not quiet:
+        console.print(_summary(result))
+    elif not result.success:
+        err.print(
+            f"{sc.name}: {result.status}: {result.message}",
+            highlight=False,
+            soft_wrap=True,
+            markup=False,
+        )
+    return EXIT_OK if result.success else EXIT_FAILED
+
+
+#: ``leapfrog solve RESULT``: the re-run gave another answer than the recorded one.
+EXIT_DIFFERS = 3
+
+
+def command_line() -> str:
+    """The command line as given (a result's provenance records it)."""
+    return shlex.join(["leapfrog", *sys.argv[1:]])
+
+
+def _write_outputs(result, sc, outputs) -> None:
     if outputs["--json"]:
         write_output(result.save_json, outputs["--json"], "--json")
     if outputs["--npz"]:
@@ -289,15 +332,32 @@ def solve(
 
         ax = draw(result, sc)
         write_output(lambda p: save_figure(ax.figure, p), outputs["--plot"], "--plot")
+
+
+def _rerun(path: str, outputs, quiet: bool) -> int:
+    """Re-plan the task the result file ``path`` records and compare the answers."""
+    from ..planning.planner import Planner
+    from ..planning.rerun import reproduction, with_call
+    from ..planning.results import PlanResult
+
+    old = PlanResult.load(path)
+    planner = Planner.from_result(old)
+    sc = planner.scenario
+    ensure_compiled(
+        [sc.model],
+        show=not quiet,
+        methods=[planner.settings.leapfrog.method],
+        bounded=tuple(sc.control_bounds),
+    )
+    result = planner.plan() if quiet else _plan_with_progress(planner)
+    result = with_call(result, command_line())
+    _write_outputs(result, sc, outputs)
     if not quiet:
         console.print(_summary(result))
-    elif not result.success:
-        err.print(
-            f"{sc.name}: {result.status}: {result.message}",
-            highlight=False,
-            soft_wrap=True,
-            markup=False,
-        )
+    check = reproduction(old, result)
+    console.print(f"{sc.name}: {check.summary()}", soft_wrap=True)
+    if not check.reproduces:
+        return EXIT_DIFFERS
     return EXIT_OK if result.success else EXIT_FAILED
 
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from .._blas import single_threaded_blas
 from ..bvp.shooting import ShootingSettings
+from ..errors import SettingsError
 from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
 from ..model import get_model
@@ -29,6 +30,7 @@ from .initial_path.map_paths import Unreachable, map_initial_paths
 from .leapfrog import Arcs
 from .outcome import Timing, plan_result, unreachable_result
 from .path_ranking import drivable, estimated_costs, rank_paths
+from .rerun import recorded, recorded_task, with_call
 from .result_files import plain
 from .results import PlanResult, Validation, validate_arcs
 from .runner import PlanEvent, Runner
@@ -65,6 +67,16 @@ class Planner:
         first = None if aid is None else aid.values[0]
         self.first_round = Round(self.settings.leapfrog.partitions, first, "the initial paths")
         self.problem = self.runner.problem_of(self.first_round)  # what Leapfrog solves first
+
+    @classmethod
+    def from_result(
+        cls, result: PlanResult, *, progress: Callable[[PlanEvent], None] | None = None
+    ) -> Planner:
+        """A planner of the scenario ``result`` records, with every setting it records (they
+        rule over the scenario's ``[solver]`` table): its :meth:`plan` re-plans the task, and
+        gives the recorded answer bit for bit with the same versions on the same machine."""
+        scenario, settings = recorded_task(result)
+        return cls(scenario, settings, progress=progress)
 
     @property
     def flow(self) -> Flow:
@@ -141,8 +153,10 @@ class Planner:
     def plan(self) -> PlanResult:
         with single_threaded_blas():
             if self.scenario.free_time is None:
-                return self._plan()
-            return plan_free_time(self, self.scenario, self._first_horizon())
+                result = self._plan()
+            else:
+                result = plan_free_time(self, self.scenario, self._first_horizon())
+        return recorded(result, self.settings, "Planner.plan")
 
     # ------------------------------------------------------------ a free final time (.free_time)
 
@@ -263,13 +277,25 @@ def as_scenario(scenario: Scenario | Mapping[str, Any] | str | Path) -> Scenario
 
 
 def plan(
-    scenario: Scenario | Mapping[str, Any] | str | Path, *, progress=None, **options
+    scenario: Scenario | Mapping[str, Any] | str | Path | PlanResult, *, progress=None, **options
 ) -> PlanResult:
     """Plan ``scenario`` (an object, a dict of a scenario file's tables, a file or a built-in
-    name) with Leapfrog.
+    name) with Leapfrog; given a :class:`PlanResult`, re-plan the scenario it records with the
+    settings it records (:meth:`Planner.from_result`; no options then).
 
     Options: ``method`` (``newton``, ``modified-newton``, ``nleq-err``), ``partitions``,
     ``initial_paths``, ``final`` (``auto``, ``shooting``, ``multiple-shooting``), and the other
     fields of :class:`PlannerSettings` and :class:`LeapfrogSettings`.
     """
-    return Planner(scenario, progress=progress, **options).plan()
+    if isinstance(scenario, PlanResult):
+        if options:
+            raise SettingsError(
+                f"plan(result): a result re-plans with its recorded settings; got options"
+                f" {', '.join(sorted(options))} (plan result.task to change them)"
+            )
+        result = Planner.from_result(scenario, progress=progress).plan()
+        return with_call(result, f"plan(<result of {scenario.scenario!r}>)")
+    result = Planner(scenario, progress=progress, **options).plan()
+    given = repr(str(scenario)) if not isinstance(scenario, Scenario) else f"<{scenario.name!r}>"
+    call = ", ".join([given, *(f"{k}={v!r}" for k, v in options.items())])
+    return with_call(result, f"plan({call})")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import zipfile
 from dataclasses import asdict, fields, is_dataclass
 from pathlib import Path
@@ -24,7 +25,11 @@ from .leapfrog import SweepRecord
 from .scenario import scenario_from_dict
 from .status import FreeTimeReport, PathOutcome, PlanStatus, RunRecord, TimeStep
 
-SCHEMA = 2
+SCHEMA = 3
+#: The schemas this version reads: 1 (no scenario, settings or junctions: it cannot be re-run),
+#: 2 (no provenance) and 3. A key an older schema lacks is read as its default (see
+#: :func:`upgraded`).
+READS = (1, 2, 3)
 
 
 class ResultFileError(LeapfrogError, ValueError):
@@ -196,6 +201,7 @@ def result_to_dict(r) -> dict:
         "free_time": _free_time_json(r.free_time),
         "scenario_file": None if r.task is None else r.task.to_dict(),
         "settings": r.settings,
+        "provenance": r.provenance,
         "trajectory": _columns_json(r.trajectory_columns()),
     }
 
@@ -234,20 +240,20 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
     """The fields of the result :func:`result_to_dict` wrote (``PlanResult(**fields)``)."""
     if not isinstance(d, dict) or "schema" not in d or "status" not in d:
         raise ResultFileError(f"{source}: not a leapfrog result file")
-    if d["schema"] != SCHEMA:
+    if d["schema"] not in READS or isinstance(d["schema"], bool):
         raise ResultFileError(
-            f"{source}: result schema {d['schema']!r}; this version reads schema {SCHEMA} (plan "
-            "the scenario again to get a file it can read)"
+            f"{source}: result schema {d['schema']!r}; this version reads schemas "
+            f"{', '.join(map(str, READS))} (plan the scenario again to get a file it can read)"
         )
     try:
-        out = _fields(d, source)
+        out = _fields(upgraded(d), source)
     except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
         if isinstance(exc, LeapfrogError):
             raise
         raise ResultFileError(
             f"{source}: damaged result file ({type(exc).__name__}: {exc})"
         ) from None
-    _check_fields(out, source)
+    _check_fields(out, source, d["schema"])
     return out
 
 
@@ -269,9 +275,36 @@ def _fields(d: dict, source: str) -> dict[str, Any]:
         alternatives=tuple(_alternative(a, names) for a in d["alternatives"]),
         task=None if task is None else scenario_from_dict(task, source),
         settings=d["settings"],
-        search=tuple(_record(rec) for rec in d.get("search", ())),  # absent before
-        free_time=_free_time(d.get("free_time")),  # absent before
+        search=tuple(_record(rec) for rec in d["search"]),
+        free_time=_free_time(d["free_time"]),
+        provenance=d["provenance"],
     )
+
+
+def upgraded(d: dict) -> dict:
+    """A result of an older schema with the keys of the current one: a key it lacks gets its
+    default (no scenario, settings, provenance, search or free time: ``null`` or empty; no
+    junctions: empty; a count or cost not kept: 0 or ``null``; the state and control names
+    read off the trajectory's columns)."""
+    d = dict(d)
+    if d["schema"] == 1:
+        lams = [k for k in d["trajectory"] if k.startswith("lambda_")]
+        derived = ("t", "running_cost", "hamiltonian", "at_step")
+        cols = [k for k in d["trajectory"] if k not in derived and not k.startswith("lambda_")]
+        d.setdefault("state_names", cols[: len(lams)])
+        d.setdefault("control_names", cols[len(lams) :])
+        d.setdefault("cost_increases", 0)
+        d.setdefault("initial_junctions", {"t": [], "X": []})
+        d["history"] = [{"junction_t": [], "junction_X": [], **h} for h in d["history"]]
+        d["alternatives"] = [
+            {"initial_cost": None, "trajectory": {}, **a} for a in d["alternatives"]
+        ]
+        d.setdefault("scenario_file", None)
+        d.setdefault("settings", None)
+    d.setdefault("search", [])
+    d.setdefault("free_time", None)
+    d.setdefault("provenance", None)
+    return d
 
 
 def _names(value) -> list[str]:
@@ -284,7 +317,7 @@ def _names(value) -> list[str]:
 _COUNT_MAX = 2**53
 
 
-def _check_fields(out: dict, source: str) -> None:
+def _check_fields(out: dict, source: str, schema: int) -> None:
     """What a result file says must make sense before anything is drawn or exported from it:
     finite trajectories whose time runs forward, a cost for a converged answer, counts that
     are counts, settings that are a table."""
@@ -300,8 +333,10 @@ def _check_fields(out: dict, source: str) -> None:
             not isinstance(v, int) or isinstance(v, bool) or not 0 <= v <= _COUNT_MAX
         ):
             bad(f"{key} is not a count")
-    if not isinstance(out["settings"], dict):
+    if not isinstance(out["settings"], dict) and not (schema == 1 and out["settings"] is None):
         bad("settings is not a table")
+    if not isinstance(out["provenance"], dict | None):
+        bad("provenance is not a table")
     for label, tr in [("trajectory", out["trajectory"])] + [
         (f"alternative {a.label}", a.trajectory) for a in out["alternatives"]
     ]:
@@ -345,6 +380,23 @@ def save_npz(r, path) -> None:
             np.savez(fh, **arrays)
 
     write_atomic(path, write)
+
+
+def is_result_file(path) -> bool:
+    """Whether the file ``path`` holds a saved result rather than a scenario, told by its
+    content whatever its name: a zip (NPZ) or a JSON object (a TOML file never starts with
+    ``{``). False for a name that is no regular file (a built-in scenario's; a FIFO is not
+    opened: without a writer, opening it would wait for ever)."""
+    try:
+        if not os.path.isfile(path):
+            return False
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return False
+    if head.startswith(b"PK"):
+        return True
+    return head.removeprefix(b"\xef\xbb\xbf").lstrip().startswith(b"{")
 
 
 def load_result(path) -> dict[str, Any]:

@@ -1,8 +1,12 @@
 """Leapfrog results: validated against Pontryagin's conditions, saved as JSON and NPZ.
 
-JSON schema (``schema`` = 2). A file stands alone: it holds the scenario planned
-(``scenario_file``, the keys of a scenario file) and the planner's settings (``settings``), and
-``PlanResult.load(path)`` reads it back (see :mod:`.result_files`). These top-level keys are a
+JSON schema (``schema`` = 3; ``leapfrog schema`` prints it as a JSON Schema). A file stands
+alone: it holds the scenario planned (``scenario_file``, the keys of a scenario file, whose
+``solver`` table is written from the settings used), the planner's settings (``settings``) and
+how it was made (``provenance``: ``versions`` of the package, numba, numpy and scipy,
+``python``, ``platform``, ``date`` in UTC, ``call``: the command line or the API call).
+``PlanResult.load(path)`` reads it back, and files of schemas 1 and 2 too (see
+:mod:`.result_files`); ``plan(result)`` re-plans it (:mod:`.rerun`). These top-level keys are a
 stable contract for other tools:
 
 - ``status``: ``"converged"`` on success (a collision-free extremal that meets Pontryagin's
@@ -237,6 +241,9 @@ class PlanResult:
     # With a free final time: the price of time, the T chosen and how (then ``cost`` includes
     # the price of time, ``energy + penalty + time_weight T``); None for a fixed horizon.
     free_time: FreeTimeReport | None = None
+    # How the result was made (versions, platform, date, the call: see :mod:`.rerun`):
+    # metadata, which comparisons of answers leave out. None in a file of schema 2 or older.
+    provenance: dict | None = None
 
     @classmethod
     def load(cls, path) -> PlanResult:

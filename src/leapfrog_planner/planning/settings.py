@@ -73,6 +73,23 @@ class PlannerSettings:
         return updated(base, {k: v for k, v in options.items() if k in own}, "", leapfrog=leapfrog)
 
     @classmethod
+    def from_dict(cls, data: Mapping) -> PlannerSettings:
+        """Settings from their JSON values (a result's ``settings``): each key checked as an
+        option is, nested tables (``leapfrog``, ``leapfrog.shooting.root``) by their own fields;
+        an unknown key is an error, a key left out keeps its default."""
+        if not isinstance(data, Mapping):
+            raise SettingsError(f"settings: expected a table, got {describe(data)}")
+        return updated(cls(), data, "")
+
+    def solver_table(self) -> dict:
+        """The values of a scenario's ``[solver]`` keys in these settings: a scenario with this
+        table plans with them."""
+        from .scenario import SOLVER_KEYS  # the keys are the settings' own names
+
+        own = {f.name for f in fields(self)}
+        return {key: getattr(self if key in own else self.leapfrog, key) for key in SOLVER_KEYS}
+
+    @classmethod
     def of_scenario(cls, scenario, base: PlannerSettings | None = None, **options):
         """The settings of ``scenario``'s ``[solver]`` table over ``base``, with ``options`` on
         top; a bad value in the file is the file's error, which names it."""

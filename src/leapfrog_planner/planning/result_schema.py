@@ -1,0 +1,157 @@
+"""The JSON Schema of a result file (``leapfrog schema`` prints it): the keys of the current
+schema (:data:`.result_files.SCHEMA`), their types and which are required. The meaning of each
+key is documented in :mod:`.results`; the scenario's own keys in the scenario format's
+documentation (the loader checks them)."""
+
+from __future__ import annotations
+
+from dataclasses import fields, is_dataclass
+from typing import Any
+
+from .result_files import SCHEMA
+from .settings import PlannerSettings
+
+_NUMBER = {"type": ["number", "null"]}  # a number, null where it is not finite
+_FINITE = {"type": "number"}
+_COUNT = {"type": "integer", "minimum": 0}
+_TEXT = {"type": "string"}
+_STATUS = {"enum": ["converged", "collides", "failed"]}
+_NUMBERS = {"type": "array", "items": _NUMBER}
+_ROWS = {"type": "array", "items": {"type": "array", "items": _FINITE}}
+_COLUMNS = {
+    "type": "object",
+    "description": "equal-length columns: t, the states, the controls, lambda_1..., "
+    "running_cost, hamiltonian, at_step; {} without a trajectory",
+    "additionalProperties": _NUMBERS,
+}
+
+
+def _table(props: dict, required: tuple | list | None = None, more: bool = False) -> dict:
+    return {
+        "type": "object",
+        "properties": props,
+        "required": list(props if required is None else required),
+        "additionalProperties": more,
+    }
+
+
+def _settings(value) -> dict:
+    """The settings' tables, field by field (a nested settings dataclass as a table of its own;
+    keys left out keep their defaults, an unknown key is refused)."""
+    props = {
+        f.name: _settings(getattr(value, f.name)) if is_dataclass(getattr(value, f.name)) else {}
+        for f in fields(value)
+    }
+    return _table(props, required=())
+
+
+_HISTORY = _table(
+    {
+        "sweep": _COUNT, "q": _COUNT, "cost": _NUMBER, "max_costate_jump": _NUMBER,
+        "newton_iterations": _COUNT, "f_evals": _COUNT, "failures": _COUNT, "rejected": _COUNT,
+        "time_s": _FINITE, "junction_t": _NUMBERS, "junction_X": _ROWS,
+    }
+)  # fmt: skip
+_ALTERNATIVE = _table(
+    {
+        "label": _TEXT, "status": _STATUS, "cost": _NUMBER, "initial_cost": _NUMBER,
+        "sweeps": _COUNT, "weight": _FINITE, "message": _TEXT, "trajectory": _COLUMNS,
+    }
+)  # fmt: skip
+_RUN = _table(
+    {
+        "stage": _TEXT, "reason": _TEXT, "label": _TEXT, "partitions": _COUNT,
+        "weight": _FINITE, "aid": _NUMBER, "status": _STATUS, "cost": _NUMBER,
+        "sweeps": _COUNT, "time_s": _FINITE, "message": _TEXT,
+    }
+)  # fmt: skip
+_STEP = _table({"horizon": _NUMBER, "hamiltonian": _NUMBER, "cost": _NUMBER, "source": _TEXT})
+_FREE_TIME = _table(
+    {
+        "time_weight": _FINITE, "cruise_speed": _NUMBER, "horizon": _FINITE, "bound": _TEXT,
+        "condition": _NUMBER, "steps": {"type": "array", "items": _STEP},
+    }
+)  # fmt: skip
+_SCENARIO = {
+    "type": "object",
+    "description": "the scenario planned, in the scenario file's layout; its solver table "
+    "holds the values of the settings used",
+    "properties": {
+        "name": _TEXT,
+        "horizon": {"oneOf": [_FINITE, {"const": "free"}]},
+        "start": {"type": "array", "items": _FINITE},
+        "goal": {"type": "array", "items": _FINITE},
+        "solver": {"type": "object"},
+    },
+    "required": ["name", "horizon", "start", "goal"],
+}
+_PROVENANCE = _table(
+    {
+        "versions": {
+            "type": "object",
+            "description": "leapfrog-planner, numba, numpy and scipy",
+            "additionalProperties": {"type": ["string", "null"]},
+        },
+        "python": _TEXT,
+        "platform": _TEXT,
+        "date": {"type": "string", "description": "UTC, ISO 8601"},
+        "call": {"type": "string", "description": "the command line, or the API call"},
+    }
+)
+
+
+def result_schema() -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of a result file of the current schema."""
+    props = {
+        "schema": {"const": SCHEMA},
+        "status": _STATUS,
+        "message": _TEXT,
+        "scenario": _TEXT,
+        "model": _TEXT,
+        "method": _TEXT,
+        "final_solver": {"enum": ["shooting", "multiple-shooting", None]},
+        "initial_path": _TEXT,
+        "optimal": {"type": "boolean"},
+        "trajectory_source": _TEXT,
+        "weight": _FINITE,
+        "wall_time_s": _FINITE,
+        **{k: _COUNT for k in ("sweeps", "newton_iterations", "f_evals", "cost_increases")},
+        "state_names": {"type": "array", "items": _TEXT},
+        "control_names": {"type": "array", "items": _TEXT},
+        **{
+            k: _NUMBER
+            for k in (
+                "cheaper_motion",
+                "cost",
+                "energy",
+                "penalty",
+                "initial_cost",
+                "min_clearance",
+                "end_state_error",
+                "max_costate_jump",
+                "max_dH_du",
+                "hamiltonian_variation",
+            )
+        },  # fmt: skip
+        "clearance": _NUMBERS,
+        "costate0": {"oneOf": [{"type": "null"}, {"type": "array", "items": _FINITE}]},
+        "timing": _table(
+            {k: _FINITE for k in ("initial_path_s", "sweeps_s", "final_s", "validation_s")}
+        ),
+        "history": {"type": "array", "items": _HISTORY},
+        "initial_junctions": _table({"t": _NUMBERS, "X": _ROWS}),
+        "alternatives": {"type": "array", "items": _ALTERNATIVE},
+        "search": {"type": "array", "items": _RUN},
+        "free_time": {"oneOf": [{"type": "null"}, _FREE_TIME]},
+        "scenario_file": _SCENARIO,
+        "settings": _settings(PlannerSettings()),
+        "provenance": _PROVENANCE,
+        "trajectory": _COLUMNS,
+    }
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": f"leapfrog-planner result (schema {SCHEMA})",
+        "description": "A plan saved by `leapfrog solve --json` or PlanResult.save_json; an NPZ "
+        "file holds the same JSON, less the trajectory, in its result_json entry.",
+        **_table(props),
+    }
