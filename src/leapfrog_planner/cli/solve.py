@@ -347,7 +347,6 @@ def _rerun(path: str, outputs, quiet: bool) -> int:
         [sc.model],
         show=not quiet,
         methods=[planner.settings.leapfrog.method],
-        bounded=tuple(sc.control_bounds),
     )
     result = planner.plan() if quiet else _plan_with_progress(planner)
     result = with_call(result, command_line())
