@@ -428,10 +428,14 @@ def test_a_file_named_like_a_builtin_is_used_and_the_note_says_how_to_get_the_bu
     assert not_compile_notices(run.stderr) == [
         "note: the file paper-case-1, not the built-in scenario (builtin:paper-case-1 is that one)"
     ]
+    # A result saved under the name is re-run (it records its scenario), with the same note.
+    run = run_cli(["solve", "builtin:paper-case-1", "--quiet", "--json", "paper-case-1"], tmp_path)
+    assert run.returncode == 0, run.stderr
+    run = run_cli(["solve", "paper-case-1", "--quiet"], tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert "reproduces the recorded answer" in run.stdout + run.stderr
+    assert not_compile_notices(run.stderr)[0].startswith("note: the file paper-case-1, not the")
     (tmp_path / "paper-case-1").write_text('{"schema": 2, "status": "converged"}')
     run = run_cli(["solve", "paper-case-1", "--quiet"], tmp_path)
     assert run.returncode == 2 and "Traceback" not in run.stderr
-    assert not_compile_notices(run.stderr) == [
-        "error: paper-case-1: a planning result (JSON), not a scenario (TOML); paper-case-1 is"
-        " also a built-in scenario: builtin:paper-case-1 loads it"
-    ]
+    assert not_compile_notices(run.stderr)[1].startswith("error: paper-case-1: damaged result file")

@@ -266,6 +266,9 @@ def solve(
         "--plot": output_path(plot_path, "--plot", inputs),
     }
     distinct_outputs(outputs)
+    if scenario in builtin_scenarios() and Path(scenario).is_file():
+        note = f"the file {scenario}, not the built-in scenario (builtin:{scenario} is that one)"
+        err.print(f"note: {note}", soft_wrap=True)
     if is_result_file(scenario):
         given = [method, partitions, initial_paths, final, map_file, time_limit, horizon]
         if any(v is not None for v in [*given, cruise_speed, time_weight]) or options:
@@ -275,9 +278,6 @@ def solve(
             )
         return _rerun(scenario, outputs, quiet)
     sc = load_scenario(scenario)
-    if scenario in builtin_scenarios() and sc.source == scenario:
-        note = f"the file {scenario}, not the built-in scenario (builtin:{scenario} is that one)"
-        err.print(f"note: {note}", soft_wrap=True)
     if (horizon, cruise_speed, time_weight) != (None, None, None):
         sc = with_horizon(sc, horizon, cruise_speed, time_weight)
     if map_file is not None:
