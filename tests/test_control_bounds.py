@@ -182,10 +182,14 @@ def test_a_failed_plan_hands_back_a_motion_to_the_goal_and_says_what_it_breaks()
 
 
 def test_a_speed_too_low_for_every_path_fails_honestly():
-    """Paper case 2 needs a speed above 4 on every path around its obstacles in T = 1."""
-    sc = dataclasses.replace(load_scenario("paper-case-2"), control_bounds={"v": (0.0, 4.0)})
-    r = plan(sc, threads=1)
+    """Paper case 2's goal is 4.95 away, and every path around its obstacles is longer than 5
+    (5.23 the shortest): with T = 1 and v <= 5 the planner runs and fails, saying so; with
+    v <= 4 not even the straight line can be driven, and the task is refused before planning."""
+    base = load_scenario("paper-case-2")
+    r = plan(dataclasses.replace(base, control_bounds={"v": (0.0, 5.0)}), threads=1)
     assert not r.success and str(r.status) == "failed"
+    with pytest.raises(ScenarioError, match="it takes at least 1.23744 s, longer than T = 1"):
+        plan(dataclasses.replace(base, control_bounds={"v": (0.0, 4.0)}))
 
 
 def _general(name: str):
