@@ -28,6 +28,20 @@ def gated(warm_up):
     return wait_then_warm_up
 
 
+def serve_command(port: int) -> list[str]:
+    """``leapfrog serve`` on ``port`` with one solver process, the gated stand-in (the gate
+    folder and the path to these tests come from the environment)."""
+    code = (
+        "import sys\n"
+        "from leapfrog_planner.web import pool\n"
+        "pool.WORKER = 'tests.gated_worker'\n"
+        "from leapfrog_planner.cli import run\n"
+        "sys.argv[0] = 'leapfrog'\n"
+        "run()\n"
+    )
+    return [sys.executable, "-c", code, "serve", "--port", str(port), "--workers", "1"]
+
+
 if __name__ == "__main__":
     warmup.warm_up = gated(warmup.warm_up)
     worker.main(sys.argv[1:])

@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
-from tests.gated_worker import GATE
+from tests.gated_worker import GATE, serve_command
 from tests.serving import free_port, wait_ready
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -262,17 +262,9 @@ def preparing_server(tmp_path):
     """``leapfrog serve`` whose solver waits at each model until its gate is opened (a fresh
     machine compiling the kernels): see :mod:`tests.gated_worker`."""
     port = free_port()
-    code = (
-        "import sys\n"
-        "from leapfrog_planner.web import pool\n"
-        "pool.WORKER = 'tests.gated_worker'\n"
-        "from leapfrog_planner.cli import run\n"
-        "run()\n"
-    )
     root = str(Path(__file__).resolve().parent.parent)
     env = {**os.environ, GATE: str(tmp_path), "PYTHONPATH": os.pathsep.join([root + "/src", root])}
-    argv = [sys.executable, "-c", code, "serve", "--port", str(port), "--workers", "1"]
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, env=env)
+    proc = subprocess.Popen(serve_command(port), stdout=subprocess.DEVNULL, env=env)
     try:
         yield f"http://127.0.0.1:{port}", tmp_path
     finally:

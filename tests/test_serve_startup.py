@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 import time
 import urllib.error
 import urllib.request
@@ -22,7 +21,7 @@ pytest.importorskip("starlette")
 pytest.importorskip("httpx2")
 
 from starlette.testclient import TestClient  # noqa: E402
-from tests.gated_worker import GATE  # noqa: E402
+from tests.gated_worker import GATE, serve_command  # noqa: E402
 from tests.serving import free_port  # noqa: E402
 
 from leapfrog_planner.planning.scenario import load_scenario  # noqa: E402
@@ -115,15 +114,7 @@ def _get(url: str):
 def test_the_command_answers_before_its_solver_is_ready(gate):
     """``leapfrog serve`` itself: its health answers while the solver waits at its gate."""
     port = free_port()
-    code = (
-        "import sys\n"
-        "from leapfrog_planner.web import pool\n"
-        "pool.WORKER = 'tests.gated_worker'\n"
-        "from leapfrog_planner.cli import run\n"
-        "sys.argv[0] = 'leapfrog'\n"
-        "run()\n"
-    )
-    argv = [sys.executable, "-c", code, "serve", "--port", str(port), "--workers", "1"]
+    argv = serve_command(port)
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     url = f"http://127.0.0.1:{port}"
     try:

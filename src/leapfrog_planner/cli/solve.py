@@ -253,7 +253,6 @@ def solve(
     not converge, 3 it differs from the recorded answer; bad input is 2, as always.
     """
     from ..planning.planner import Planner
-    from ..planning.rerun import with_call
     from ..planning.result_files import is_result_file
     from ..planning.scenario import builtin_scenarios, load_scenario
 
@@ -291,18 +290,8 @@ def solve(
     ]
     settings = {**planner_options(options), **{k: v for k, v in named if v is not None}}
     planner = Planner(sc, **settings)  # settings errors surface here, before any display
-    # Loaded before planning, so that the time reported is the plan's own.
-    ensure_compiled(
-        [sc.model],
-        show=not quiet,
-        methods=[planner.settings.leapfrog.method],
-    )
-    result = planner.plan() if quiet else _plan_with_progress(planner)
-    result = with_call(result, command_line())
-    _write_outputs(result, sc, outputs)
-    if not quiet:
-        console.print(_summary(result))
-    elif not result.success:
+    result = _planned(planner, outputs, quiet)
+    if quiet and not result.success:
         err.print(
             f"{sc.name}: {result.status}: {result.message}",
             highlight=False,
@@ -321,6 +310,21 @@ def command_line() -> str:
     return shlex.join(["leapfrog", *sys.argv[1:]])
 
 
+def _planned(planner, outputs, quiet: bool):
+    """The plan of ``planner``, its outputs written and, unless ``quiet``, its summary shown.
+    The kernels are loaded first, so that the time reported is the plan's own."""
+    from ..planning.rerun import with_call
+
+    sc = planner.scenario
+    ensure_compiled([sc.model], show=not quiet, methods=[planner.settings.leapfrog.method])
+    result = planner.plan() if quiet else _plan_with_progress(planner)
+    result = with_call(result, command_line())
+    _write_outputs(result, sc, outputs)
+    if not quiet:
+        console.print(_summary(result))
+    return result
+
+
 def _write_outputs(result, sc, outputs) -> None:
     if outputs["--json"]:
         write_output(result.save_json, outputs["--json"], "--json")
@@ -337,24 +341,14 @@ def _write_outputs(result, sc, outputs) -> None:
 def _rerun(path: str, outputs, quiet: bool) -> int:
     """Re-plan the task the result file ``path`` records and compare the answers."""
     from ..planning.planner import Planner
-    from ..planning.rerun import reproduction, with_call
+    from ..planning.rerun import reproduction
     from ..planning.results import PlanResult
 
     old = PlanResult.load(path)
     planner = Planner.from_result(old)
-    sc = planner.scenario
-    ensure_compiled(
-        [sc.model],
-        show=not quiet,
-        methods=[planner.settings.leapfrog.method],
-    )
-    result = planner.plan() if quiet else _plan_with_progress(planner)
-    result = with_call(result, command_line())
-    _write_outputs(result, sc, outputs)
-    if not quiet:
-        console.print(_summary(result))
+    result = _planned(planner, outputs, quiet)
     check = reproduction(old, result)
-    console.print(f"{sc.name}: {check.summary()}", soft_wrap=True)
+    console.print(f"{planner.scenario.name}: {check.summary()}", soft_wrap=True)
     if not check.reproduces:
         return EXIT_DIFFERS
     return EXIT_OK if result.success else EXIT_FAILED
