@@ -155,6 +155,24 @@ def test_paper_case_1_from_a_good_guess(method):
     assert r.max_dH_du <= 1e-12
 
 
+def test_read_only_end_states_compile_the_newton_loop_no_second_time():
+    """A scenario's end states are read-only arrays; numba types an array by that flag too, and
+    the first plan with bounded controls (which shoots from them) compiled the 23-s Newton loop
+    again. Simple shooting and Leapfrog's local solves pass writable copies."""
+    c = CASES[1]
+    problem = c.problem()
+    kernels = Flow(problem).kernels
+    shoot(1, GOOD_GUESS[1])  # writable ends, as every other caller
+    seen = len(kernels.shoot_newton.signatures)
+    start, goal = np.array(c.start, dtype=float), np.array(c.goal, dtype=float)
+    start.setflags(write=False)
+    goal.setflags(write=False)
+    r = solve_shooting(problem, 0.0, start, 1.0, goal, guess=GOOD_GUESS[1])
+    local = LocalShooter(problem, Flow(problem), ShootingSettings())(0.0, start, 1.0, goal)
+    assert r.success and local.success
+    assert len(kernels.shoot_newton.signatures) == seen
+
+
 def test_paper_case_1_agrees_with_the_direct_method():
     """CasADi/IPOPT, RK4 multiple shooting, Richardson-extrapolated from meshes 100 and 200."""
     pytest.importorskip("casadi")

@@ -28,7 +28,7 @@ class MultipleShootingSystem:
         self.nx = self.x0.size
         self.q = self.t.size - 1
         # The compiled loop's view of the problem (as ShootingSystem's): ends, junction times.
-        self.ends = Ends(self.x0, self.x1, self.t)
+        self.ends = Ends.of(self.x0, self.x1, self.t)
 
     def pack(self, lam0, Z) -> np.ndarray:
         """Unknown vector from the first costate and the interior junction states ``Z[1:q]``."""

@@ -110,7 +110,7 @@ class ShootingSystem:
         self._z0[: self.nx] = self.x0
         self.last = None  # (s, FlowResult) of the latest evaluation, reused for the result
         # The compiled loop's view of the problem: end states and junction times.
-        self.ends = Ends(self.x0, self.x1, np.array([self.t0, self.t1]))
+        self.ends = Ends.of(self.x0, self.x1, [self.t0, self.t1])
 
     def evaluate(self, s, jacobian):
         self._z0[self.nx :] = s
@@ -372,7 +372,7 @@ class LocalShooter:
             return LocalSolution(
                 r.status, r.costate0, r.costate1, r.cost, r.root.iterations, r.root.f_evals
             )
-        out = self._loop(Ends(x0, x1, np.array([t0, t1], dtype=float)), s0)
+        out = self._loop(Ends.of(x0, x1, [t0, t1]), s0)
         x, its, evals, (last_s, Y, last_ok) = out.x, out.iterations, out.f_evals, out.last
         nx = self._nx
         if out.code != _CONVERGED:

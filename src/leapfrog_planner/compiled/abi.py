@@ -132,6 +132,13 @@ class Ends(NamedTuple):
     x1: np.ndarray
     times: np.ndarray
 
+    @classmethod
+    def of(cls, x0, x1, times) -> Ends:
+        """Ends of writable, contiguous float copies: numba types an array by its flags too, and
+        a read-only one (a scenario's end state) compiled the Newton loop a second time (23 s
+        on the first plan with bounded controls, measured)."""
+        return cls(*(np.array(a, dtype=float, order="C") for a in (x0, x1, times)))
+
 
 class Arcs(NamedTuple):
     """Leapfrog's arcs, which ``sweep_warm`` updates in place: junction times ``T`` (q + 1,),

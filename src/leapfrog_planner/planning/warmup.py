@@ -36,7 +36,7 @@ def warm_up(model: str = "unicycle", methods=None) -> float:
         horizon=1.0,
         start=[0.0, 0.0, 0.0, *extra],
         goal=[1.0, 0.3, 0.5, *extra],
-        obstacles=[[0.5, 0.25, 0.1]],
+        obstacles=[[0.5, 0.25, 0.1], [0.6, -0.15, 0.08]],  # two: the tangents between discs too
         model=model,
     )
     runs = RUNS
