@@ -22,13 +22,12 @@ class MultipleShootingSystem:
 
     def __init__(self, flow: Flow, t: np.ndarray, x0: np.ndarray, x1: np.ndarray):
         self.flow = flow
-        self.t = np.ascontiguousarray(t, dtype=float)
-        self.x0 = np.ascontiguousarray(x0, dtype=float)
-        self.x1 = np.ascontiguousarray(x1, dtype=float)
+        # The compiled loop's view of the problem (as ShootingSystem's): ends, junction times,
+        # copies that the Python evaluation reads too (the caller's arrays may change after).
+        self.ends = Ends.of(x0, x1, t)
+        self.x0, self.x1, self.t = self.ends
         self.nx = self.x0.size
         self.q = self.t.size - 1
-        # The compiled loop's view of the problem (as ShootingSystem's): ends, junction times.
-        self.ends = Ends.of(self.x0, self.x1, self.t)
 
     def pack(self, lam0, Z) -> np.ndarray:
         """Unknown vector from the first costate and the interior junction states ``Z[1:q]``."""

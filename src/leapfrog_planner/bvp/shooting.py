@@ -103,14 +103,14 @@ class ShootingSystem:
         self.inexact = inexact and flow.tableau.adaptive
         self._base = (flow.settings.rtol, flow.settings.atol)
         self._norm = np.inf  # |F| of the latest evaluation, sets the next tolerance
-        self.x0 = np.asarray(x0, dtype=float)
-        self.x1 = np.asarray(x1, dtype=float)
+        # The compiled loop's view of the problem: end states and junction times, copies that
+        # the Python evaluation reads too.
+        self.ends = Ends.of(x0, x1, [self.t0, self.t1])
+        self.x0, self.x1 = self.ends.x0, self.ends.x1
         self.nx = self.x0.size
         self._z0 = np.empty(2 * self.nx)
         self._z0[: self.nx] = self.x0
         self.last = None  # (s, FlowResult) of the latest evaluation, reused for the result
-        # The compiled loop's view of the problem: end states and junction times.
-        self.ends = Ends.of(self.x0, self.x1, [self.t0, self.t1])
 
     def evaluate(self, s, jacobian):
         self._z0[self.nx :] = s
