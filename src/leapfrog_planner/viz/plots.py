@@ -30,9 +30,13 @@ from ..planning.results import PlanResult
 from ..planning.scenario import Scenario
 from ..planning.status import listed_alternatives
 from .animation import animate_sweeps
+from .options import DPI, DPI_MAX, DPI_MIN
 from .style import (
     ALTERNATIVE_STYLES,
+    COLLIDING_COLOR,
     FIGURE_FORMATS,
+    GID_ALTERNATIVE,
+    GID_COLLIDING,
     GID_HEADING,
     GID_PATH,
     GID_SWEEP,
@@ -47,6 +51,8 @@ from .style import (
     draw_initial,
     draw_obstacles,
     draw_reversing,
+    draw_waypoints,
+    drop_titles,
     frame_axes,
     heading_colors,
     heading_proxy,
@@ -74,6 +80,7 @@ def plot_path(
     arrows: int = 9,
     show_initial: bool = True,
     show_alternatives: bool = True,
+    title: bool = True,
 ) -> Axes:
     """Draw the optimal path the way the paper does; returns the axes.
 
@@ -82,10 +89,14 @@ def plot_path(
     quiver, gid ``"heading"``; no arrows for ``arrows=0``). Where the robot drives backwards
     (``v < 0``) the path is drawn orange and dashed over that line (gid ``"reversing"``, labelled
     with the share of the time) and the arrows there are orange too. Start (circle) and goal
-    (star) are marked with their headings (quiver gid ``"end-heading"``). With ``show_initial``
-    the initial feasible path's junctions are drawn dashed. With ``show_alternatives`` the other
-    initial paths' extremals are drawn in grey, each in its own line style, with their costs in
-    the legend (those saved without a path: only the legend entry).
+    (star) are marked hollow with their headings (quiver gid ``"end-heading"``), the waypoints
+    as numbered diamonds (gid ``"waypoint"``). With ``show_initial`` the initial feasible path's
+    junctions are drawn dashed. With ``show_alternatives`` the other initial paths' extremals
+    are drawn in grey, each in its own line style (gid ``"alternative"``), those that pass
+    through an obstacle red and dashed, "collides" in their legend entry (gid
+    ``"alternative-collides"``), with their costs in the legend (those saved without a path:
+    only the legend entry). ``title=False`` leaves the axes without a title (for a paper, whose
+    caption says it).
 
     On a new figure (``ax`` None) the legend sits below the axes, across the figure, and the
     figure's height follows the data's aspect ratio; on a given axes it goes inside (``best``).
@@ -141,6 +152,7 @@ def plot_path(
             label=f"junctions after sweep {last.sweep} (q = {last.q})",
         )
     draw_ends(ax, sc, L)
+    draw_waypoints(ax, sc)
 
     if tr is not None and sc.robot_radius:
         _draw_footprint(ax, sc, tr)
@@ -148,7 +160,8 @@ def plot_path(
         extra += _draw_alternatives(ax, result)
 
     frame_axes(ax, sc, result)
-    ax.set_title(path_title(result, sc))
+    if title:
+        ax.set_title(path_title(result, sc))
     handles = ax.get_legend_handles_labels()[0] + extra
     if own:  # below the axes, across the figure: inside it would hide part of the path
         legend_below(ax.figure, handles, lambda h: path_figsize(sc, result, h))
@@ -162,8 +175,9 @@ _LABEL_WIDTH = 80
 
 
 def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
-    """The other initial paths' extremals, faint and dotted; legend entries for those without
-    (the failed runs counted in one entry when there are many: :func:`listed_alternatives`)."""
+    """The other initial paths' extremals, grey in turns of line styles (red and dashed those
+    that collide); legend entries for those without (the failed runs counted in one entry when
+    there are many: :func:`listed_alternatives`)."""
     extra = []
     drawn = 0
     alts, failed = listed_alternatives(result.alternatives)
@@ -172,15 +186,21 @@ def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
         extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
     for alt in alts:
         if alt.trajectory is not None:
-            what = "local optimum" if alt.status == "converged" else str(alt.status)
-            ls = ALTERNATIVE_STYLES[drawn % len(ALTERNATIVE_STYLES)]
-            drawn += 1
-            label = f"{what} J = {alt.cost:.6g} ({alt.label})"
+            collides = status_text(alt) == "collides"
+            if collides:  # not a path the robot can take: marked, never drawn like the others
+                what, note, gid = "extremal", ", collides", GID_COLLIDING
+                color, ls = COLLIDING_COLOR, "--"
+            else:
+                what = "local optimum" if alt.status == "converged" else status_text(alt)
+                note, gid = "", GID_ALTERNATIVE
+                color, ls = "0.4", ALTERNATIVE_STYLES[drawn % len(ALTERNATIVE_STYLES)]
+                drawn += 1
+            label = f"{what} J = {alt.cost:.6g} ({alt.label}{note})"
             if len(label) > _LABEL_WIDTH:  # wider than the figure: the label on a line of its own
-                label = f"{what} J = {alt.cost:.6g}\n  ({alt.label})"
+                label = f"{what} J = {alt.cost:.6g}\n  ({alt.label}{note})"
             ax.plot(
-                alt.trajectory.x[:, 0], alt.trajectory.x[:, 1], color="0.4", lw=1.3, ls=ls,
-                zorder=2, label=label,
+                alt.trajectory.x[:, 0], alt.trajectory.x[:, 1], color=color, lw=1.3, ls=ls,
+                alpha=0.75 if collides else 1.0, zorder=2, gid=gid, label=label,
             )  # fmt: skip
         else:  # its path was not kept (a result saved before paths were)
             text = f"{alt.label}: {status_text(alt)}"
@@ -304,7 +324,9 @@ def _draw_progress(ax_cost: Axes, ax_jump: Axes, result: PlanResult) -> None:
         a.grid(True, which="major", alpha=0.3)
 
 
-def plot_convergence(result: PlanResult, scenario: Scenario | str, fig=None) -> Figure:
+def plot_convergence(
+    result: PlanResult, scenario: Scenario | str, fig=None, *, title: bool = True
+) -> Figure:
     """Leapfrog's progress: junctions per sweep (left), cost and costate jump (right).
 
     Left: obstacles, start and goal, the initial junctions (dashed), the junction polyline
@@ -312,7 +334,8 @@ def plot_convergence(result: PlanResult, scenario: Scenario | str, fig=None) -> 
     the final path. Right, stacked: the cost of the piecewise-optimal trajectory per sweep (the
     initial path at sweep 0, dotted lines where the number of partitions q changes, the final
     extremal's cost as a horizontal line) and the largest relative costate jump at the junctions
-    per sweep (log scale). Returns the figure (a new one unless ``fig`` is given).
+    per sweep (log scale). Returns the figure (a new one unless ``fig`` is given);
+    ``title=False``: without any title (the figure's and the panels').
     """
     sc = as_scenario(scenario)
     if fig is None:
@@ -332,17 +355,20 @@ def plot_convergence(result: PlanResult, scenario: Scenario | str, fig=None) -> 
     else:
         head = status_text(result)
     fig.suptitle(f"{sc.name} — Leapfrog convergence: {len(hist)} sweeps, {head} ({result.method})")
+    if not title:
+        drop_titles(fig)
     return fig
 
 
 # --------------------------------------------------------------------------- plot_controls
 
 
-def plot_controls(result: PlanResult, fig=None) -> Figure:
+def plot_controls(result: PlanResult, fig=None, *, title: bool = True) -> Figure:
     """Controls (top), costates (middle) and ``H - H(0)`` (bottom, small) against time.
 
     Lines are labelled with the model's control and state names. Without a trajectory (a
-    failed result) the axes say so. Returns the figure (a new one unless ``fig`` is given).
+    failed result) the axes say so. Returns the figure (a new one unless ``fig`` is given);
+    ``title=False``: without any title (the figure's and the panels').
     """
     if fig is None:
         fig = new_figure(figsize=(8.0, 7.5))
@@ -377,11 +403,11 @@ def plot_controls(result: PlanResult, fig=None) -> Figure:
         for a in (ax_u, ax_l):
             a.axhline(0.0, color="0.6", lw=0.6)
             a.legend(fontsize="small", loc="best")
-        title = f"{result.scenario} — controls and costates, cost J = {cost_text(result.cost)}"
+        head = f"{result.scenario} — controls and costates, cost J = {cost_text(result.cost)}"
     else:
         for a in (ax_u, ax_l, ax_h):
             no_data(a, f"no trajectory ({status_text(result)})")
-        title = f"{result.scenario} — {status_text(result)}: no trajectory"
+        head = f"{result.scenario} — {status_text(result)}: no trajectory"
     ax_u.set_ylabel("controls")
     ax_l.set_ylabel("costates")
     ax_h.set_ylabel("H - H(0)")
@@ -390,17 +416,26 @@ def plot_controls(result: PlanResult, fig=None) -> Figure:
         a.tick_params(labelbottom=False)
     for a in (ax_u, ax_l, ax_h):
         a.grid(True, alpha=0.3)
-    fig.suptitle(title)
+    fig.suptitle(head)
+    if not title:
+        drop_titles(fig)
     return fig
 
 
 # --------------------------------------------------------------------------- save_figure
 
 
-def save_figure(fig: Figure | Axes, path) -> Path:
+#: Fonts embedded as TrueType (Type 42) in PDF and PostScript: Type 3 fonts, matplotlib's
+#: default, are refused by publishers' checks (IEEE PDF eXpress).
+_SAVE_RC = {"pdf.fonttype": 42, "ps.fonttype": 42}
+
+
+def save_figure(fig: Figure | Axes, path, *, dpi: int = DPI) -> Path:
     """Save ``fig`` as PNG, PDF or SVG (chosen by the extension) atomically; returns the path.
 
     ``fig`` is a figure or an axes (such as :func:`plot_path` returns): an axes saves its figure.
+    ``dpi``: pixels per inch of a PNG (and of the images inside a PDF or SVG), an integer from
+    10 to 1200. A PDF embeds its fonts as TrueType, not Type 3.
 
     The file is written to a temporary file in the same folder and renamed, so ``path`` is
     either the old file or the complete new one, never half a file. The figure is closed once
@@ -417,7 +452,15 @@ def save_figure(fig: Figure | Axes, path) -> Path:
             f"{path.name}: unknown figure format {path.suffix or '(none)'!r};"
             f" use {', '.join(FIGURE_FORMATS)}"
         )
-    _write_atomic(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=150))
+    dpi = require_integer("dpi", dpi, DPI_MIN, DPI_MAX, error=ValueError)
+
+    def write(tmp) -> None:
+        from matplotlib import rc_context
+
+        with rc_context(_SAVE_RC):
+            fig.savefig(tmp, format=fmt, dpi=dpi)
+
+    _write_atomic(path, write)
     plt = sys.modules.get("matplotlib.pyplot")  # only pyplot's own figures need closing
     if plt is not None:
         plt.close(fig)
