@@ -530,3 +530,44 @@ def test_colliding_alternatives_are_marked(planned):
     assert "collides" not in good.get_label() and "local optimum" in good.get_label()
     texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]
     assert any("collides" in t and "21.5" in t for t in texts)
+
+
+def _reversing_first(result, k):
+    """``result`` whose robot drives backwards over its first ``k`` samples (v < 0 there)."""
+    tr = result.trajectory
+    u = np.array(tr.u)
+    iv = list(result.control_names).index("v")
+    u[:k, iv] = -np.abs(u[:k, iv]) - 0.1
+    u[k:, iv] = np.abs(u[k:, iv]) + 0.1
+    return dataclasses.replace(result, trajectory=dataclasses.replace(tr, u=u))
+
+
+def test_a_short_reverse_leg_at_the_start_stays_visible(planned, tmp_path):
+    """Paper case 4 reverses over 1 % of the view at the start, under the start marker: the
+    markers are hollow, the heading arrows of the ends lie under the path, a dot marks the
+    change of direction, and an inset magnifies the stretch."""
+    result, sc = planned["paper-case-2"]
+    short = _reversing_first(result, 5)
+    tr = short.trajectory
+    ax = plot_path(short, sc)
+    (start,) = gid(ax.lines, "start")
+    assert start.get_markerfacecolor() == "none"
+    (path,) = gid(ax.lines, "optimal-path")
+    assert all(q.get_zorder() < path.get_zorder() for q in gid(ax.collections, "end-heading"))
+    (cusp,) = gid(ax.lines, "direction-change")
+    np.testing.assert_array_equal(np.column_stack(cusp.get_data()), tr.x[[5], :2])
+    (zoom,) = [a for a in ax.child_axes if a.get_gid() == "reversing-zoom"]
+    (x0, x1), (y0, y1) = zoom.get_xlim(), zoom.get_ylim()
+    stretch = tr.x[:6, :2]
+    assert np.all((stretch[:, 0] >= x0) & (stretch[:, 0] <= x1))
+    assert np.all((stretch[:, 1] >= y0) & (stretch[:, 1] <= y1))
+    assert (x1 - x0) < 0.2 * np.diff(ax.get_xlim())[0]  # magnified
+    assert gid(zoom.lines, "reversing") and gid(zoom.lines, "direction-change")
+    assert "at the start" in " ".join(t.get_text() for t in zoom.texts)
+    save_figure(ax, tmp_path / "short.png")
+    check_png(tmp_path / "short.png")
+    # A long reverse leg is seen at the figure's scale: no inset; nor without one.
+    long = _reversing_first(result, tr.t.size // 2)
+    assert gid(plot_path(long, sc).lines, "reversing")
+    assert plot_path(long, sc).child_axes == []
+    assert plot_path(result, sc).child_axes == []

@@ -37,6 +37,7 @@ from .style import (
     FIGURE_FORMATS,
     GID_ALTERNATIVE,
     GID_COLLIDING,
+    GID_END_HEADING,
     GID_HEADING,
     GID_PATH,
     GID_SWEEP,
@@ -160,6 +161,8 @@ def plot_path(
         extra += _draw_alternatives(ax, result)
 
     frame_axes(ax, sc, result)
+    if tr is not None:
+        _zoom_reversing(ax, sc, result)
     if title:
         ax.set_title(path_title(result, sc))
     handles = ax.get_legend_handles_labels()[0] + extra
@@ -208,6 +211,90 @@ def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
                 text = f"local optimum J = {alt.cost:.6g}\n  ({alt.label}; not kept)"
             extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
     return extra
+
+
+#: A reversing stretch smaller than this share of the view gets a magnified inset, and so do
+#: at most this many of them (paper case 3: one at the start, one at the goal).
+_ZOOM_BELOW, _ZOOMS = 0.06, 2
+
+
+def _zoom_reversing(ax: Axes, sc: Scenario, result: PlanResult) -> list[Axes]:
+    """Magnified insets (gid ``"reversing-zoom"``) of the reversing stretches too short to see
+    at the figure's scale (a reverse leg of 1 % of the view at the start hides under the start
+    marker), where least is drawn, the region each shows framed on the axes."""
+    tr = result.trajectory
+    n = tr.t.size
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    view = max(x1 - x0, y1 - y0)
+    w = 0.24
+    h = min(w * (x1 - x0) / (y1 - y0), 0.4)  # square on the page (the axes have equal aspect)
+    insets: list[Axes] = []
+    taken: list = []
+    for a, b in reversing_runs(result):
+        pts = tr.x[max(a - 1, 0) : min(b + 1, n), :2]
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        size = float(max(hi - lo))
+        if size >= _ZOOM_BELOW * view or len(insets) == _ZOOMS:
+            continue
+        half = max(0.8 * size, 1e-9 * view)
+        cx, cy = 0.5 * (lo + hi)
+        box = _emptiest_box(ax, sc, result, (cx, cy), w, h, taken)
+        taken.append(box)
+        ins = ax.inset_axes(box)
+        ins.set_gid("reversing-zoom")
+        draw_obstacles(ins, sc, label=False)
+        ins.plot(tr.x[:, 0], tr.x[:, 1], color=PATH_COLOR, lw=2.2, zorder=3)
+        draw_reversing(ins, result)
+        draw_ends(ins, sc, half, label=False)
+        for arrow in [c for c in ins.collections if c.get_gid() == GID_END_HEADING]:
+            arrow.remove()  # at this scale a hair that reads as a path
+        ins.set_xlim(cx - half, cx + half)
+        ins.set_ylim(cy - half, cy + half)
+        ins.set_aspect("equal", adjustable="box")
+        ins.set_xticks([])
+        ins.set_yticks([])
+        zoom = w * (x1 - x0) / (2 * half)
+        where = ""
+        for name, end in (("start", sc.start), ("goal", sc.goal)):
+            if np.hypot(end[0] - cx, end[1] - cy) <= 2 * half:
+                where = f" at the {name}"
+        ins.text(0.04, 0.96, f"reversing{where}, {zoom:.0f}x", transform=ins.transAxes, ha="left",
+                 va="top", fontsize="x-small", color="0.2")  # fmt: skip
+        ax.indicate_inset([cx - half, cy - half, 2 * half, 2 * half], edgecolor="0.3")
+        insets.append(ins)
+    return insets
+
+
+def _emptiest_box(ax: Axes, sc: Scenario, result: PlanResult, target, w, h, taken) -> list:
+    """``[x, y, w, h]`` in axes fraction: of the places along the axes' edges (the corners,
+    then the middles of the edges), the box that covers the fewest points of what is drawn (the
+    paths, the obstacles' rims, the ends), not ``target`` and no box of ``taken``; of two as
+    empty, the nearer to ``target``."""
+    pts = [sc.start[None, :2], sc.goal[None, :2]]
+    ring = np.exp(1j * np.linspace(0.0, 2 * np.pi, 16, endpoint=False))
+    for cx, cy, r in sc.obstacles.tolist():
+        pts.append(np.column_stack([cx + r * ring.real, cy + r * ring.imag]))
+    for alt in [result, *result.alternatives]:
+        if alt.trajectory is not None:
+            pts.append(alt.trajectory.x[::4, :2])
+    p = np.concatenate(pts)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    u, v = (p[:, 0] - x0) / (x1 - x0), (p[:, 1] - y0) / (y1 - y0)
+    tu, tv = (target[0] - x0) / (x1 - x0), (target[1] - y0) / (y1 - y0)
+    m = 0.02
+    (xa, xb, xc), (ya, yb, yc) = (m, 1 - m - w, 0.5 - 0.5 * w), (m, 1 - m - h, 0.5 - 0.5 * h)
+    boxes = [(xa, ya), (xb, ya), (xa, yb), (xb, yb), (xc, ya), (xc, yb), (xa, yc), (xb, yc)]
+
+    def cost(bx, by) -> float:
+        def inside(uu, vv):
+            return (uu > bx - m) & (uu < bx + w + m) & (vv > by - m) & (vv < by + h + m)
+
+        overlap = any(abs(bx - ox) < w + m and abs(by - oy) < h + m for ox, oy, *_ in taken)
+        near = float(np.hypot(bx + 0.5 * w - tu, by + 0.5 * h - tv))
+        return float(np.sum(inside(u, v))) + 20 * near + 1e9 * (overlap or bool(inside(tu, tv)))
+
+    bx, by = min(boxes, key=lambda b: cost(*b))
+    return [bx, by, w, h]
 
 
 def _draw_footprint(ax: Axes, sc: Scenario, tr) -> None:
