@@ -571,3 +571,19 @@ def test_a_short_reverse_leg_at_the_start_stays_visible(planned, tmp_path):
     assert gid(plot_path(long, sc).lines, "reversing")
     assert plot_path(long, sc).child_axes == []
     assert plot_path(result, sc).child_axes == []
+
+
+def test_solve_plot_takes_the_same_figure_options(tmp_path, monkeypatch):
+    import leapfrog_planner.viz.plots as plots
+    from leapfrog_planner.cli.main import main
+
+    seen = []
+    real = plots.save_figure
+    monkeypatch.setattr(plots, "save_figure", lambda f, p, **kw: seen.append(f) or real(f, p, **kw))
+    out = tmp_path / "p.png"
+    with pytest.raises(SystemExit) as e:
+        main(["solve", "paper-case-1", "--plot", str(out), "--dpi", "50", "--no-title", "--quiet"])
+    assert e.value.code == 0
+    with Image.open(out) as im:
+        assert im.size[0] == round(6.4 * 50)  # a path figure is 6.4 inches wide
+    assert len(seen) == 1 and titles(seen[0]) == []
