@@ -566,6 +566,13 @@ def test_a_short_reverse_leg_at_the_start_stays_visible(planned, tmp_path):
     assert "at the start" in " ".join(t.get_text() for t in zoom.texts)
     save_figure(ax, tmp_path / "short.png")
     check_png(tmp_path / "short.png")
+    # On a given axes, the legend inside: the inset keeps off it where there is room.
+    fig = Figure(figsize=(9, 7))
+    ax = plot_path(short, sc, fig.add_subplot())
+    (zoom,) = ax.child_axes
+    fig.draw_without_rendering()
+    assert not ax.get_legend().get_window_extent().overlaps(zoom.get_window_extent())
+    assert len(plot_path(short, sc, Figure(figsize=(4, 3)).add_subplot()).child_axes) == 1
     # A long reverse leg is seen at the figure's scale: no inset; nor without one.
     long = _reversing_first(result, tr.t.size // 2)
     assert gid(plot_path(long, sc).lines, "reversing")

@@ -161,15 +161,16 @@ def plot_path(
         extra += _draw_alternatives(ax, result)
 
     frame_axes(ax, sc, result)
-    if tr is not None:
-        _zoom_reversing(ax, sc, result)
     if title:
         ax.set_title(path_title(result, sc))
     handles = ax.get_legend_handles_labels()[0] + extra
+    legend = None
     if own:  # below the axes, across the figure: inside it would hide part of the path
         legend_below(ax.figure, handles, lambda h: path_figsize(sc, result, h))
     else:
-        ax.legend(handles=handles, fontsize="small", loc="best", framealpha=0.85)
+        legend = ax.legend(handles=handles, fontsize="small", loc="best", framealpha=0.85)
+    if tr is not None:
+        _zoom_reversing(ax, sc, result, legend)
     return ax
 
 
@@ -218,10 +219,11 @@ def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
 _ZOOM_BELOW, _ZOOMS = 0.06, 2
 
 
-def _zoom_reversing(ax: Axes, sc: Scenario, result: PlanResult) -> list[Axes]:
+def _zoom_reversing(ax: Axes, sc: Scenario, result: PlanResult, legend=None) -> list[Axes]:
     """Magnified insets (gid ``"reversing-zoom"``) of the reversing stretches too short to see
     at the figure's scale (a reverse leg of 1 % of the view at the start hides under the start
-    marker), where least is drawn, the region each shows framed on the axes."""
+    marker), where least is drawn and off ``legend`` (a legend inside the axes), the region each
+    shows framed on the axes."""
     tr = result.trajectory
     n = tr.t.size
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
@@ -230,6 +232,11 @@ def _zoom_reversing(ax: Axes, sc: Scenario, result: PlanResult) -> list[Axes]:
     h = min(w * (x1 - x0) / (y1 - y0), 0.4)  # square on the page (the axes have equal aspect)
     insets: list[Axes] = []
     taken: list = []
+    avoid: list = []
+    if legend is not None and reversing_runs(result):  # where "best" put it: known once drawn
+        ax.figure.draw_without_rendering()
+        (u0, v0), (u1, v1) = ax.transAxes.inverted().transform(legend.get_window_extent())
+        avoid.append([u0, v0, u1 - u0, v1 - v0])
     for a, b in reversing_runs(result):
         pts = tr.x[max(a - 1, 0) : min(b + 1, n), :2]
         lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -238,7 +245,9 @@ def _zoom_reversing(ax: Axes, sc: Scenario, result: PlanResult) -> list[Axes]:
             continue
         half = max(0.8 * size, 1e-9 * view)
         cx, cy = 0.5 * (lo + hi)
-        box = _emptiest_box(ax, sc, result, (cx, cy), w, h, taken)
+        box = _emptiest_box(ax, sc, result, (cx, cy), (w, h), taken, avoid)
+        if box is None:
+            break
         taken.append(box)
         ins = ax.inset_axes(box)
         ins.set_gid("reversing-zoom")
@@ -265,11 +274,13 @@ def _zoom_reversing(ax: Axes, sc: Scenario, result: PlanResult) -> list[Axes]:
     return insets
 
 
-def _emptiest_box(ax: Axes, sc: Scenario, result: PlanResult, target, w, h, taken) -> list:
-    """``[x, y, w, h]`` in axes fraction: of the places along the axes' edges (the corners,
-    then the middles of the edges), the box that covers the fewest points of what is drawn (the
-    paths, the obstacles' rims, the ends), not ``target`` and no box of ``taken``; of two as
-    empty, the nearer to ``target``."""
+def _emptiest_box(ax: Axes, sc, result: PlanResult, target, size, taken, avoid=()):
+    """``[x, y, w, h]`` (``size`` is ``w, h``) in axes fraction: of the places along the axes'
+    edges (the corners, then the middles of the edges), the box that covers the fewest points
+    of what is drawn (the paths, the obstacles' rims, the ends), neither ``target`` nor a box
+    ``[x, y, w, h]`` of ``taken``, and off those of ``avoid`` (a legend) unless every place
+    covers one; of two as empty, the nearer to ``target``. None when every place is ruled out."""
+    w, h = size
     pts = [sc.start[None, :2], sc.goal[None, :2]]
     ring = np.exp(1j * np.linspace(0.0, 2 * np.pi, 16, endpoint=False))
     for cx, cy, r in sc.obstacles.tolist():
@@ -289,12 +300,18 @@ def _emptiest_box(ax: Axes, sc: Scenario, result: PlanResult, target, w, h, take
         def inside(uu, vv):
             return (uu > bx - m) & (uu < bx + w + m) & (vv > by - m) & (vv < by + h + m)
 
-        overlap = any(abs(bx - ox) < w + m and abs(by - oy) < h + m for ox, oy, *_ in taken)
-        near = float(np.hypot(bx + 0.5 * w - tu, by + 0.5 * h - tv))
-        return float(np.sum(inside(u, v))) + 20 * near + 1e9 * (overlap or bool(inside(tu, tv)))
+        def overlap(boxes) -> bool:
+            return any(
+                bx < ox + ow + m and ox < bx + w + m and by < oy + oh + m and oy < by + h + m
+                for ox, oy, ow, oh in boxes
+            )
 
-    bx, by = min(boxes, key=lambda b: cost(*b))
-    return [bx, by, w, h]
+        near = float(np.hypot(bx + 0.5 * w - tu, by + 0.5 * h - tv))
+        ruled_out = overlap(taken) or bool(inside(tu, tv))
+        return float(np.sum(inside(u, v))) + 20 * near + 1e6 * overlap(avoid) + 1e9 * ruled_out
+
+    best = min(boxes, key=lambda b: cost(*b))
+    return None if cost(*best) >= 1e9 else [*best, w, h]
 
 
 def _draw_footprint(ax: Axes, sc: Scenario, tr) -> None:
