@@ -594,3 +594,14 @@ def test_solve_plot_takes_the_same_figure_options(tmp_path, monkeypatch):
     with Image.open(out) as im:
         assert im.size[0] == round(6.4 * 50)  # a path figure is 6.4 inches wide
     assert len(seen) == 1 and titles(seen[0]) == []
+
+
+def test_a_result_that_collides_says_so(planned):
+    """When every extremal found passes through an obstacle, the path drawn is no optimal path:
+    its legend entry and the title say that it collides."""
+    result, sc = planned["paper-case-2"]
+    ax = plot_path(dataclasses.replace(result, status=PlanStatus.COLLIDES), sc)
+    (path,) = gid(ax.lines, "optimal-path")
+    assert "collides" in path.get_label() and "optimal" not in path.get_label()
+    assert "collides" in ax.get_title()
+    assert "collides" not in plot_path(result, sc).get_title()

@@ -126,7 +126,11 @@ def plot_path(
             lw=2.2,
             zorder=3,
             gid=GID_PATH,
-            label=f"optimal path (J = {cost_text(result.cost)})",
+            label=(
+                f"best extremal (J = {cost_text(result.cost)}, collides)"
+                if status_text(result) == "collides"
+                else f"optimal path (J = {cost_text(result.cost)})"
+            ),
         )
         draw_reversing(ax, result)
         if arrows:

@@ -82,6 +82,8 @@ def cost_text(cost: float) -> str:
 
 def path_title(result: PlanResult, sc: Scenario) -> str:
     if result.trajectory is not None and np.isfinite(result.cost):
+        if status_text(result) == "collides":  # every extremal found passes through an obstacle
+            return f"{sc.name} — collides: J = {result.cost:.6g} ({result.method})"
         return f"{sc.name} — cost J = {result.cost:.6g} ({result.method})"
     return f"{sc.name} — {status_text(result)}: no optimal path ({result.method})"
 
