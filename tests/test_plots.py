@@ -405,3 +405,203 @@ def test_the_hamiltonian_panel_of_a_saved_result_reads_the_integrator_steps(tmp_
     assert shown == pytest.approx(float(np.abs(H - H[0]).max()), rel=0.01)
     assert shown <= 1e-9
     plt.close(fig)
+
+
+# --------------------------------------------------------------------------- figures for print
+
+
+def _plot_cli(args) -> int:
+    """``leapfrog plot ARGS`` in this process; its exit code."""
+    from leapfrog_planner.cli.main import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["plot", *map(str, args)])
+    return e.value.code
+
+
+@pytest.fixture(scope="module")
+def saved(planned, tmp_path_factory):
+    """paper case 2's result as a JSON file."""
+    path = tmp_path_factory.mktemp("saved") / "case2.json"
+    planned["paper-case-2"][0].save_json(path)
+    return path
+
+
+def test_dpi_sets_the_pixels_of_a_png(planned, saved, tmp_path, capsys):
+    result, sc = planned["paper-case-2"]
+    fig = plot_path(result, sc).figure
+    save_figure(fig, tmp_path / "300.png", dpi=300)
+    check_png(tmp_path / "300.png", px(fig, 300))
+    for bad in (0, 5, 2.5, 5000):
+        with pytest.raises(ValueError, match="dpi"):
+            save_figure(plot_path(result, sc), tmp_path / "bad.png", dpi=bad)
+    assert files(tmp_path) == ["300.png"]
+    # The command: the default stays 150; --dpi 300 doubles each side.
+    sizes = {}
+    for dpi in (None, 300):
+        out = tmp_path / f"cli-{dpi}.png"
+        assert _plot_cli([saved, "--out", out] + ([] if dpi is None else ["--dpi", dpi])) == 0
+        with Image.open(out) as im:
+            sizes[dpi] = im.size
+    assert sizes[300] == pytest.approx((2 * sizes[None][0], 2 * sizes[None][1]), abs=1)
+    capsys.readouterr()
+    assert _plot_cli([saved, "--out", tmp_path / "x.png", "--dpi", "5"]) == 2
+    err = capsys.readouterr().err
+    assert "--dpi" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x.png").exists()
+
+
+def titles(fig):
+    fig = fig if isinstance(fig, Figure) else fig.figure
+    texts = [ax.get_title(loc=loc) for ax in fig.axes for loc in ("left", "center", "right")]
+    return [t for t in [*texts, fig._suptitle and fig._suptitle.get_text()] if t]
+
+
+def test_no_title(planned, failed, saved, tmp_path, monkeypatch):
+    result, sc = planned["paper-case-2"]
+    for res in (result, failed[0]):
+        assert titles(plot_path(res, sc).figure) and titles(plot_controls(res))
+        assert titles(plot_path(res, sc, title=False).figure) == []
+        assert titles(plot_controls(res, title=False)) == []
+        assert titles(plot_convergence(res, sc, title=False)) == []
+    # The command passes --no-title to every figure it draws.
+    import leapfrog_planner.viz.plots as plots
+
+    seen = []
+    real = plots.save_figure
+    monkeypatch.setattr(plots, "save_figure", lambda f, p, **kw: seen.append(f) or real(f, p, **kw))
+    args = ["--out", tmp_path / "p.png", "--controls", tmp_path / "c.png"]
+    assert _plot_cli([saved, *args, "--convergence", tmp_path / "v.pdf", "--no-title"]) == 0
+    assert len(seen) == 3 and all(titles(f) == [] for f in seen)
+    seen.clear()
+    assert _plot_cli([saved, "--out", tmp_path / "p.png"]) == 0
+    assert len(seen) == 1 and titles(seen[0])
+
+
+def test_pdf_fonts_are_truetype_not_type3(planned, tmp_path):
+    result, sc = planned["paper-case-2"]
+    save_figure(plot_path(result, sc), tmp_path / "p.pdf")
+    save_figure(plot_controls(result), tmp_path / "c.pdf")
+    for name in ("p.pdf", "c.pdf"):
+        data = (tmp_path / name).read_bytes()
+        assert data.startswith(b"%PDF")
+        assert b"/Type3" not in data  # matplotlib's default: refused by publishers' checks
+        assert b"/FontFile2" in data  # an embedded TrueType font program
+    assert matplotlib.rcParams["pdf.fonttype"] == 3  # the setting is the save's alone
+
+
+def test_waypoints_are_drawn_numbered(tmp_path):
+    from leapfrog_planner.planning.scenario import Scenario
+
+    W = [[0.5, 0.25], [1.5, -0.25]]
+    sc = Scenario(
+        name="wp", horizon=2.0, start=[0, 0, 0], goal=[2, 0, 0], obstacles=[[1.0, 0.0, 0.2]],
+        waypoints=W,
+    )  # fmt: skip
+    result = plan(sc)
+    assert result.success, result.message
+    ax = plot_path(result, sc)
+    (marks,) = gid(ax.lines, "waypoint")
+    np.testing.assert_array_equal(np.column_stack(marks.get_data()), W)
+    numbers = gid(ax.texts, "waypoint")
+    assert [t.get_text() for t in numbers] == ["1", "2"]
+    assert [t.xy for t in numbers] == [tuple(w) for w in W]
+    assert any("waypoints" in t.get_text() for t in ax.figure.legends[0].get_texts())
+    save_figure(ax, tmp_path / "wp.png")
+    check_png(tmp_path / "wp.png")
+    # Without waypoints, none.
+    p2, sc2 = plan("paper-case-1", initial_paths=1), load_scenario("paper-case-1")
+    assert gid(plot_path(p2, sc2).lines, "waypoint") == []
+
+
+def test_colliding_alternatives_are_marked(planned):
+    result, sc = planned["paper-case-2"]
+    tr = result.trajectory
+    ok = PathOutcome("visibility #2", PlanStatus.CONVERGED, 23.2, 35.7, 14, "converged", 100.0)
+    bad = PathOutcome("visibility #3", PlanStatus.COLLIDES, 21.5, 40.1, 9, "collides", 100.0)
+    alts = (dataclasses.replace(ok, trajectory=tr), dataclasses.replace(bad, trajectory=tr))
+    ax = plot_path(dataclasses.replace(result, alternatives=alts), sc)
+    (good,) = gid(ax.lines, "alternative")
+    (hit,) = gid(ax.lines, "alternative-collides")
+    assert hit.get_linestyle() == "--" and good.get_linestyle() != "--"
+    assert matplotlib.colors.to_rgb(hit.get_color()) == matplotlib.colors.to_rgb("tab:red")
+    assert matplotlib.colors.to_rgb(good.get_color()) != matplotlib.colors.to_rgb("tab:red")
+    assert "collides" in hit.get_label() and "visibility #3" in hit.get_label()
+    assert "collides" not in good.get_label() and "local optimum" in good.get_label()
+    texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]
+    assert any("collides" in t and "21.5" in t for t in texts)
+
+
+def _reversing_first(result, k):
+    """``result`` whose robot drives backwards over its first ``k`` samples (v < 0 there)."""
+    tr = result.trajectory
+    u = np.array(tr.u)
+    iv = list(result.control_names).index("v")
+    u[:k, iv] = -np.abs(u[:k, iv]) - 0.1
+    u[k:, iv] = np.abs(u[k:, iv]) + 0.1
+    return dataclasses.replace(result, trajectory=dataclasses.replace(tr, u=u))
+
+
+def test_a_short_reverse_leg_at_the_start_stays_visible(planned, tmp_path):
+    """Paper case 4 reverses over 1 % of the view at the start, under the start marker: the
+    markers are hollow, the heading arrows of the ends lie under the path, a dot marks the
+    change of direction, and an inset magnifies the stretch."""
+    result, sc = planned["paper-case-2"]
+    short = _reversing_first(result, 5)
+    tr = short.trajectory
+    ax = plot_path(short, sc)
+    (start,) = gid(ax.lines, "start")
+    assert start.get_markerfacecolor() == "none"
+    (path,) = gid(ax.lines, "optimal-path")
+    assert all(q.get_zorder() < path.get_zorder() for q in gid(ax.collections, "end-heading"))
+    (cusp,) = gid(ax.lines, "direction-change")
+    np.testing.assert_array_equal(np.column_stack(cusp.get_data()), tr.x[[5], :2])
+    (zoom,) = [a for a in ax.child_axes if a.get_gid() == "reversing-zoom"]
+    (x0, x1), (y0, y1) = zoom.get_xlim(), zoom.get_ylim()
+    stretch = tr.x[:6, :2]
+    assert np.all((stretch[:, 0] >= x0) & (stretch[:, 0] <= x1))
+    assert np.all((stretch[:, 1] >= y0) & (stretch[:, 1] <= y1))
+    assert (x1 - x0) < 0.2 * np.diff(ax.get_xlim())[0]  # magnified
+    assert gid(zoom.lines, "reversing") and gid(zoom.lines, "direction-change")
+    assert "at the start" in " ".join(t.get_text() for t in zoom.texts)
+    save_figure(ax, tmp_path / "short.png")
+    check_png(tmp_path / "short.png")
+    # On a given axes, the legend inside: the inset keeps off it where there is room.
+    fig = Figure(figsize=(9, 7))
+    ax = plot_path(short, sc, fig.add_subplot())
+    (zoom,) = ax.child_axes
+    fig.draw_without_rendering()
+    assert not ax.get_legend().get_window_extent().overlaps(zoom.get_window_extent())
+    assert len(plot_path(short, sc, Figure(figsize=(4, 3)).add_subplot()).child_axes) == 1
+    # A long reverse leg is seen at the figure's scale: no inset; nor without one.
+    long = _reversing_first(result, tr.t.size // 2)
+    assert gid(plot_path(long, sc).lines, "reversing")
+    assert plot_path(long, sc).child_axes == []
+    assert plot_path(result, sc).child_axes == []
+
+
+def test_solve_plot_takes_the_same_figure_options(tmp_path, monkeypatch):
+    import leapfrog_planner.viz.plots as plots
+    from leapfrog_planner.cli.main import main
+
+    seen = []
+    real = plots.save_figure
+    monkeypatch.setattr(plots, "save_figure", lambda f, p, **kw: seen.append(f) or real(f, p, **kw))
+    out = tmp_path / "p.png"
+    with pytest.raises(SystemExit) as e:
+        main(["solve", "paper-case-1", "--plot", str(out), "--dpi", "50", "--no-title", "--quiet"])
+    assert e.value.code == 0
+    with Image.open(out) as im:
+        assert im.size[0] == round(6.4 * 50)  # a path figure is 6.4 inches wide
+    assert len(seen) == 1 and titles(seen[0]) == []
+
+
+def test_a_result_that_collides_says_so(planned):
+    """When every extremal found passes through an obstacle, the path drawn is no optimal path:
+    its legend entry and the title say that it collides."""
+    result, sc = planned["paper-case-2"]
+    ax = plot_path(dataclasses.replace(result, status=PlanStatus.COLLIDES), sc)
+    (path,) = gid(ax.lines, "optimal-path")
+    assert "collides" in path.get_label() and "optimal" not in path.get_label()
+    assert "collides" in ax.get_title()
+    assert "collides" not in plot_path(result, sc).get_title()

@@ -18,6 +18,8 @@ from pathlib import Path
 import click
 from rich.console import Console
 
+from ..viz.options import DPI, DPI_MAX, DPI_MIN
+
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
 # User strings (scenario names, file names, messages) are printed as text: never as rich's
@@ -154,6 +156,25 @@ def write_output(write, path: Path, option: str) -> None:
         raise
     except OSError as exc:
         raise OutputError(f"{option}: cannot write {str(path)!r} ({exc.strerror or exc})") from None
+
+
+def figure_options(command):
+    """``--dpi N`` and ``--no-title``: how the figures of ``plot`` and ``solve --plot`` are
+    saved (the command receives ``dpi`` and ``title``)."""
+    command = click.option(
+        "--no-title",
+        "title",
+        flag_value=False,
+        default=True,
+        help="figures without titles (for a paper, whose captions say it)",
+    )(command)
+    return click.option(
+        "--dpi",
+        type=click.IntRange(DPI_MIN, DPI_MAX),
+        default=DPI,
+        show_default=True,
+        help="pixels per inch of a PNG figure",
+    )(command)
 
 
 #: ``--option KEY=VALUE``: any planner or Leapfrog setting, repeatable (sweep and solve).

@@ -8,7 +8,14 @@ from pathlib import Path
 
 import click
 
-from .common import EXIT_OK, console, distinct_outputs, output_path, write_output
+from .common import (
+    EXIT_OK,
+    console,
+    distinct_outputs,
+    figure_options,
+    output_path,
+    write_output,
+)
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
@@ -40,7 +47,8 @@ def _figure_option(value: str | None, option: str, inputs) -> Path | None:
 @click.option("--controls", default=None, help="the controls and costates against time")
 @click.option("--convergence", default=None, help="the junctions and cost sweep by sweep")
 @click.option("--animate", default=None, help="an animated GIF of the sweeps")
-def plot(result, out, controls, convergence, animate):
+@figure_options
+def plot(result, out, controls, convergence, animate, dpi, title):
     """Draw the figures of a RESULT file written by `solve --json` or `--npz`."""
     inputs = [result]
     if out is None and controls is None and convergence is None and animate is None:
@@ -60,9 +68,9 @@ def plot(result, out, controls, convergence, animate):
 
     sc = res.task
     draw = {
-        "--out": lambda p: save_figure(plot_path(res, sc).figure, p),
-        "--controls": lambda p: save_figure(plot_controls(res), p),
-        "--convergence": lambda p: save_figure(plot_convergence(res, sc), p),
+        "--out": lambda p: save_figure(plot_path(res, sc, title=title), p, dpi=dpi),
+        "--controls": lambda p: save_figure(plot_controls(res, title=title), p, dpi=dpi),
+        "--convergence": lambda p: save_figure(plot_convergence(res, sc, title=title), p, dpi=dpi),
         "--animate": lambda p: animate_sweeps(res, sc, p),
     }
     for option, path in outputs.items():

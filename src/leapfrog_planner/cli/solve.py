@@ -20,6 +20,7 @@ from .common import (
     console,
     distinct_outputs,
     err,
+    figure_options,
     option_items,
     output_path,
     planner_options,
@@ -224,6 +225,7 @@ def scenarios():
 @click.option("--json", "json_path", default=None, help="write the result as JSON")
 @click.option("--npz", "npz_path", default=None, help="write the trajectory arrays as NPZ")
 @click.option("--plot", "plot_path", default=None, help="write the path figure (PNG, PDF or SVG)")
+@figure_options
 @option_items
 @click.option("--quiet", is_flag=True, help="no progress bar and no table")
 def solve(
@@ -240,6 +242,8 @@ def solve(
     json_path,
     npz_path,
     plot_path,
+    dpi,
+    title,
     options,
     quiet,
 ):
@@ -265,6 +269,7 @@ def solve(
         "--plot": output_path(plot_path, "--plot", inputs),
     }
     distinct_outputs(outputs)
+    figure = {"dpi": dpi, "title": title}
     if scenario in builtin_scenarios() and Path(scenario).is_file():
         note = f"the file {scenario}, not the built-in scenario (builtin:{scenario} is that one)"
         err.print(f"note: {note}", soft_wrap=True)
@@ -275,7 +280,7 @@ def solve(
                 "a result re-plans with the scenario and settings it records: planning options"
                 " are not accepted with it (plan its scenario to change them)"
             )
-        return _rerun(scenario, outputs, quiet)
+        return _rerun(scenario, outputs, quiet, figure)
     sc = load_scenario(scenario)
     if (horizon, cruise_speed, time_weight) != (None, None, None):
         sc = with_horizon(sc, horizon, cruise_speed, time_weight)
@@ -290,7 +295,7 @@ def solve(
     ]
     settings = {**planner_options(options), **{k: v for k, v in named if v is not None}}
     planner = Planner(sc, **settings)  # settings errors surface here, before any display
-    result = _planned(planner, outputs, quiet)
+    result = _planned(planner, outputs, quiet, figure)
     if quiet and not result.success:
         err.print(
             f"{sc.name}: {result.status}: {result.message}",
@@ -310,8 +315,9 @@ def command_line() -> str:
     return shlex.join(["leapfrog", *sys.argv[1:]])
 
 
-def _planned(planner, outputs, quiet: bool):
-    """The plan of ``planner``, its outputs written and, unless ``quiet``, its summary shown.
+def _planned(planner, outputs, quiet: bool, figure: dict):
+    """The plan of ``planner``, its outputs written (the figure saved with ``figure``: dpi and
+    title) and, unless ``quiet``, its summary shown.
     The kernels are loaded first, so that the time reported is the plan's own."""
     from ..planning.rerun import with_call
 
@@ -319,13 +325,13 @@ def _planned(planner, outputs, quiet: bool):
     ensure_compiled([sc.model], show=not quiet, methods=[planner.settings.leapfrog.method])
     result = planner.plan() if quiet else _plan_with_progress(planner)
     result = with_call(result, command_line())
-    _write_outputs(result, sc, outputs)
+    _write_outputs(result, sc, outputs, figure)
     if not quiet:
         console.print(_summary(result))
     return result
 
 
-def _write_outputs(result, sc, outputs) -> None:
+def _write_outputs(result, sc, outputs, figure: dict) -> None:
     if outputs["--json"]:
         write_output(result.save_json, outputs["--json"], "--json")
     if outputs["--npz"]:
@@ -334,11 +340,13 @@ def _write_outputs(result, sc, outputs) -> None:
         from ..viz.plots import plot_path as draw
         from ..viz.plots import save_figure
 
-        ax = draw(result, sc)
-        write_output(lambda p: save_figure(ax.figure, p), outputs["--plot"], "--plot")
+        ax = draw(result, sc, title=figure["title"])
+        write_output(
+            lambda p: save_figure(ax.figure, p, dpi=figure["dpi"]), outputs["--plot"], "--plot"
+        )
 
 
-def _rerun(path: str, outputs, quiet: bool) -> int:
+def _rerun(path: str, outputs, quiet: bool, figure: dict) -> int:
     """Re-plan the task the result file ``path`` records and compare the answers."""
     from ..planning.planner import Planner
     from ..planning.rerun import reproduction
@@ -346,7 +354,7 @@ def _rerun(path: str, outputs, quiet: bool) -> int:
 
     old = PlanResult.load(path)
     planner = Planner.from_result(old)
-    result = _planned(planner, outputs, quiet)
+    result = _planned(planner, outputs, quiet, figure)
     check = reproduction(old, result)
     console.print(f"{planner.scenario.name}: {check.summary()}", soft_wrap=True)
     if not check.reproduces:

@@ -30,9 +30,14 @@ from ..planning.results import PlanResult
 from ..planning.scenario import Scenario
 from ..planning.status import listed_alternatives
 from .animation import animate_sweeps
+from .options import DPI, DPI_MAX, DPI_MIN
 from .style import (
     ALTERNATIVE_STYLES,
+    COLLIDING_COLOR,
     FIGURE_FORMATS,
+    GID_ALTERNATIVE,
+    GID_COLLIDING,
+    GID_END_HEADING,
     GID_HEADING,
     GID_PATH,
     GID_SWEEP,
@@ -47,6 +52,8 @@ from .style import (
     draw_initial,
     draw_obstacles,
     draw_reversing,
+    draw_waypoints,
+    drop_titles,
     frame_axes,
     heading_colors,
     heading_proxy,
@@ -74,6 +81,7 @@ def plot_path(
     arrows: int = 9,
     show_initial: bool = True,
     show_alternatives: bool = True,
+    title: bool = True,
 ) -> Axes:
     """Draw the optimal path the way the paper does; returns the axes.
 
@@ -82,10 +90,14 @@ def plot_path(
     quiver, gid ``"heading"``; no arrows for ``arrows=0``). Where the robot drives backwards
     (``v < 0``) the path is drawn orange and dashed over that line (gid ``"reversing"``, labelled
     with the share of the time) and the arrows there are orange too. Start (circle) and goal
-    (star) are marked with their headings (quiver gid ``"end-heading"``). With ``show_initial``
-    the initial feasible path's junctions are drawn dashed. With ``show_alternatives`` the other
-    initial paths' extremals are drawn in grey, each in its own line style, with their costs in
-    the legend (those saved without a path: only the legend entry).
+    (star) are marked hollow with their headings (quiver gid ``"end-heading"``), the waypoints
+    as numbered diamonds (gid ``"waypoint"``). With ``show_initial`` the initial feasible path's
+    junctions are drawn dashed. With ``show_alternatives`` the other initial paths' extremals
+    are drawn in grey, each in its own line style (gid ``"alternative"``), those that pass
+    through an obstacle red and dashed, "collides" in their legend entry (gid
+    ``"alternative-collides"``), with their costs in the legend (those saved without a path:
+    only the legend entry). ``title=False`` leaves the axes without a title (for a paper, whose
+    caption says it).
 
     On a new figure (``ax`` None) the legend sits below the axes, across the figure, and the
     figure's height follows the data's aspect ratio; on a given axes it goes inside (``best``).
@@ -114,7 +126,11 @@ def plot_path(
             lw=2.2,
             zorder=3,
             gid=GID_PATH,
-            label=f"optimal path (J = {cost_text(result.cost)})",
+            label=(
+                f"best extremal (J = {cost_text(result.cost)}, collides)"
+                if status_text(result) == "collides"
+                else f"optimal path (J = {cost_text(result.cost)})"
+            ),
         )
         draw_reversing(ax, result)
         if arrows:
@@ -141,6 +157,7 @@ def plot_path(
             label=f"junctions after sweep {last.sweep} (q = {last.q})",
         )
     draw_ends(ax, sc, L)
+    draw_waypoints(ax, sc)
 
     if tr is not None and sc.robot_radius:
         _draw_footprint(ax, sc, tr)
@@ -148,12 +165,16 @@ def plot_path(
         extra += _draw_alternatives(ax, result)
 
     frame_axes(ax, sc, result)
-    ax.set_title(path_title(result, sc))
+    if title:
+        ax.set_title(path_title(result, sc))
     handles = ax.get_legend_handles_labels()[0] + extra
+    legend = None
     if own:  # below the axes, across the figure: inside it would hide part of the path
         legend_below(ax.figure, handles, lambda h: path_figsize(sc, result, h))
     else:
-        ax.legend(handles=handles, fontsize="small", loc="best", framealpha=0.85)
+        legend = ax.legend(handles=handles, fontsize="small", loc="best", framealpha=0.85)
+    if tr is not None:
+        _zoom_reversing(ax, sc, result, legend)
     return ax
 
 
@@ -162,8 +183,9 @@ _LABEL_WIDTH = 80
 
 
 def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
-    """The other initial paths' extremals, faint and dotted; legend entries for those without
-    (the failed runs counted in one entry when there are many: :func:`listed_alternatives`)."""
+    """The other initial paths' extremals, grey in turns of line styles (red and dashed those
+    that collide); legend entries for those without (the failed runs counted in one entry when
+    there are many: :func:`listed_alternatives`)."""
     extra = []
     drawn = 0
     alts, failed = listed_alternatives(result.alternatives)
@@ -172,15 +194,21 @@ def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
         extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
     for alt in alts:
         if alt.trajectory is not None:
-            what = "local optimum" if alt.status == "converged" else str(alt.status)
-            ls = ALTERNATIVE_STYLES[drawn % len(ALTERNATIVE_STYLES)]
-            drawn += 1
-            label = f"{what} J = {alt.cost:.6g} ({alt.label})"
+            collides = status_text(alt) == "collides"
+            if collides:  # not a path the robot can take: marked, never drawn like the others
+                what, note, gid = "extremal", ", collides", GID_COLLIDING
+                color, ls = COLLIDING_COLOR, "--"
+            else:
+                what = "local optimum" if alt.status == "converged" else status_text(alt)
+                note, gid = "", GID_ALTERNATIVE
+                color, ls = "0.4", ALTERNATIVE_STYLES[drawn % len(ALTERNATIVE_STYLES)]
+                drawn += 1
+            label = f"{what} J = {alt.cost:.6g} ({alt.label}{note})"
             if len(label) > _LABEL_WIDTH:  # wider than the figure: the label on a line of its own
-                label = f"{what} J = {alt.cost:.6g}\n  ({alt.label})"
+                label = f"{what} J = {alt.cost:.6g}\n  ({alt.label}{note})"
             ax.plot(
-                alt.trajectory.x[:, 0], alt.trajectory.x[:, 1], color="0.4", lw=1.3, ls=ls,
-                zorder=2, label=label,
+                alt.trajectory.x[:, 0], alt.trajectory.x[:, 1], color=color, lw=1.3, ls=ls,
+                alpha=0.75 if collides else 1.0, zorder=2, gid=gid, label=label,
             )  # fmt: skip
         else:  # its path was not kept (a result saved before paths were)
             text = f"{alt.label}: {status_text(alt)}"
@@ -188,6 +216,106 @@ def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
                 text = f"local optimum J = {alt.cost:.6g}\n  ({alt.label}; not kept)"
             extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))
     return extra
+
+
+#: A reversing stretch smaller than this share of the view gets a magnified inset, and so do
+#: at most this many of them (paper case 3: one at the start, one at the goal).
+_ZOOM_BELOW, _ZOOMS = 0.06, 2
+
+
+def _zoom_reversing(ax: Axes, sc: Scenario, result: PlanResult, legend=None) -> list[Axes]:
+    """Magnified insets (gid ``"reversing-zoom"``) of the reversing stretches too short to see
+    at the figure's scale (a reverse leg of 1 % of the view at the start hides under the start
+    marker), where least is drawn and off ``legend`` (a legend inside the axes), the region each
+    shows framed on the axes."""
+    tr = result.trajectory
+    n = tr.t.size
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    view = max(x1 - x0, y1 - y0)
+    w = 0.24
+    h = min(w * (x1 - x0) / (y1 - y0), 0.4)  # square on the page (the axes have equal aspect)
+    insets: list[Axes] = []
+    taken: list = []
+    avoid: list = []
+    if legend is not None and reversing_runs(result):  # where "best" put it: known once drawn
+        ax.figure.draw_without_rendering()
+        (u0, v0), (u1, v1) = ax.transAxes.inverted().transform(legend.get_window_extent())
+        avoid.append([u0, v0, u1 - u0, v1 - v0])
+    for a, b in reversing_runs(result):
+        pts = tr.x[max(a - 1, 0) : min(b + 1, n), :2]
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        size = float(max(hi - lo))
+        if size >= _ZOOM_BELOW * view or len(insets) == _ZOOMS:
+            continue
+        half = max(0.8 * size, 1e-9 * view)
+        cx, cy = 0.5 * (lo + hi)
+        box = _emptiest_box(ax, sc, result, (cx, cy), (w, h), taken, avoid)
+        if box is None:
+            break
+        taken.append(box)
+        ins = ax.inset_axes(box)
+        ins.set_gid("reversing-zoom")
+        draw_obstacles(ins, sc, label=False)
+        ins.plot(tr.x[:, 0], tr.x[:, 1], color=PATH_COLOR, lw=2.2, zorder=3)
+        draw_reversing(ins, result)
+        draw_ends(ins, sc, half, label=False)
+        for arrow in [c for c in ins.collections if c.get_gid() == GID_END_HEADING]:
+            arrow.remove()  # at this scale a hair that reads as a path
+        ins.set_xlim(cx - half, cx + half)
+        ins.set_ylim(cy - half, cy + half)
+        ins.set_aspect("equal", adjustable="box")
+        ins.set_xticks([])
+        ins.set_yticks([])
+        zoom = w * (x1 - x0) / (2 * half)
+        where = ""
+        for name, end in (("start", sc.start), ("goal", sc.goal)):
+            if np.hypot(end[0] - cx, end[1] - cy) <= 2 * half:
+                where = f" at the {name}"
+        ins.text(0.04, 0.96, f"reversing{where}, {zoom:.0f}x", transform=ins.transAxes, ha="left",
+                 va="top", fontsize="x-small", color="0.2")  # fmt: skip
+        ax.indicate_inset([cx - half, cy - half, 2 * half, 2 * half], edgecolor="0.3")
+        insets.append(ins)
+    return insets
+
+
+def _emptiest_box(ax: Axes, sc, result: PlanResult, target, size, taken, avoid=()):
+    """``[x, y, w, h]`` (``size`` is ``w, h``) in axes fraction: of the places along the axes'
+    edges (the corners, then the middles of the edges), the box that covers the fewest points
+    of what is drawn (the paths, the obstacles' rims, the ends), neither ``target`` nor a box
+    ``[x, y, w, h]`` of ``taken``, and off those of ``avoid`` (a legend) unless every place
+    covers one; of two as empty, the nearer to ``target``. None when every place is ruled out."""
+    w, h = size
+    pts = [sc.start[None, :2], sc.goal[None, :2]]
+    ring = np.exp(1j * np.linspace(0.0, 2 * np.pi, 16, endpoint=False))
+    for cx, cy, r in sc.obstacles.tolist():
+        pts.append(np.column_stack([cx + r * ring.real, cy + r * ring.imag]))
+    for alt in [result, *result.alternatives]:
+        if alt.trajectory is not None:
+            pts.append(alt.trajectory.x[::4, :2])
+    p = np.concatenate(pts)
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    u, v = (p[:, 0] - x0) / (x1 - x0), (p[:, 1] - y0) / (y1 - y0)
+    tu, tv = (target[0] - x0) / (x1 - x0), (target[1] - y0) / (y1 - y0)
+    m = 0.02
+    (xa, xb, xc), (ya, yb, yc) = (m, 1 - m - w, 0.5 - 0.5 * w), (m, 1 - m - h, 0.5 - 0.5 * h)
+    boxes = [(xa, ya), (xb, ya), (xa, yb), (xb, yb), (xc, ya), (xc, yb), (xa, yc), (xb, yc)]
+
+    def cost(bx, by) -> float:
+        def inside(uu, vv):
+            return (uu > bx - m) & (uu < bx + w + m) & (vv > by - m) & (vv < by + h + m)
+
+        def overlap(boxes) -> bool:
+            return any(
+                bx < ox + ow + m and ox < bx + w + m and by < oy + oh + m and oy < by + h + m
+                for ox, oy, ow, oh in boxes
+            )
+
+        near = float(np.hypot(bx + 0.5 * w - tu, by + 0.5 * h - tv))
+        ruled_out = overlap(taken) or bool(inside(tu, tv))
+        return float(np.sum(inside(u, v))) + 20 * near + 1e6 * overlap(avoid) + 1e9 * ruled_out
+
+    best = min(boxes, key=lambda b: cost(*b))
+    return None if cost(*best) >= 1e9 else [*best, w, h]
 
 
 def _draw_footprint(ax: Axes, sc: Scenario, tr) -> None:
@@ -304,7 +432,9 @@ def _draw_progress(ax_cost: Axes, ax_jump: Axes, result: PlanResult) -> None:
         a.grid(True, which="major", alpha=0.3)
 
 
-def plot_convergence(result: PlanResult, scenario: Scenario | str, fig=None) -> Figure:
+def plot_convergence(
+    result: PlanResult, scenario: Scenario | str, fig=None, *, title: bool = True
+) -> Figure:
     """Leapfrog's progress: junctions per sweep (left), cost and costate jump (right).
 
     Left: obstacles, start and goal, the initial junctions (dashed), the junction polyline
@@ -312,7 +442,8 @@ def plot_convergence(result: PlanResult, scenario: Scenario | str, fig=None) -> 
     the final path. Right, stacked: the cost of the piecewise-optimal trajectory per sweep (the
     initial path at sweep 0, dotted lines where the number of partitions q changes, the final
     extremal's cost as a horizontal line) and the largest relative costate jump at the junctions
-    per sweep (log scale). Returns the figure (a new one unless ``fig`` is given).
+    per sweep (log scale). Returns the figure (a new one unless ``fig`` is given);
+    ``title=False``: without any title (the figure's and the panels').
     """
     sc = as_scenario(scenario)
     if fig is None:
@@ -332,17 +463,20 @@ def plot_convergence(result: PlanResult, scenario: Scenario | str, fig=None) -> 
     else:
         head = status_text(result)
     fig.suptitle(f"{sc.name} — Leapfrog convergence: {len(hist)} sweeps, {head} ({result.method})")
+    if not title:
+        drop_titles(fig)
     return fig
 
 
 # --------------------------------------------------------------------------- plot_controls
 
 
-def plot_controls(result: PlanResult, fig=None) -> Figure:
+def plot_controls(result: PlanResult, fig=None, *, title: bool = True) -> Figure:
     """Controls (top), costates (middle) and ``H - H(0)`` (bottom, small) against time.
 
     Lines are labelled with the model's control and state names. Without a trajectory (a
-    failed result) the axes say so. Returns the figure (a new one unless ``fig`` is given).
+    failed result) the axes say so. Returns the figure (a new one unless ``fig`` is given);
+    ``title=False``: without any title (the figure's and the panels').
     """
     if fig is None:
         fig = new_figure(figsize=(8.0, 7.5))
@@ -377,11 +511,11 @@ def plot_controls(result: PlanResult, fig=None) -> Figure:
         for a in (ax_u, ax_l):
             a.axhline(0.0, color="0.6", lw=0.6)
             a.legend(fontsize="small", loc="best")
-        title = f"{result.scenario} — controls and costates, cost J = {cost_text(result.cost)}"
+        head = f"{result.scenario} — controls and costates, cost J = {cost_text(result.cost)}"
     else:
         for a in (ax_u, ax_l, ax_h):
             no_data(a, f"no trajectory ({status_text(result)})")
-        title = f"{result.scenario} — {status_text(result)}: no trajectory"
+        head = f"{result.scenario} — {status_text(result)}: no trajectory"
     ax_u.set_ylabel("controls")
     ax_l.set_ylabel("costates")
     ax_h.set_ylabel("H - H(0)")
@@ -390,17 +524,26 @@ def plot_controls(result: PlanResult, fig=None) -> Figure:
         a.tick_params(labelbottom=False)
     for a in (ax_u, ax_l, ax_h):
         a.grid(True, alpha=0.3)
-    fig.suptitle(title)
+    fig.suptitle(head)
+    if not title:
+        drop_titles(fig)
     return fig
 
 
 # --------------------------------------------------------------------------- save_figure
 
 
-def save_figure(fig: Figure | Axes, path) -> Path:
+#: Fonts embedded as TrueType (Type 42) in PDF and PostScript: Type 3 fonts, matplotlib's
+#: default, are refused by publishers' checks (IEEE PDF eXpress).
+_SAVE_RC = {"pdf.fonttype": 42, "ps.fonttype": 42}
+
+
+def save_figure(fig: Figure | Axes, path, *, dpi: int = DPI) -> Path:
     """Save ``fig`` as PNG, PDF or SVG (chosen by the extension) atomically; returns the path.
 
     ``fig`` is a figure or an axes (such as :func:`plot_path` returns): an axes saves its figure.
+    ``dpi``: pixels per inch of a PNG (and of the images inside a PDF or SVG), an integer from
+    10 to 1200. A PDF embeds its fonts as TrueType, not Type 3.
 
     The file is written to a temporary file in the same folder and renamed, so ``path`` is
     either the old file or the complete new one, never half a file. The figure is closed once
@@ -417,7 +560,15 @@ def save_figure(fig: Figure | Axes, path) -> Path:
             f"{path.name}: unknown figure format {path.suffix or '(none)'!r};"
             f" use {', '.join(FIGURE_FORMATS)}"
         )
-    _write_atomic(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=150))
+    dpi = require_integer("dpi", dpi, DPI_MIN, DPI_MAX, error=ValueError)
+
+    def write(tmp) -> None:
+        from matplotlib import rc_context
+
+        with rc_context(_SAVE_RC):
+            fig.savefig(tmp, format=fmt, dpi=dpi)
+
+    _write_atomic(path, write)
     plt = sys.modules.get("matplotlib.pyplot")  # only pyplot's own figures need closing
     if plt is not None:
         plt.close(fig)

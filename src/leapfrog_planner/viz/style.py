@@ -36,6 +36,13 @@ GID_MAP = "map"
 GID_INITIAL = "initial-junctions"
 GID_SWEEP = "sweep"
 GID_REVERSING = "reversing"
+GID_DIRECTION_CHANGE = "direction-change"
+GID_WAYPOINT = "waypoint"
+GID_ALTERNATIVE = "alternative"
+GID_COLLIDING = "alternative-collides"
+
+WAYPOINT_COLOR = "tab:purple"
+COLLIDING_COLOR = "tab:red"
 
 #: Line styles of the other local optima, in turn (the first is dotted).
 ALTERNATIVE_STYLES = (":", (0, (5, 2, 1, 2)), (0, (1, 3)), (0, (6, 3)))
@@ -48,6 +55,17 @@ def new_figure(layout: str | None = "constrained", **kw) -> Figure:
     fig = Figure(layout=layout, **kw)
     FigureCanvasAgg(fig)
     return fig
+
+
+def drop_titles(fig: Figure) -> None:
+    """No title text left on ``fig``: neither its own title nor any of its axes' (a figure for
+    a paper, whose caption says what they said)."""
+    if fig._suptitle is not None:
+        fig._suptitle.remove()
+        fig._suptitle = None
+    for ax in fig.axes:
+        for loc in ("left", "center", "right"):
+            ax.set_title("", loc=loc)
 
 
 def as_scenario(scenario) -> Scenario:
@@ -64,6 +82,8 @@ def cost_text(cost: float) -> str:
 
 def path_title(result: PlanResult, sc: Scenario) -> str:
     if result.trajectory is not None and np.isfinite(result.cost):
+        if status_text(result) == "collides":  # every extremal found passes through an obstacle
+            return f"{sc.name} — collides: J = {result.cost:.6g} ({result.method})"
         return f"{sc.name} — cost J = {result.cost:.6g} ({result.method})"
     return f"{sc.name} — {status_text(result)}: no optimal path ({result.method})"
 
@@ -81,6 +101,8 @@ def view_extent(sc: Scenario, result: PlanResult) -> tuple[float, float, float, 
     """Bounding box of everything drawn: end points, obstacles (not a map's cells: the view
     follows the path), junctions and the path."""
     pts = [sc.start[None, :2], sc.goal[None, :2]]
+    if sc.waypoints is not None:
+        pts.append(np.asarray(sc.waypoints, dtype=float)[:, :2])
     if sc.obstacles.shape[0]:
         c, r = sc.obstacles[:, :2], sc.obstacles[:, 2:3]
         pts += [c - r, c + r]
@@ -242,7 +264,10 @@ def draw_arrows(ax: Axes, xy, theta, length: float, *, gid: str, color, pivot="m
 
 
 def draw_ends(ax: Axes, sc: Scenario, length: float, label: bool = True) -> None:
-    """Start (circle) and goal (star) with their headings as arrows from the point."""
+    """Start (circle) and goal (star) with their headings as arrows from the point.
+
+    The markers are hollow and the heading arrows lie under the path, so that a stretch of the
+    path near an end (a short reverse leg at the start) stays visible."""
     for name, state, color, marker in (
         ("start", sc.start, START_COLOR, "o"),
         ("goal", sc.goal, GOAL_COLOR, "*"),
@@ -254,15 +279,15 @@ def draw_ends(ax: Axes, sc: Scenario, length: float, label: bool = True) -> None
             [y],
             ls="none",
             marker=marker,
-            ms=9 if marker == "o" else 14,
-            mfc=color,
-            mec="black",
-            mew=0.8,
+            ms=10 if marker == "o" else 15,
+            mfc="none",
+            mec=color,
+            mew=1.8,
             zorder=6,
             gid=name,
             label=text if label else None,
         )
-        draw_arrows(
+        arrows = draw_arrows(
             ax,
             [x, y],
             th,
@@ -272,6 +297,26 @@ def draw_ends(ax: Axes, sc: Scenario, length: float, label: bool = True) -> None
             pivot="tail",
             width=0.007,
         )
+        arrows.set_zorder(2.5)  # under the path
+        arrows.set_alpha(0.8)
+
+
+def draw_waypoints(ax: Axes, sc: Scenario, label: bool = True) -> None:
+    """The scenario's waypoints (if any) as diamonds numbered in their order (gid
+    ``"waypoint"``). The initial path passes through them; the optimal path need not."""
+    if sc.waypoints is None:
+        return
+    W = np.asarray(sc.waypoints, dtype=float)[:, :2]
+    text = "waypoint of the initial path" if W.shape[0] == 1 else "waypoints of the initial path"
+    ax.plot(
+        W[:, 0], W[:, 1], ls="none", marker="D", ms=7, mfc="none", mec=WAYPOINT_COLOR, mew=1.6,
+        zorder=6, gid=GID_WAYPOINT, label=text if label else None,
+    )  # fmt: skip
+    for i, (x, y) in enumerate(W.tolist()):
+        ax.annotate(
+            str(i + 1), (x, y), xytext=(5, 5), textcoords="offset points", color=WAYPOINT_COLOR,
+            fontsize="small", fontweight="bold", zorder=6, gid=GID_WAYPOINT,
+        )  # fmt: skip
 
 
 def draw_initial(ax: Axes, result: PlanResult, label: bool = True) -> None:
@@ -343,7 +388,8 @@ def reversing_runs(result: PlanResult) -> list[tuple[int, int]]:
 def draw_reversing(ax: Axes, result: PlanResult, lw: float = 2.2, zorder: float = 3.2) -> list:
     """The reversing stretches of the path over the path line: orange and dashed, on a white
     underlay that hides the path's own colour there. One labelled line (gid ``"reversing"``, NaN
-    between the stretches); nothing when the robot never reverses."""
+    between the stretches), and a dot where the direction changes (gid ``"direction-change"``);
+    nothing when the robot never reverses."""
     runs = reversing_runs(result)
     if not runs:
         return []
@@ -359,6 +405,13 @@ def draw_reversing(ax: Axes, result: PlanResult, lw: float = 2.2, zorder: float 
     under = ax.plot(xy[:, 0], xy[:, 1], color="white", lw=lw + 0.6, zorder=zorder - 0.05)
     over = ax.plot(xy[:, 0], xy[:, 1], color=REVERSE_COLOR, lw=lw, ls=(0, (3.0, 1.2)),
                    zorder=zorder, gid=GID_REVERSING, label=label)  # fmt: skip
+    # Where the robot changes direction (a cusp): a dot that shows however short the stretch.
+    cusps = sorted({i for a, b in runs for i in (a, b) if 0 < i < n})
+    if cusps:
+        p = tr.x[cusps, :2]
+        over += ax.plot(p[:, 0], p[:, 1], ls="none", marker="o", ms=4.5, mfc=REVERSE_COLOR,
+                        mec="black", mew=0.6, zorder=zorder + 0.1,
+                        gid=GID_DIRECTION_CHANGE)  # fmt: skip
     return under + over
 
 
