@@ -29,6 +29,7 @@ from .rerun import recorded, recorded_task, with_call
 from .results import PlanResult, Validation
 from .runs import touches
 from .scenario import Scenario
+from .settings import PlannerSettings
 from .status import PlanStatus
 
 #: A start further from the previous path, or a goal moved further, than this fraction of the
@@ -61,7 +62,7 @@ def replan(
     t_begin = time.perf_counter()
     if not isinstance(previous, PlanResult):
         raise SettingsError(f"replan: expected a PlanResult, got {type(previous).__name__}")
-    scenario, settings = recorded_task(previous)
+    scenario, settings = _recorded(previous)
     changes = {"start": start, "goal": goal, "obstacles": obstacles, "horizon": horizon}
     moved = dataclasses.replace(scenario, **{k: v for k, v in changes.items() if v is not None})
     planner = Planner(moved, settings)
@@ -75,6 +76,19 @@ def replan(
     full = planner.plan()
     message = f"{full.message}; re-planned in full ({why})"
     return with_call(dataclasses.replace(full, replan="full", message=message), "replan(<result>)")
+
+
+def _recorded(previous: PlanResult) -> tuple[Scenario, PlannerSettings]:
+    """The task and the settings ``previous`` records (:func:`.rerun.recorded_task`); for a
+    fixed horizon, its task as it is, without its ``[solver]`` table (the settings rule), which
+    saves reading the scenario again from its tables (0.3 ms of a warm re-plan's 5)."""
+    if previous.task is None or previous.settings is None or previous.task.free_time is not None:
+        return recorded_task(previous)
+    try:
+        settings = PlannerSettings.from_dict(previous.settings)
+    except SettingsError as e:
+        raise SettingsError(f"{previous.scenario}: the recorded settings: {e}") from None
+    return dataclasses.replace(previous.task, solver={}), settings
 
 
 def _warm_start(previous: PlanResult, moved: Scenario, planner: Planner) -> tuple[float, str]:
