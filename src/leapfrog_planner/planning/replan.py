@@ -10,7 +10,9 @@ is validated as every plan's answer is (re-integrated, reaching the goal, keepin
 otherwise, and when the change is large (an end moved further than :data:`LARGE` of the path's
 length, an obstacle onto the previous path, a failed previous plan, a free final time), the
 moved task is planned in full. The result's ``replan`` says which: ``"warm"`` or ``"full"``, and
-its message why a full plan was made.
+its message why a full plan was made. A warm result holds the moved task's extremal and its
+checks; it has no sweeps, alternatives or search of its own, and its Newton iterations and
+function evaluations are not counted (0).
 """
 
 from __future__ import annotations
