@@ -139,6 +139,8 @@ def _solved(planner: Planner, problem, guess: Arcs) -> Arcs | None:
     if arcs is not None:
         return arcs
     a0, g0, arcs = guess.X[0].copy(), guess.X[-1].copy(), guess
+    if np.allclose(a0, start, rtol=0.0, atol=1e-9) and np.allclose(g0, goal, rtol=0.0, atol=1e-9):
+        return None  # the ends did not move (the obstacles did): steps would repeat the jump
     for k in range(1, STEPS + 1):
         f = k / STEPS
         ends = (a0 + f * (start - a0), g0 + f * (goal - g0))
