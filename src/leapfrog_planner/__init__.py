@@ -40,6 +40,7 @@ _LAZY = {
     "derive": ".model.pmp",
     "plan": ".planning.planner",
     "Planner": ".planning.planner",
+    "replan": ".planning.replan",
     "PlannerSettings": ".planning.planner",
     "PlanResult": ".planning.results",
     "LeapfrogResult": ".planning.results",
@@ -95,6 +96,7 @@ __all__ = [
     "model_info",
     "obstacle_penalty",
     "plan",
+    "replan",
     "scenario_from_dict",
     "solve_shooting",
 ]

@@ -202,6 +202,7 @@ def result_to_dict(r) -> dict:
         "scenario_file": None if r.task is None else r.task.to_dict(),
         "settings": r.settings,
         "provenance": r.provenance,
+        "replan": r.replan,
         "trajectory": _columns_json(r.trajectory_columns()),
     }
 
@@ -278,6 +279,7 @@ def _fields(d: dict, source: str) -> dict[str, Any]:
         search=tuple(_record(rec) for rec in d["search"]),
         free_time=_free_time(d["free_time"]),
         provenance=d["provenance"],
+        replan=d["replan"],
     )
 
 
@@ -304,6 +306,7 @@ def upgraded(d: dict) -> dict:
     d.setdefault("search", [])
     d.setdefault("free_time", None)
     d.setdefault("provenance", None)
+    d.setdefault("replan", None)  # (schema 3 before replan: an optional key)
     return d
 
 
@@ -337,6 +340,8 @@ def _check_fields(out: dict, source: str, schema: int) -> None:
         bad("settings is not a table")
     if not isinstance(out["provenance"], dict | None):
         bad("provenance is not a table")
+    if out["replan"] not in ("warm", "full", None):
+        bad("replan is not warm, full or null")
     for label, tr in [("trajectory", out["trajectory"])] + [
         (f"alternative {a.label}", a.trajectory) for a in out["alternatives"]
     ]:

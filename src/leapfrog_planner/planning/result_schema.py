@@ -146,6 +146,11 @@ def result_schema() -> dict[str, Any]:
         "scenario_file": _SCENARIO,
         "settings": _settings(PlannerSettings()),
         "provenance": _PROVENANCE,
+        "replan": {
+            "enum": ["warm", "full", None],
+            "description": "how replan made it (warm from the previous answer, or a full plan);"
+            " optional: a file of this schema written before it has no such key",
+        },
         "trajectory": _COLUMNS,
     }
     return {
@@ -153,5 +158,5 @@ def result_schema() -> dict[str, Any]:
         "title": f"leapfrog-planner result (schema {SCHEMA})",
         "description": "A plan saved by `leapfrog solve --json` or PlanResult.save_json; an NPZ "
         "file holds the same JSON, less the trajectory, in its result_json entry.",
-        **_table(props),
+        **_table(props, required=[k for k in props if k != "replan"]),
     }

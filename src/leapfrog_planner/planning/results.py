@@ -41,7 +41,9 @@ and the junctions ``junction_t``, ``junction_X``), ``initial_junctions`` (``t``,
 ``weight``, ``message`` and their extremal's ``trajectory``, empty when they found none) and
 ``search`` (every Leapfrog run in the order made: ``stage``, ``reason``, ``label``,
 ``partitions``, ``weight``, ``aid`` (the value of the model's planning aid, null without one),
-``status``, ``cost``, ``sweeps``, ``time_s``, ``message``).
+``status``, ``cost``, ``sweeps``, ``time_s``, ``message``) and ``replan`` (how ``replan`` made
+it: ``"warm"`` from the previous answer, ``"full"`` by a full plan; null for a plan, and in a
+file written before the key existed).
 """
 
 from __future__ import annotations
@@ -244,6 +246,9 @@ class PlanResult:
     # How the result was made (versions, platform, date, the call: see :mod:`.rerun`):
     # metadata, which comparisons of answers leave out. None in a file of schema 2 or older.
     provenance: dict | None = None
+    # How :func:`.replan.replan` made it: ``"warm"`` (from the previous answer's extremal) or
+    # ``"full"`` (a full plan, the message says why); None for a plan.
+    replan: str | None = None
 
     @classmethod
     def load(cls, path) -> PlanResult:
