@@ -116,6 +116,33 @@ def plot_path(
     draw_obstacles(ax, sc)
     if show_initial:
         draw_initial(ax, result)
+    extra = _draw_answer(ax, result, arrows, L)
+    tr = result.trajectory
+    draw_ends(ax, sc, L)
+    draw_waypoints(ax, sc)
+
+    if tr is not None and sc.robot_radius:
+        _draw_footprint(ax, sc, tr)
+    if show_alternatives:
+        extra += _draw_alternatives(ax, result)
+
+    frame_axes(ax, sc, result)
+    if title:
+        ax.set_title(path_title(result, sc))
+    handles = ax.get_legend_handles_labels()[0] + extra
+    legend = None
+    if own:  # below the axes, across the figure: inside it would hide part of the path
+        legend_below(ax.figure, handles, lambda h: path_figsize(sc, result, h))
+    else:
+        legend = ax.legend(handles=handles, fontsize="small", loc="best", framealpha=0.85)
+    if tr is not None:
+        _zoom_reversing(ax, sc, result, legend)
+    return ax
+
+
+def _draw_answer(ax: Axes, result: PlanResult, arrows: int, L: float) -> list:
+    """The answer's path with its reversing stretches and heading arrows, or, for a failed
+    result, the junctions after its last sweep; returns extra legend handles."""
     extra: list = []
     tr = result.trajectory
     if tr is not None:
@@ -156,26 +183,7 @@ def plot_path(
             gid=GID_SWEEP,
             label=f"junctions after sweep {last.sweep} (q = {last.q})",
         )
-    draw_ends(ax, sc, L)
-    draw_waypoints(ax, sc)
-
-    if tr is not None and sc.robot_radius:
-        _draw_footprint(ax, sc, tr)
-    if show_alternatives:
-        extra += _draw_alternatives(ax, result)
-
-    frame_axes(ax, sc, result)
-    if title:
-        ax.set_title(path_title(result, sc))
-    handles = ax.get_legend_handles_labels()[0] + extra
-    legend = None
-    if own:  # below the axes, across the figure: inside it would hide part of the path
-        legend_below(ax.figure, handles, lambda h: path_figsize(sc, result, h))
-    else:
-        legend = ax.legend(handles=handles, fontsize="small", loc="best", framealpha=0.85)
-    if tr is not None:
-        _zoom_reversing(ax, sc, result, legend)
-    return ax
+    return extra
 
 
 #: Legend entries longer than this (characters, small font) would not fit a 6.4-inch figure.
