@@ -22,7 +22,7 @@ import numpy as np
 
 from ..bvp.multiple_shooting import MultipleShootingSystem, solve_multiple_shooting
 from ..bvp.shooting import ShootingSettings, solve_shooting
-from ..integrate.flow import Flow
+from ..integrate.flow import Flow, Trajectory
 from ..integrate.problem import OptimalControlProblem
 from ..model.bounds import SMOOTHING, bound_names, switch_name
 from .leapfrog import Arcs, LeapfrogSolution, LeapfrogStatus
@@ -78,6 +78,24 @@ def exceeded(bounds: dict[str, tuple[float, float]], names, u: np.ndarray) -> tu
         if np.any(u[:, names.index(c)] < lo - tol) or np.any(u[:, names.index(c)] > hi + tol)
     )  # fmt: skip
     return out or tuple(bounds)
+
+
+def arcs_of(tr: Trajectory, tau: float | None = None, pieces: int = JUNCTIONS) -> Arcs:
+    """The extremal ``tr`` from time ``tau`` (default: its start) on, as ``pieces`` arcs of
+    equal length with times from 0 (states and costates read off the trajectory: each arc then
+    integrates accurately however long the horizon): a guess for :func:`resolve`."""
+    start = tr.t[0] if tau is None else tau
+    t = np.linspace(start, tr.t[-1], pieces + 1)
+    keep = np.append(np.diff(tr.t) > 0, True)
+
+    def col(a):
+        return np.column_stack([np.interp(t, tr.t[keep], a[keep, i]) for i in range(a.shape[1])])
+
+    X, lam = col(tr.x), col(tr.lam)
+    if tau is None:
+        X[0] = tr.x[0]
+    X[-1] = tr.x[-1]
+    return Arcs(t - start, X, lam[:-1])
 
 
 @dataclass(frozen=True)

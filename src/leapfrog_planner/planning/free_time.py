@@ -33,9 +33,9 @@ from typing import Protocol
 import numpy as np
 
 from ..bvp.shooting import ShootingSettings
-from ..integrate.flow import Flow, Trajectory
+from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
-from .bounded import MAX_HALVINGS, resolve
+from .bounded import MAX_HALVINGS, arcs_of, resolve
 from .leapfrog import Arcs
 from .results import PlanResult, Validation, piecewise_trajectory
 from .scenario import Scenario
@@ -49,8 +49,6 @@ FREE_TIME_PATHS = 6
 ROUNDS = 3
 #: ``|k + H|`` at most this times ``max(1, k)`` meets the free-time condition.
 CONDITION_TOL = 1e-8
-#: The junctions of a planned extremal that the continuation in ``T`` starts from.
-JUNCTIONS = 16
 #: The horizons where the first is sought, as multiples of the shortest path at cruise speed.
 FIRST_GRID = np.geomspace(0.5, 8.0, 9)
 #: A continuation step whose path moves further than this fraction of its length from the path
@@ -227,19 +225,6 @@ def first_horizon(scenario: Scenario, shortest: float, effort: float, estimate) 
     grid = np.clip(max(shortest, 0.1) / speed * FIRST_GRID, lo, hi)
     costs = [estimate(T) + free.time_weight * T for T in grid]
     return float(grid[int(np.argmin(costs))])
-
-
-def arcs_of(tr: Trajectory, pieces: int = JUNCTIONS) -> Arcs:
-    """A planned extremal as ``pieces`` arcs of equal length (states and costates read off its
-    trajectory: each arc then integrates accurately however long the horizon)."""
-    t = np.linspace(tr.t[0], tr.t[-1], pieces + 1)
-    keep = np.append(np.diff(tr.t) > 0, True)
-    col = lambda a: np.column_stack(  # noqa: E731
-        [np.interp(t, tr.t[keep], a[keep, i]) for i in range(a.shape[1])]
-    )
-    X, lam = col(tr.x), col(tr.lam)
-    X[0], X[-1] = tr.x[0], tr.x[-1]
-    return Arcs(t, X, lam[:-1])
 
 
 @dataclass(frozen=True)

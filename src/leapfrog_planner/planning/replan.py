@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..errors import SettingsError
-from .bounded import resolve
+from .bounded import arcs_of, resolve
 from .leapfrog import Arcs
 from .planner import Planner
 from .rerun import recorded, recorded_task, with_call
@@ -42,8 +42,6 @@ STEPS = 4
 #: A warm extremal whose path lies further than this fraction of its length from the guess
 #: has jumped to another family (a cold plan might find a cheaper one): planned in full.
 MAX_MOVE = 0.15
-#: The junctions of the guess (multiple shooting), as in the free-time search.
-JUNCTIONS = 16
 
 
 def replan(
@@ -116,20 +114,6 @@ def _warm_start(previous: PlanResult, moved: Scenario, planner: Planner) -> tupl
     return float(tr.t[i]), ""
 
 
-def tail_arcs(tr, tau: float, pieces: int = JUNCTIONS) -> Arcs:
-    """The extremal ``tr`` from time ``tau`` on, as ``pieces`` arcs of equal length starting at
-    time 0 (states and costates read off the trajectory)."""
-    t = np.linspace(tau, tr.t[-1], pieces + 1)
-    keep = np.append(np.diff(tr.t) > 0, True)
-
-    def col(a):
-        return np.column_stack([np.interp(t, tr.t[keep], a[keep, i]) for i in range(a.shape[1])])
-
-    X, lam = col(tr.x), col(tr.lam)
-    X[-1] = tr.x[-1]
-    return Arcs(t - tau, X, lam[:-1])
-
-
 def _solved(planner: Planner, problem, guess: Arcs) -> Arcs | None:
     """The moved task's extremal near ``guess``: in one jump, else the ends moved in steps."""
     s = planner.scenario
@@ -168,7 +152,7 @@ def _warm(planner: Planner, previous: PlanResult, tau: float) -> tuple[PlanResul
     """The warm answer, or None and why not."""
     s = planner.scenario
     problem = planner.problem_at(s.weight)
-    guess = tail_arcs(previous.trajectory, tau)
+    guess = arcs_of(previous.trajectory, tau)
     arcs = _solved(planner, problem, guess)
     if arcs is None:
         return None, "the warm start did not converge"
