@@ -1,10 +1,14 @@
 """The README cannot lie: every command and every Python snippet in it runs here, in a temporary
-folder that holds the README's scenario file as ``room.toml``.
+folder that holds the README's scenario file as ``room.toml``; so do those of the pages of docs/
+that hold commands (``DOCS``).
 
 Commands run as written, except that the sizes of the long experiments are cut (``SHRINK``:
 fewer repetitions and scenarios, so that the suite stays within its time budget) and the few
-that cannot run in a test are excused by name with the reason (``EXCUSED``). A README command
-that is neither run nor excused fails the test that lists them, so a new one cannot slip by.
+that cannot run in a test are excused by name with the reason (``EXCUSED``). A command that is
+neither run nor excused fails the test that lists them, so a new one cannot slip by; a command
+written in two documents runs once. A page of docs/ with commands or snippets is in ``DOCS`` or
+says in ``NOT_RUN`` why not. Every relative link and image of the README and of docs/ names a
+file that exists, and every anchor a heading of it.
 """
 
 from __future__ import annotations
@@ -23,7 +27,13 @@ import pytest
 from tests.serving import free_port, wait_ready
 from tests.test_cli import cli_env
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+#: The documents whose bash commands and Python snippets run here: the README and these pages.
+PAGES = ("serve.md", "sweeps.md", "benchmarks.md", "python.md")
+DOCS = [README, *(ROOT / "docs" / name for name in PAGES)]
+#: Pages of docs/ with bash or Python blocks that do not run here, and why.
+NOT_RUN = {"scenarios.md": "its Python block loads a file of the reader's own (my-room.toml)"}
 WORKERS = 4
 TIMEOUT = 600
 
@@ -44,21 +54,40 @@ EXCUSED = {
 }
 
 
-def _blocks(lang: str) -> list[str]:
-    return re.findall(rf"```{lang}\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
-
-
-def readme_commands() -> list[str]:
-    """Every shell command of the README's bash blocks, continuation lines joined and comments
-    dropped, ``a && b`` split in two."""
+def _blocks(lang: str, docs: list[Path] = DOCS) -> list[tuple[str, str]]:
+    """The ``lang`` code blocks of ``docs``, each with the name of its document."""
     out = []
-    for block in _blocks("bash"):
+    for doc in docs:
+        text = doc.read_text(encoding="utf-8")
+        out += [(_name(doc), b) for b in re.findall(rf"```{lang}\n(.*?)```", text, re.S)]
+    return out
+
+
+def _name(doc: Path) -> str:
+    return doc.relative_to(ROOT).as_posix()
+
+
+def readme_commands() -> list[tuple[str, str]]:
+    """Every shell command of the documents' bash blocks with the name of its document,
+    continuation lines joined and comments dropped, ``a && b`` split in two."""
+    out = []
+    for doc, block in _blocks("bash"):
         text = block.replace("\\\n", " ")
         for line in text.splitlines():
             line = re.sub(r"\s+#.*$", "", line).strip()
             if line and not line.startswith("#"):
-                out += [part.strip() for part in line.split("&&")]
+                out += [(doc, part.strip()) for part in line.split("&&")]
     return out
+
+
+def _unique_commands() -> list:
+    """Each command to run once, named by the documents that hold it."""
+    where: dict[str, list[str]] = {}
+    for doc, command in readme_commands():
+        if not _excused(command):
+            where.setdefault(command, [])
+            where[command] += [doc] if doc not in where[command] else []
+    return [pytest.param(c, id=f"{'+'.join(docs)}: {c}") for c, docs in where.items()]
 
 
 def _excused(command: str) -> str | None:
@@ -111,7 +140,7 @@ def _run(command: str, cwd: Path) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("readme")
-    (toml,) = _blocks("toml")
+    ((_, toml),) = _blocks("toml", [README])
     (d / "room.toml").write_text(toml, encoding="utf-8")
     return d
 
@@ -129,7 +158,7 @@ def _ordered(commands: list[str]) -> list[list[str]]:
 
 @pytest.fixture(scope="module")
 def runs(folder) -> dict[str, subprocess.CompletedProcess]:
-    todo = [c for c in readme_commands() if not _excused(c)]
+    todo = [p.values[0] for p in _unique_commands()]
     done = {}
     for wave in _ordered(todo):
         with ThreadPoolExecutor(WORKERS) as pool:
@@ -144,14 +173,21 @@ def runs(folder) -> dict[str, subprocess.CompletedProcess]:
 
 
 def test_every_readme_command_is_run_or_excused_with_a_reason():
-    commands = readme_commands()
+    commands = [c for _, c in readme_commands()]
     assert len(commands) >= 20
     assert all(c.startswith("leapfrog ") or _excused(c) for c in commands), commands
     used = {frag for frag in EXCUSED if any(frag in c for c in commands)}
     assert used == set(EXCUSED), f"excuses without a command: {set(EXCUSED) - used}"
 
 
-@pytest.mark.parametrize("command", [c for c in readme_commands() if not _excused(c)])
+def test_every_page_with_commands_runs_here_or_says_why_not():
+    pages = (ROOT / "docs").glob("*.md")
+    with_code = {p.name for p in pages if re.search(r"```(bash|python)\n", p.read_text())}
+    assert with_code - set(NOT_RUN) == set(PAGES)
+    assert set(NOT_RUN) <= with_code, "a reason for a page without commands"
+
+
+@pytest.mark.parametrize("command", _unique_commands())
 def test_readme_command_runs(runs, command):
     p = runs[command]
     assert "Traceback" not in p.stderr, p.stderr[-2000:]
@@ -164,20 +200,77 @@ def test_readme_outputs_exist(runs, folder):
     assert (folder / "report" / "report.md").is_file()
 
 
-@pytest.mark.parametrize("index", range(len(_blocks("python"))))
-def test_readme_python_snippet_runs(index, tmp_path, monkeypatch):
+def _snippets() -> list:
+    """Every Python block of the documents, numbered within its document."""
+    out, seen = [], {}
+    for doc, code in _blocks("python"):
+        seen[doc] = seen.get(doc, 0) + 1
+        out.append(pytest.param(code, id=f"{doc} python block {seen[doc]}"))
+    return out
+
+
+@pytest.mark.parametrize("code", _snippets())
+def test_readme_python_snippet_runs(code, request, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    code = _blocks("python")[index]
-    exec(compile(code, f"README.md python block {index + 1}", "exec"), {"__name__": "readme"})
+    name = request.node.callspec.id
+    exec(compile(code, name, "exec"), {"__name__": "readme"})
 
 
-def test_the_readme_does_not_point_to_documents_a_user_cannot_see():
-    text = README.read_text(encoding="utf-8")
+def _pages() -> list[Path]:
+    return [README, *sorted((ROOT / "docs").glob("*.md"))]
+
+
+@pytest.mark.parametrize("page", _pages(), ids=_name)
+def test_the_documents_do_not_point_to_documents_a_user_cannot_see(page):
+    text = page.read_text(encoding="utf-8")
     assert not re.search(r"\bspec\b", text.replace("generator spec", ""))
     assert "issue" not in text.lower()
 
 
-def test_the_quick_start_is_two_commands():
-    quick = README.read_text(encoding="utf-8").split("## Quick start")[1].split("\n## ")[0]
+def _anchor(heading: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces to dashes."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def _prose(page: Path) -> str:
+    """The page without its code blocks."""
+    return re.sub(r"```.*?```", "", page.read_text(encoding="utf-8"), flags=re.S)
+
+
+def _anchors(page: Path, level: str = "#{1,6}") -> set[str]:
+    return {_anchor(h) for h in re.findall(rf"^{level} (.+)$", _prose(page), re.M)}
+
+
+def _links(page: Path) -> list[str]:
+    """The targets of the page's links and images, outside code."""
+    text = re.sub(r"`[^`\n]*`", "", _prose(page))
+    return re.findall(r"\]\(([^)\s]+)\)", text)
+
+
+@pytest.mark.parametrize("page", _pages(), ids=_name)
+def test_every_link_and_image_names_a_file_and_a_heading_that_exist(page):
+    for link in _links(page):
+        if re.match(r"[a-z]+:", link):
+            continue  # http, https, mailto: not checked here
+        path, _, anchor = link.partition("#")
+        target = (page.parent / path).resolve() if path else page
+        assert target.exists(), f"{_name(page)}: {link}"
+        if anchor:
+            assert anchor in _anchors(target), f"{_name(page)}: {link}: no such heading"
+
+
+def test_the_contents_list_every_section_of_the_readme():
+    text = README.read_text(encoding="utf-8")
+    contents = text.split("**Contents:**")[1].split("\n\n")[0]
+    listed = re.findall(r"\]\(#([^)]+)\)", contents)
+    assert set(listed) <= _anchors(README)
+    sections = _anchors(README, "##")
+    assert sections <= set(listed), sections - set(listed)
+
+
+def test_the_quick_start_is_two_commands_and_the_readme_is_short():
+    text = README.read_text(encoding="utf-8")
+    quick = text.split("## Quick start")[1].split("\n## ")[0]
     assert len(re.findall(r"```bash\n", quick)) == 2
+    assert len(text.splitlines()) <= 270  # results, history and details belong in docs/
     assert os.environ.get("CI_SKIP_README") is None  # no switch to turn this file off

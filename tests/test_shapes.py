@@ -150,11 +150,11 @@ def test_a_plan_among_polygons_and_walls_converges_clear_of_their_geometry(tmp_p
     assert r.min_clearance <= clear.min() + 1e-9
 
 
-def test_the_readmes_polygons_and_walls_are_those_planned_here():
+def test_the_documented_polygons_and_walls_are_those_planned_here():
     from pathlib import Path
 
-    readme = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
-    (block,) = [b for b in readme.split("```") if b.lstrip().startswith("[[polygons]]")]
+    page = (Path(__file__).parents[1] / "docs" / "maps.md").read_text(encoding="utf-8")
+    (block,) = [b for b in page.split("```") if b.lstrip().startswith("[[polygons]]")]
     head = SCENE[: SCENE.index("[[polygons]]")]
     sc = load_scenario_text(head + block, "<readme>")
     assert sc.map.shapes == load_scenario_text(SCENE, "<shapes>").map.shapes
