@@ -259,6 +259,15 @@ def test_every_link_and_image_names_a_file_and_a_heading_that_exist(page):
             assert anchor in _anchors(target), f"{_name(page)}: {link}: no such heading"
 
 
+@pytest.mark.parametrize("page", _pages(), ids=_name)
+def test_every_row_of_a_table_has_the_header_s_columns(page):
+    """A ``|`` inside a code span still splits a cell: the row would render askew."""
+    for table in re.findall(r"(?:^\|.*\n)+", _prose(page), re.M):
+        rows = table.splitlines()
+        bad = [r for r in rows if len(re.findall(r"(?<!\\)\|", r)) != rows[0].count("|")]
+        assert not bad, f"{_name(page)}: {bad}"
+
+
 def test_the_contents_list_every_section_of_the_readme():
     text = README.read_text(encoding="utf-8")
     contents = text.split("**Contents:**")[1].split("\n\n")[0]
