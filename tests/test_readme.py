@@ -8,7 +8,8 @@ that cannot run in a test are excused by name with the reason (``EXCUSED``). A c
 neither run nor excused fails the test that lists them, so a new one cannot slip by; a command
 written in two documents runs once. A page of docs/ with commands or snippets is in ``DOCS`` or
 says in ``NOT_RUN`` why not. Every relative link and image of the README and of docs/ names a
-file that exists, and every anchor a heading of it.
+file that exists, and every anchor a heading of it; the README's contents list every section, and
+no table row has more cells than its header.
 """
 
 from __future__ import annotations
@@ -275,6 +276,12 @@ def test_the_contents_list_every_section_of_the_readme():
     assert set(listed) <= _anchors(README)
     sections = _anchors(README, "##")
     assert sections <= set(listed), sections - set(listed)
+
+
+def test_room_toml_is_written_before_a_command_uses_it():
+    text = README.read_text(encoding="utf-8")
+    first_use = min(text.index(b) for _, b in _blocks("bash", [README]) if "room.toml" in b)
+    assert text.index("```toml\n") < first_use
 
 
 def test_the_quick_start_is_two_commands_and_the_readme_is_short():
