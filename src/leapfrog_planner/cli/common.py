@@ -134,6 +134,29 @@ def output_folder(value: str, option: str, inputs: Iterable = ()) -> Path:
     return path
 
 
+def new_folder(value: str | None, option: str) -> Path | None:
+    """Check a folder the command will create whole (a ROS bag) before any work: it must not
+    exist (never replaced: it may hold a recording), its parent must and be writable."""
+    if value is None:
+        return None
+    if not value or "\0" in value:
+        _fail(option, "expected a folder name")
+    path = Path(value)
+    try:
+        exists = os.path.lexists(path)
+    except OSError as exc:
+        _fail(option, f"cannot use {value!r} ({exc.strerror or exc})")
+    if exists:
+        _fail(option, f"{value!r} exists; give a new folder (it is never replaced)")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        _fail(option, f"folder {str(parent)!r} does not exist")
+    if len(path.name.encode()) + _TEMP_EXTRA > _name_max(parent):
+        _fail(option, f"folder name too long ({len(path.name)} characters)")
+    _probe_folder(parent, option)
+    return path
+
+
 def refuse_inputs_in(folder: Path, names: Iterable[str], inputs: Iterable, option: str) -> None:
     """Refuse an output ``folder`` whose fixed file ``names`` would replace an input."""
     for name in names:
