@@ -20,6 +20,7 @@ The same result, ``dt`` and options give the same bytes: no clock time is writte
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import tempfile
@@ -156,7 +157,8 @@ def write_bag(
     path = Path(path)
     if os.path.lexists(path):
         raise ExportError(f"{str(path)!r} exists; a bag is written to a new folder")
-    topics = bag_messages(result, dt, frame_id, round(start * 1e9), stamped, base_frame)
+    start_ns = math.floor(start) * 1_000_000_000 + round((start % 1) * 1e9)  # exact to the ns
+    topics = bag_messages(result, dt, frame_id, start_ns, stamped, base_frame)
     parent = path.parent if str(path.parent) else Path(".")
     tmp = Path(tempfile.mkdtemp(dir=parent, prefix=f".{path.name}."))
     try:
