@@ -33,8 +33,8 @@ def bag_options(command):
     command = click.option(
         "--twist-stamped",
         is_flag=True,
-        help="/cmd_vel as geometry_msgs/TwistStamped in frame base_link (ROS 2 Jazzy's "
-        "diff_drive_controller) instead of Twist",
+        help="/cmd_vel as geometry_msgs/TwistStamped in frame base_link (as ros2_control's "
+        "diff_drive_controller requires from Jazzy on) instead of Twist",
     )(command)
     return click.option(
         "--bag-storage",

@@ -6,9 +6,10 @@ The bag (a folder) holds, on the uniform grid of step ``dt`` (times from ``start
 - ``/plan``, ``nav_msgs/msg/Path``: once, at the start, every pose of the motion (the poses of
   :func:`.export.ros_path`); offered transient-local, so a late subscriber (RViz) still gets it;
 - ``/pose``, ``geometry_msgs/msg/PoseStamped``: the pose at each time;
-- ``/cmd_vel``, ``geometry_msgs/msg/Twist`` (or ``TwistStamped`` in the frame ``base_frame``,
-  which ROS 2 Jazzy's ros2_control diff-drive controller takes and Nav2 on request): at each
-  time but the last the body velocities ``linear_x``, ``angular_z`` of
+- ``/cmd_vel``, ``geometry_msgs/msg/Twist`` (what Humble's controllers and Nav2 take), or
+  ``TwistStamped`` in the frame ``base_frame`` (which ros2_control's diff-drive controller
+  requires from Jazzy on, and Nav2 takes with ``enable_stamped_cmd_vel``): at each time but the
+  last the body velocities ``linear_x``, ``angular_z`` of
   :func:`.export.body_velocities`, held until the next (what a base does with them); at the end
   a zero command, so that the base stops.
 
