@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from tests.test_cli import cli_env
 
-from leapfrog_planner.planning.export import ExportError, ros_path, write_csv
+from leapfrog_planner.planning.export import ExportError, motion_columns, ros_path, write_csv
 from leapfrog_planner.planning.planner import plan
 from leapfrog_planner.planning.result_files import ResultFileError
 from leapfrog_planner.planning.results import PlanResult
@@ -110,8 +110,8 @@ def test_the_csv_writes_each_number_shortest_and_exact(case4, tmp_path):
     """``0.03``, not ``0.029999999999999999``: the shortest text that reads back bit for bit."""
     write_csv(case4, tmp_path / "r.csv", 0.03)
     header, *rows = (tmp_path / "r.csv").read_text().splitlines()
-    cols = case4.resample(0.03)
-    assert header.split(",") == ["t", "x", "y", "theta", "v", "omega"]
+    cols = motion_columns(case4, 0.03)  # the resampled columns and the body velocities
+    assert header.split(",") == ["t", "x", "y", "theta", "v", "omega", "linear_x", "angular_z"]
     assert rows[1].split(",")[0] == "0.03" and len(rows) == len(cols["t"])
     for i, row in enumerate(rows):
         for name, cell in zip(header.split(","), row.split(","), strict=True):
@@ -158,7 +158,8 @@ def test_a_result_file_alone_gives_its_figures_and_exports(saved, tmp_path):
     )
     assert p.returncode == 0, p.stderr
     rows = list(csv.DictReader((tmp_path / "r.csv").open()))
-    assert list(rows[0]) == ["t", "x", "y", "theta", "v", "omega"] and len(rows) == 11
+    assert list(rows[0]) == [*"t x y theta v omega".split(), "linear_x", "angular_z"]
+    assert len(rows) == 11
     assert float(rows[-1]["x"]) == pytest.approx(2.0, abs=1e-8)
     yaml = pytest.importorskip("yaml")
     msg = yaml.safe_load((tmp_path / "r.yaml").read_text())

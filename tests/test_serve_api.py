@@ -159,7 +159,8 @@ def test_result_downloads_are_the_command_lines_files(client):
     r = client.post("/api/result.csv", json={"scenario": CASE4})
     assert r.status_code == 200 and r.headers["content-type"].startswith("text/csv")
     rows = list(csv.reader(io.StringIO(r.text)))
-    assert rows[0] == ["t", "x", "y", "theta", "v", "omega"] and len(rows) == 102
+    assert rows[0] == [*"t x y theta v omega".split(), "linear_x", "angular_z"]
+    assert len(rows) == 102
 
 
 def test_a_scenario_file_is_opened_with_the_command_lines_messages(client):

@@ -60,6 +60,16 @@ def _name_max(folder: Path) -> int:
         return 255
 
 
+def _parent(path: Path, option: str, what: str) -> Path:
+    """The folder an output goes in: it must exist, and hold the output's temporary name."""
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        _fail(option, f"folder {str(parent)!r} does not exist")
+    if len(path.name.encode()) + _TEMP_EXTRA > _name_max(parent):
+        _fail(option, f"{what} name too long ({len(path.name)} characters)")
+    return parent
+
+
 def output_path(value: str | None, option: str, inputs: Iterable = ()) -> Path | None:
     """Check an output file before any work is done, so bad output paths fail fast with exit 2.
 
@@ -76,11 +86,7 @@ def output_path(value: str | None, option: str, inputs: Iterable = ()) -> Path |
         exists = path.exists()
     except (OSError, RuntimeError) as exc:  # a loop of links, a name too long
         _fail(option, f"cannot use {value!r} ({getattr(exc, 'strerror', None) or exc})")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        _fail(option, f"folder {str(parent)!r} does not exist")
-    if len(path.name.encode()) + _TEMP_EXTRA > _name_max(parent):
-        _fail(option, f"file name too long ({len(path.name)} characters)")
+    parent = _parent(path, option, "file")
     if exists:
         mode = path.stat().st_mode
         if stat.S_ISDIR(mode):
@@ -131,6 +137,20 @@ def output_folder(value: str, option: str, inputs: Iterable = ()) -> Path:
         except OSError as exc:
             _fail(option, f"cannot create folder {value!r} ({exc.strerror or exc})")
     _probe_folder(path, option)
+    return path
+
+
+def new_folder(value: str | None, option: str) -> Path | None:
+    """Check a folder the command will create whole (a ROS bag) before any work: it must not
+    exist (never replaced: it may hold a recording), its parent must and be writable."""
+    if value is None:
+        return None
+    if not value or "\0" in value:
+        _fail(option, "expected a folder name")
+    path = Path(value)
+    if os.path.lexists(path):
+        _fail(option, f"{value!r} exists; give a new folder (it is never replaced)")
+    _probe_folder(_parent(path, option, "folder"), option)
     return path
 
 

@@ -1,6 +1,6 @@
-"""Commands on a saved result: ``plot`` (its figures) and ``export`` (CSV or a ROS path). A
-result file carries its scenario, so nothing else is needed. ``schema``: the JSON Schema of a
-result file."""
+"""Commands on a saved result: ``plot`` (its figures) and ``export`` (CSV, a ROS path, a ROS 2
+bag). A result file carries its scenario, so nothing else is needed. ``schema``: the JSON Schema
+of a result file."""
 
 from __future__ import annotations
 
@@ -13,11 +13,45 @@ from .common import (
     console,
     distinct_outputs,
     figure_options,
+    new_folder,
     output_path,
     write_output,
 )
 
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def bag_options(command):
+    """How ``export --bag`` writes its bag: storage, the twist message, the start time."""
+    command = click.option(
+        "--start-time",
+        type=click.FloatRange(0, 9.2e9),
+        default=0.0,
+        show_default=True,
+        help="bag time of the start, in seconds since the epoch",
+    )(command)
+    command = click.option(
+        "--twist-stamped",
+        is_flag=True,
+        help="/cmd_vel as geometry_msgs/TwistStamped in frame base_link (as ros2_control's "
+        "diff_drive_controller requires from Jazzy on) instead of Twist",
+    )(command)
+    return click.option(
+        "--bag-storage",
+        type=click.Choice(["sqlite3", "mcap"]),
+        default="sqlite3",
+        show_default=True,
+        help="sqlite3 plays on every ROS 2 from Humble on; mcap from Iron on (Humble: a plugin)",
+    )(command)
+
+
+def _write_bag(res, path, dt, frame, settings):
+    from ..planning.ros_bag import write_bag
+
+    write_bag(
+        res, path, dt, frame, start=settings["start_time"],
+        stamped=settings["twist_stamped"], storage=settings["bag_storage"],
+    )  # fmt: skip
 
 
 def _load(path: str):
@@ -82,12 +116,23 @@ def plot(result, out, controls, convergence, animate, dpi, title):
 
 @click.command()
 @click.argument("result")
-@click.option("--csv", "csv_path", default=None, help="t, states and controls every --dt, as CSV")
+@click.option(
+    "--csv",
+    "csv_path",
+    default=None,
+    help="t, states, controls and velocities (linear_x m/s, angular_z rad/s) every --dt, as CSV",
+)
 @click.option(
     "--ros-path",
     "ros_path",
     default=None,
     help="a nav_msgs/Path (YAML for .yaml/.yml, JSON otherwise), one pose every --dt",
+)
+@click.option(
+    "--bag",
+    default=None,
+    metavar="DIR",
+    help="a ROS 2 bag (a new folder): /plan, /pose and /cmd_vel every --dt (needs rosbags)",
 )
 @click.option(
     "--dt",
@@ -96,27 +141,35 @@ def plot(result, out, controls, convergence, animate, dpi, title):
     show_default=True,
     help="time step of the uniform resampling",
 )
-@click.option("--frame", default="map", show_default=True, help="frame_id of the ROS path")
-def export(result, csv_path, ros_path, dt, frame):
+@click.option("--frame", default="map", show_default=True, help="frame_id of the ROS poses")
+@bag_options
+def export(result, csv_path, ros_path, bag, dt, frame, **bag_settings):
     """Resample the trajectory of a RESULT file uniformly and write it for other tools."""
     from ..planning.export import ExportError, write_csv, write_ros_path
 
-    if csv_path is None and ros_path is None:
-        raise click.UsageError("nothing to export: give --csv FILE and/or --ros-path FILE")
+    if csv_path is None and ros_path is None and bag is None:
+        raise click.UsageError("nothing to export: give --csv FILE, --ros-path FILE or --bag DIR")
     inputs = [result]
     outputs = {
         "--csv": output_path(csv_path, "--csv", inputs),
         "--ros-path": output_path(ros_path, "--ros-path", inputs),
+        "--bag": new_folder(bag, "--bag"),
     }
     distinct_outputs(outputs)
-    res = _load(result)
+    writers = {
+        "--csv": lambda p: write_csv(res, p, dt),
+        "--ros-path": lambda p: write_ros_path(res, p, dt, frame),
+        "--bag": lambda p: _write_bag(res, p, dt, frame, bag_settings),
+    }
     try:
-        if outputs["--csv"] is not None:
-            write_output(lambda p: write_csv(res, p, dt), outputs["--csv"], "--csv")
-        if outputs["--ros-path"] is not None:
-            write_output(
-                lambda p: write_ros_path(res, p, dt, frame), outputs["--ros-path"], "--ros-path"
-            )
+        if bag is not None:
+            from ..planning.ros_bag import rosbags_available
+
+            rosbags_available()
+        res = _load(result)
+        for option, path in outputs.items():
+            if path is not None:
+                write_output(writers[option], path, option)
     except ExportError as e:
         raise click.UsageError(str(e)) from None
     for path in outputs.values():

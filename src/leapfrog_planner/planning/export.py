@@ -1,5 +1,6 @@
-"""A result's trajectory in other forms: at any time (interpolated), on a uniform grid, as CSV,
-as a ROS ``nav_msgs/Path`` and as an HTML summary for notebooks."""
+"""A result's trajectory in other forms: at any time (interpolated), on a uniform grid with the
+body velocities a ROS base takes, as CSV, as a ROS ``nav_msgs/Path`` and as an HTML summary for
+notebooks. A ROS 2 bag: :mod:`.ros_bag`."""
 
 from __future__ import annotations
 
@@ -66,16 +67,62 @@ def resample_columns(cols: dict[str, np.ndarray], dt: float, smooth: bool = True
     return interpolate_columns(cols, grid, smooth)
 
 
-def _motion(result, dt: float) -> dict[str, np.ndarray]:
-    """``t``, the states and the controls on the uniform grid (costates left out)."""
+#: The body-frame velocities added to a motion's states and controls, named after the fields of
+#: ``geometry_msgs/Twist`` that a ROS base reads on ``/cmd_vel``: ``linear_x``, the forward speed
+#: (m/s), and ``angular_z``, the turn rate (rad/s, counter-clockwise).
+VELOCITY_COLUMNS = ("linear_x", "angular_z")
+
+
+def body_velocities(result, cols: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None:
+    """The forward speed and the turn rate at the rows ``cols`` (the states and controls by
+    name), from the model's own right-hand side ``f(x, u)`` at the robot's parameters:
+    ``linear_x = f_x cos(theta) + f_y sin(theta)``, ``angular_z = f_theta``, alike for every
+    model (the unicycle's ``v``, ``omega``; the differential drive's from its wheel speeds; the
+    car's ``v`` and ``v tan(delta) / L``). None for a model that is not built in or whose first
+    states are not ``x, y, theta``. A motion the robot cannot make (the assisted car's, said in
+    the result's message) gets what the robot's own model makes of its controls."""
+    from ..errors import ModelError
+    from ..model import get_model
+
+    if tuple(result.state_names[:3]) != ("x", "y", "theta"):
+        return None
+    try:
+        model = get_model(result.model)
+    except ModelError:
+        return None
+    if len(model.states) != len(result.state_names) or model.nu != len(result.control_names):
+        return None
+    import sympy as sp
+
+    values = dict(zip(model.parameter_names, model.defaults, strict=True))
+    if result.task is not None:
+        values |= result.task.model_parameters
+    f = sp.lambdify([model.states, model.controls, model.parameters], model.dynamics[:3])
+    x = [cols[n] for n in result.state_names]
+    u = [cols[n] for n in result.control_names]
+    shape = np.shape(cols["t"])
+    xdot, ydot, thdot = (
+        np.broadcast_to(np.asarray(e, dtype=float), shape)
+        for e in f(x, u, [values[n] for n in model.parameter_names])
+    )
+    th = cols["theta"]
+    return {"linear_x": xdot * np.cos(th) + ydot * np.sin(th), "angular_z": np.array(thdot)}
+
+
+def motion_columns(result, dt: float) -> dict[str, np.ndarray]:
+    """``t``, the states, the controls and the body velocities (:data:`VELOCITY_COLUMNS`, left
+    out where :func:`body_velocities` gives none) on the uniform grid of step ``dt``; the
+    costates left out."""
     cols = resample_columns(result.trajectory_columns(), dt, result.optimal)
     keep = ["t", *result.state_names, *result.control_names]
-    return {k: cols[k] for k in keep}
+    out = {k: cols[k] for k in keep}
+    return out | (body_velocities(result, out) or {})
 
 
 def write_csv(result, path, dt: float) -> Path:
-    """``t``, the states and the controls every ``dt`` as CSV with a header row."""
-    cols = _motion(result, dt)
+    """``t``, the states, the controls and the body velocities (``linear_x`` in m/s,
+    ``angular_z`` in rad/s: :func:`body_velocities`) every ``dt`` as CSV with a header row."""
+    cols = motion_columns(result, dt)
     table = np.column_stack(list(cols.values()))
     header = ",".join(cols)
 
@@ -87,28 +134,35 @@ def write_csv(result, path, dt: float) -> Path:
     return Path(path)
 
 
-def ros_path(result, dt: float, frame_id: str = "map") -> dict:
+def ros_stamp(t: float, start_ns: int = 0) -> dict:
+    """A ``builtin_interfaces/Time`` as plain values: ``start_ns`` nanoseconds plus ``t``
+    seconds, rounded to the nanosecond (``1 - 1e-10`` is second 1, not second 0)."""
+    sec, nanosec = divmod(start_ns + round(t * 1e9), 1_000_000_000)
+    return {"sec": int(sec), "nanosec": int(nanosec)}
+
+
+def heading_quaternion(theta: float) -> dict:
+    """The orientation of a heading ``theta`` (rad): a unit quaternion about z."""
+    return {"x": 0.0, "y": 0.0, "z": math.sin(theta / 2), "w": math.cos(theta / 2)}
+
+
+def ros_path(result, dt: float, frame_id: str = "map", start_ns: int = 0) -> dict:
     """A ``nav_msgs/Path`` as plain values: one ``geometry_msgs/PoseStamped`` every ``dt``,
-    stamped with the time from the start, heading as a quaternion about z."""
+    stamped with the time from the start (plus ``start_ns``), heading as a quaternion about z."""
     if tuple(result.state_names[:3]) != ("x", "y", "theta"):
         raise ExportError(f"a ROS path needs states x, y, theta; got {result.state_names}")
-    cols = _motion(result, dt)
-
-    def stamp(t):
-        sec = math.floor(t)
-        return {"sec": int(sec), "nanosec": int(round((t - sec) * 1e9)) % 1_000_000_000}
-
+    cols = resample_columns(result.trajectory_columns(), dt, result.optimal)
     poses = [
         {
-            "header": {"stamp": stamp(t), "frame_id": frame_id},
+            "header": {"stamp": ros_stamp(t, start_ns), "frame_id": frame_id},
             "pose": {
                 "position": {"x": x, "y": y, "z": 0.0},
-                "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(th / 2), "w": math.cos(th / 2)},
+                "orientation": heading_quaternion(th),
             },
         }
         for t, x, y, th in zip(*(cols[k].tolist() for k in ("t", "x", "y", "theta")), strict=True)
     ]
-    return {"header": {"stamp": stamp(0.0), "frame_id": frame_id}, "poses": poses}
+    return {"header": {"stamp": ros_stamp(0.0, start_ns), "frame_id": frame_id}, "poses": poses}
 
 
 def _yaml(value, indent: int = 0) -> list[str]:
