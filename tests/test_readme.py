@@ -31,7 +31,7 @@ from tests.test_cli import cli_env
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 #: The documents whose bash commands and Python snippets run here: the README and these pages.
-PAGES = ("serve.md", "sweeps.md", "benchmarks.md", "python.md")
+PAGES = ("serve.md", "sweeps.md", "benchmarks.md", "python.md", "ros.md")
 DOCS = [README, *(ROOT / "docs" / name for name in PAGES)]
 #: Pages of docs/ with bash or Python blocks that do not run here, and why.
 NOT_RUN = {"scenarios.md": "its Python block loads a file of the reader's own (my-room.toml)"}
