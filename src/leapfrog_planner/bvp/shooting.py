@@ -283,17 +283,31 @@ def compiled_solver(
     """How ``shoot_newton`` solves (its :class:`~..compiled.abi.Solver` record): the method's
     code, the root settings, the step's fields and the flow's accuracy. ``predict``: skip the
     Jacobian where convergence is predicted (see the loop)."""
+    # Every field converted to its record type: numba types a record by its fields, so an int
+    # where a float belongs (RootSettings(divergence=100)) compiled the loop a second time.
     root = RootParams(
-        settings.tol, settings.max_iterations, settings.max_cond, settings.divergence,
-        settings.stall_window, settings.stall_factor, predict,
+        float(settings.tol), int(settings.max_iterations), float(settings.max_cond),
+        float(settings.divergence), int(settings.stall_window), float(settings.stall_factor),
+        bool(predict),
     )  # fmt: skip
-    step = StepParams(
-        getattr(strategy, "max_halvings", 0), getattr(strategy, "initial_damping", 1.0),
-        getattr(strategy, "min_damping", 0.0), getattr(strategy, "xtol", 0.0),
-        getattr(strategy, "max_trials", 0),
-    )  # fmt: skip
-    accuracy = Accuracy(flow.control, bool(inexact and flow.tableau.adaptive), flow.nx)
+    step = _step_params(strategy)
+    accuracy = Accuracy(flow.control, bool(inexact and flow.tableau.adaptive), int(flow.nx))
     return Solver(_FUSED.index(type(strategy)), root, step, accuracy)
+
+
+def _step_params(strategy) -> StepParams:
+    """The step object's fields as the compiled loop reads them, zeros where it has none."""
+
+    def field(name: str, default: float):
+        return getattr(strategy, name, default)
+
+    return StepParams(
+        int(field("max_halvings", 0)),
+        float(field("initial_damping", 1.0)),
+        float(field("min_damping", 0.0)),
+        float(field("xtol", 0.0)),
+        int(field("max_trials", 0)),
+    )
 
 
 @dataclass(frozen=True, slots=True)
