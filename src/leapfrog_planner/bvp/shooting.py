@@ -7,12 +7,14 @@ Jacobian ``DF = dx(t1)/dlambda(t0)`` comes from the variational equations (the c
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.linalg import expm, solve
 
 from .._blas import blas_single_threaded
+from ..compiled import background
 from ..compiled.abi import (
     Accuracy,
     Arcs,
@@ -24,7 +26,7 @@ from ..compiled.abi import (
     StepParams,
     SweepOutcome,
 )
-from ..compiled.kernels import entry_point
+from ..compiled.kernels import cached_entry_point, entry_point
 from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
 from ..integrate.problem import OptimalControlProblem
@@ -427,8 +429,57 @@ _CONVERGED = _CODES.index(RootStatus.CONVERGED)
 
 
 def runs_compiled(flow: Flow, strategy) -> bool:
-    """Whether :func:`compiled_newton` can run ``strategy`` on systems of ``flow``."""
-    return flow.tableau.adaptive and type(strategy) in _FUSED
+    """Whether :func:`compiled_newton` runs ``strategy`` on systems of ``flow``: a method it
+    fuses, an adaptive integrator, and the loops compiled (:func:`loops_ready`)."""
+    return flow.tableau.adaptive and type(strategy) in _FUSED and loops_ready(flow)
+
+
+#: Kernel modules whose compiled loops are loaded: asked once, never again.
+_READY: set[str] = set()
+#: When the disk cache is to be asked again about a module's loops (time.monotonic()): not on
+#: every local solve while they compile.
+_NEXT_LOOK: dict[str, float] = {}
+LOOK_EVERY_S = 2.0
+
+
+def loops_ready(flow: Flow) -> bool:
+    """Whether the compiled Newton loops of ``flow``'s model are loaded or in the disk cache.
+    Where they are not (a fresh machine), a built-in model's are compiled in a process of
+    their own (see :mod:`..compiled.background`) and this answers False until they are there:
+    the caller runs the Python loop, whose iterates are the same bit for bit. A model of the
+    user's, or ``LEAPFROG_COMPILE_IN_BACKGROUND=0``: True (the loops compile when first run)."""
+    K = flow.kernels
+    if K.__name__ in _READY:
+        return True
+    model = flow.problem.model.definition
+    if not (background.in_background() and isinstance(model, str)):
+        return True
+    now = time.monotonic()
+    if now < _NEXT_LOOK.get(K.__name__, 0.0):
+        return False
+    _NEXT_LOOK[K.__name__] = now + LOOK_EVERY_S
+    if all(cached_entry_point(k, a) is not None for k, a in typical_loop_calls(flow)):
+        _READY.add(K.__name__)
+        background.finished(K)
+        return True
+    background.start(model, K)
+    return False
+
+
+def typical_loop_calls(flow: Flow) -> list[tuple]:
+    """``(kernel, arguments)`` of a call of each compiled loop, with the types of every call
+    (a record's fields have fixed types: see :func:`compiled_solver`)."""
+    nx, m = flow.nx, RootSettings().max_iterations
+    solver = compiled_solver(flow, NewtonStep(), RootSettings(), False)
+    history = History(np.empty(m + 1), np.empty(m))
+    zeros = np.zeros(nx)
+    ends = Ends.of(zeros, zeros, [0.0, 1.0])
+    arcs = Arcs(np.zeros(2), np.zeros((2, nx)), np.zeros((1, nx)), np.zeros((1, nx)), np.zeros(1))
+    K = flow.kernels
+    return [
+        (K.shoot_newton, (ends, zeros.copy(), solver, flow.dynamics, history)),
+        (K.sweep_warm, (arcs, 0, solver, flow.dynamics, history)),
+    ]
 
 
 def compiled_newton(
