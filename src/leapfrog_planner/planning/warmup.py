@@ -14,8 +14,12 @@ from __future__ import annotations
 import contextlib
 import time
 
+import numpy as np
+
+from ..bvp.shooting import loops_ready
 from ..compiled import background
 from ..compiled.kernels import model_info
+from ..integrate.flow import Flow
 from .planner import plan
 from .scenario import Scenario
 
@@ -49,6 +53,11 @@ def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
     if methods is not None:
         runs = [r for m in methods for r in ({"method": m}, {"method": m, "final": MS})]
     with background.here() if here else contextlib.nullcontext():
+        flow = Flow(sc.problem())
+        if not loops_ready(flow):  # a fresh cache: the process compiling the loops was started,
+            # and it compiles the initial paths' functions first, while this one compiles the
+            # integrator (measured: XX s -> YY s to the first answer on 2 cores)
+            flow(0.0, np.zeros(2 * flow.nx), 1.0, sensitivity="costate")
         for options in runs:
             plan(sc, threads=1, initial_paths=1, **options)
         if not background.in_background():  # the loops were compiled here, if missing
