@@ -56,7 +56,7 @@ def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
         flow = Flow(sc.problem())
         if not loops_ready(flow):  # a fresh cache: the process compiling the loops was started,
             # and it compiles the initial paths' functions first, while this one compiles the
-            # integrator (measured: XX s -> YY s to the first answer on 2 cores)
+            # integrator
             flow(0.0, np.zeros(2 * flow.nx), 1.0, sensitivity="costate")
         for options in runs:
             plan(sc, threads=1, initial_paths=1, **options)
