@@ -19,7 +19,7 @@ from leapfrog_planner.planning import warmup as planning_warmup
 def slow(monkeypatch):
     calls = []
 
-    def warm_up(model, methods=None):
+    def warm_up(model, methods=None, here=False):
         calls.append(model)
         time.sleep(cli_warmup.COMPILING_AFTER_S + 0.3)
         return cli_warmup.COMPILING_AFTER_S + 0.3
@@ -52,3 +52,13 @@ def test_loading_cached_kernels_says_nothing(monkeypatch):
     monkeypatch.setattr(cli_warmup, "err", Console(file=out, force_terminal=False))
     cli_warmup.ensure_compiled(["unicycle"])
     assert out.getvalue() == ""
+
+
+def test_the_loops_compiling_in_the_background_are_said(monkeypatch):
+    monkeypatch.setattr(planning_warmup, "warm_up", lambda *a, **k: 0.2)
+    monkeypatch.setattr(cli_warmup, "_loops_compiling", lambda model: True)
+    out = io.StringIO()
+    monkeypatch.setattr(cli_warmup, "err", Console(file=out, force_terminal=False, width=200))
+    cli_warmup.ensure_compiled(["unicycle"])
+    assert "compiling the unicycle model's Newton loop in the background" in out.getvalue()
+    assert "the same answers, bit for bit" in out.getvalue()

@@ -606,3 +606,24 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
 def test_bad_shooting_settings_are_refused(kw, message):
     with pytest.raises(SettingsError, match=message):
         ShootingSettings(**kw)
+
+
+@pytest.mark.parametrize("method", ["newton", "modified-newton", "nleq-err"])
+def test_the_compiled_loops_record_has_one_type_whatever_the_numbers_type(method):
+    """numba compiles the Newton loop once per type of its records: settings given as whole
+    numbers (``RootSettings(divergence=100)``, a TOML ``divergence = 100``) must make the same
+    record types as their floats, or the loop compiles again (about a minute)."""
+    import numba
+
+    from leapfrog_planner.bvp.shooting import compiled_solver
+
+    flow = Flow(CASES[1].problem("unicycle"), SHORT)
+    whole = RootSettings(tol=1, max_cond=10**12, divergence=100)
+    floats = RootSettings(tol=1.0, max_cond=1e12, divergence=100.0)
+    types = {
+        str(numba.typeof(compiled_solver(flow, get_strategy(method), s, inexact, predict)))
+        for s in (whole, floats, RootSettings())
+        for inexact in (0, False, True)
+        for predict in (0, 1, True)
+    }
+    assert len(types) == 1, types

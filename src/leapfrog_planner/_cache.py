@@ -17,6 +17,7 @@ import shutil
 import stat
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 from ._atomic import write_atomic
@@ -52,7 +53,7 @@ def writable_dir(name: str) -> Path:
     d = cache_dir() / name
     try:
         d.mkdir(parents=True, exist_ok=True)
-        probe = d / f".probe-{os.getpid()}"
+        probe = d / f".probe-{os.getpid()}-{threading.get_ident()}"  # threads probe too
         probe.write_text("")
         probe.unlink()
         return d

@@ -7,12 +7,14 @@ Jacobian ``DF = dx(t1)/dlambda(t0)`` comes from the variational equations (the c
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.linalg import expm, solve
 
 from .._blas import blas_single_threaded
+from ..compiled import background
 from ..compiled.abi import (
     Accuracy,
     Arcs,
@@ -24,7 +26,7 @@ from ..compiled.abi import (
     StepParams,
     SweepOutcome,
 )
-from ..compiled.kernels import entry_point
+from ..compiled.kernels import cached_entry_point, entry_point
 from ..errors import ScenarioError, SettingsError, require_integer
 from ..integrate.flow import Flow, FlowResult, FlowStatus, IntegratorSettings, Trajectory
 from ..integrate.problem import OptimalControlProblem
@@ -283,17 +285,31 @@ def compiled_solver(
     """How ``shoot_newton`` solves (its :class:`~..compiled.abi.Solver` record): the method's
     code, the root settings, the step's fields and the flow's accuracy. ``predict``: skip the
     Jacobian where convergence is predicted (see the loop)."""
+    # Every field converted to its record type: numba types a record by its fields, so an int
+    # where a float belongs (RootSettings(divergence=100)) compiled the loop a second time.
     root = RootParams(
-        settings.tol, settings.max_iterations, settings.max_cond, settings.divergence,
-        settings.stall_window, settings.stall_factor, predict,
+        float(settings.tol), int(settings.max_iterations), float(settings.max_cond),
+        float(settings.divergence), int(settings.stall_window), float(settings.stall_factor),
+        bool(predict),
     )  # fmt: skip
-    step = StepParams(
-        getattr(strategy, "max_halvings", 0), getattr(strategy, "initial_damping", 1.0),
-        getattr(strategy, "min_damping", 0.0), getattr(strategy, "xtol", 0.0),
-        getattr(strategy, "max_trials", 0),
-    )  # fmt: skip
-    accuracy = Accuracy(flow.control, bool(inexact and flow.tableau.adaptive), flow.nx)
+    step = _step_params(strategy)
+    accuracy = Accuracy(flow.control, bool(inexact and flow.tableau.adaptive), int(flow.nx))
     return Solver(_FUSED.index(type(strategy)), root, step, accuracy)
+
+
+def _step_params(strategy) -> StepParams:
+    """The step object's fields as the compiled loop reads them, zeros where it has none."""
+
+    def field(name: str, default: float):
+        return getattr(strategy, name, default)
+
+    return StepParams(
+        int(field("max_halvings", 0)),
+        float(field("initial_damping", 1.0)),
+        float(field("min_damping", 0.0)),
+        float(field("xtol", 0.0)),
+        int(field("max_trials", 0)),
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -413,8 +429,57 @@ _CONVERGED = _CODES.index(RootStatus.CONVERGED)
 
 
 def runs_compiled(flow: Flow, strategy) -> bool:
-    """Whether :func:`compiled_newton` can run ``strategy`` on systems of ``flow``."""
-    return flow.tableau.adaptive and type(strategy) in _FUSED
+    """Whether :func:`compiled_newton` runs ``strategy`` on systems of ``flow``: a method it
+    fuses, an adaptive integrator, and the loops compiled (:func:`loops_ready`)."""
+    return flow.tableau.adaptive and type(strategy) in _FUSED and loops_ready(flow)
+
+
+#: Kernel modules whose compiled loops are loaded: asked once, never again.
+_READY: set[str] = set()
+#: When the disk cache is to be asked again about a module's loops (time.monotonic()): not on
+#: every local solve while they compile.
+_NEXT_LOOK: dict[str, float] = {}
+LOOK_EVERY_S = 2.0
+
+
+def loops_ready(flow: Flow) -> bool:
+    """Whether the compiled Newton loops of ``flow``'s model are loaded or in the disk cache.
+    Where they are not (a fresh machine), a built-in model's are compiled in a process of
+    their own (see :mod:`..compiled.background`) and this answers False until they are there:
+    the caller runs the Python loop, whose iterates are the same bit for bit. A model of the
+    user's, or ``LEAPFROG_COMPILE_IN_BACKGROUND=0``: True (the loops compile when first run)."""
+    K = flow.kernels
+    if K.__name__ in _READY:
+        return True
+    model = flow.problem.model.definition
+    if not (background.in_background() and isinstance(model, str)):
+        return True
+    now = time.monotonic()
+    if now < _NEXT_LOOK.get(K.__name__, 0.0):
+        return False
+    _NEXT_LOOK[K.__name__] = now + LOOK_EVERY_S
+    if all(cached_entry_point(k, a) is not None for k, a in typical_loop_calls(flow)):
+        _READY.add(K.__name__)
+        background.finished(K)
+        return True
+    background.start(model, K)
+    return False
+
+
+def typical_loop_calls(flow: Flow) -> list[tuple]:
+    """``(kernel, arguments)`` of a call of each compiled loop, with the types of every call
+    (a record's fields have fixed types: see :func:`compiled_solver`)."""
+    nx, m = flow.nx, RootSettings().max_iterations
+    solver = compiled_solver(flow, NewtonStep(), RootSettings(), False)
+    history = History(np.empty(m + 1), np.empty(m))
+    zeros = np.zeros(nx)
+    ends = Ends.of(zeros, zeros, [0.0, 1.0])
+    arcs = Arcs(np.zeros(2), np.zeros((2, nx)), np.zeros((1, nx)), np.zeros((1, nx)), np.zeros(1))
+    K = flow.kernels
+    return [
+        (K.shoot_newton, (ends, zeros.copy(), solver, flow.dynamics, history)),
+        (K.sweep_warm, (arcs, 0, solver, flow.dynamics, history)),
+    ]
 
 
 def compiled_newton(

@@ -99,7 +99,7 @@ def paper(out, repeat, cases, time_weights, quiet):
     settings = PaperSettings(repeat=repeat, **({"cases": cases} if cases else {}))
     weights = parse_weights(time_weights) if time_weights is not None else ()
     folder = _output_dir(out, "--out")
-    ensure_compiled(["unicycle"], show=not quiet)
+    ensure_compiled(["unicycle"], show=not quiet, timed=True)
     result = _run_with_bar("paper", lambda cb: run_paper(settings, progress=cb), quiet)
     free = []
     if weights:
@@ -196,7 +196,7 @@ def bench(
         **{k: v for k, v in options.items() if v},
     )
     folder = _output_dir(out, "--out")
-    ensure_compiled(["unicycle"], show=not quiet)
+    ensure_compiled(["unicycle"], show=not quiet, timed=True)
     result = _run_with_bar("bench", lambda cb: run_bench(settings, progress=cb), quiet)
     write_output(lambda f: write_bench(result, f), folder, "--out")
     for note in result.notes:  # e.g. CasADi missing: said even when quiet
@@ -229,7 +229,7 @@ def _map_bench(out, map_file, queries, seed, ompl_time, quiet):
     ScenarioMap(map_file)  # a bad map: one line and exit 2 before anything runs
     settings = MapBenchSettings(queries=queries, seed=seed, ompl_time=ompl_time)
     folder = _output_dir(out, "--out")
-    ensure_compiled(["unicycle"], show=not quiet)
+    ensure_compiled(["unicycle"], show=not quiet, timed=True)
     result = _run_with_bar(
         "bench --map", lambda cb: run_map_bench(map_file, settings, progress=cb), quiet
     )

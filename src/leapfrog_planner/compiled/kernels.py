@@ -144,6 +144,31 @@ def entry_point(kernel, args: tuple):
     return kernel.compile(tuple(numba.typeof(a) for a in args))
 
 
+def cached_entry_point(kernel, args: tuple):
+    """:func:`entry_point` where numba has that machine code already, in memory or in its disk
+    cache; None where getting it would mean compiling (a fresh machine). It takes the steps of
+    numba's ``Dispatcher.compile`` up to its compiling; where numba's inner workings are not as
+    expected, it compiles as :func:`entry_point` does."""
+    if not isinstance(kernel, Dispatcher):
+        return kernel
+    sig = tuple(numba.typeof(a) for a in args)
+    existing = kernel.overloads.get(sig)
+    if existing is not None:
+        return existing.entry_point
+    try:
+        from numba.core.compiler_lock import global_compiler_lock
+
+        with global_compiler_lock:
+            cres = kernel._cache.load_overload(sig, kernel.targetctx)
+            if cres is None:
+                return None
+            kernel.targetctx.insert_user_function(cres.entry_point, cres.fndesc, [cres.library])
+            kernel.add_overload(cres)
+            return cres.entry_point
+    except AttributeError:  # another numba: its way, compiling if need be
+        return kernel.compile(sig)
+
+
 def remove_cached(path: Path) -> None:
     """Remove a generated module and numba's cache files of it (``__pycache__/<stem>.*``)."""
     for p in [path, *path.parent.glob(f"__pycache__/{path.stem}.*")]:

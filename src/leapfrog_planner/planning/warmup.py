@@ -4,14 +4,22 @@ numba compiles each kernel on its first call and caches the machine code on disk
 plan on a machine takes about 40 s per model and every later one loads in a fraction of a second.
 :func:`warm_up` makes that first call on purpose: a small plan with every local method and both
 final solvers, so that no kernel is left to compile in the middle of a real plan, and a plan's
-reported time never includes compiling.
+reported time never includes compiling. Where the compiled Newton loops are missing, they are
+compiled in a process of their own (:mod:`..compiled.background`), unless
+``LEAPFROG_COMPILE_IN_BACKGROUND=0`` (as in that process) has them compiled here.
 """
 
 from __future__ import annotations
 
+import contextlib
 import time
 
+import numpy as np
+
+from ..bvp.shooting import loops_ready
+from ..compiled import background
 from ..compiled.kernels import model_info
+from ..integrate.flow import Flow
 from .planner import plan
 from .scenario import Scenario
 
@@ -25,10 +33,12 @@ RUNS = (
 )
 
 
-def warm_up(model: str = "unicycle", methods=None) -> float:
+def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
     """Compile (or load from the disk cache) every kernel of ``model``, or only those that the
     local ``methods`` (and their multiple-shooting final solve) use. Returns the seconds taken
-    (about 40 on a fresh machine, well under one once cached)."""
+    (about 15 on a fresh machine, well under one once cached). Missing compiled Newton loops
+    are compiled in the background, or, with ``here``, in this process (a minute in all): what
+    a command that times them needs."""
     t0 = time.perf_counter()
     extra = [0.0] * (model_info(model).nx - 3)  # a model's further states (the car's steering)
     sc = Scenario(
@@ -42,6 +52,14 @@ def warm_up(model: str = "unicycle", methods=None) -> float:
     runs = RUNS
     if methods is not None:
         runs = [r for m in methods for r in ({"method": m}, {"method": m, "final": MS})]
-    for options in runs:
-        plan(sc, threads=1, initial_paths=1, **options)
+    with background.here() if here else contextlib.nullcontext():
+        flow = Flow(sc.problem())
+        if not loops_ready(flow):  # a fresh cache: the process compiling the loops was started,
+            # and it compiles the initial paths' functions first, while this one compiles the
+            # integrator
+            flow(0.0, np.zeros(2 * flow.nx), 1.0, sensitivity="costate")
+        for options in runs:
+            plan(sc, threads=1, initial_paths=1, **options)
+        if not background.in_background():  # the loops were compiled here, if missing
+            background.finished(model_info(model).kernels)
     return time.perf_counter() - t0
