@@ -470,8 +470,10 @@ def plot_convergence(
         head = f"cost J = {cost_text(result.cost)}"
     else:
         head = status_text(result)
-    fig.suptitle(f"{sc.name} — Leapfrog convergence: {len(hist)} sweeps, {head} ({result.method})")
-    if not title:
+    if title:
+        sweeps = f"{len(hist)} sweeps, {head} ({result.method})"
+        fig.suptitle(f"{sc.name} — Leapfrog convergence: {sweeps}")
+    else:
         drop_titles(fig)
     return fig
 
@@ -532,8 +534,9 @@ def plot_controls(result: PlanResult, fig=None, *, title: bool = True) -> Figure
         a.tick_params(labelbottom=False)
     for a in (ax_u, ax_l, ax_h):
         a.grid(True, alpha=0.3)
-    fig.suptitle(head)
-    if not title:
+    if title:
+        fig.suptitle(head)
+    else:
         drop_titles(fig)
     return fig
 

@@ -58,11 +58,8 @@ def new_figure(layout: str | None = "constrained", **kw) -> Figure:
 
 
 def drop_titles(fig: Figure) -> None:
-    """No title text left on ``fig``: neither its own title nor any of its axes' (a figure for
-    a paper, whose caption says what they said)."""
-    if fig._suptitle is not None:
-        fig._suptitle.remove()
-        fig._suptitle = None
+    """No title text left on the axes of ``fig`` (a figure for a paper, whose caption says what
+    they said; the caller leaves the figure's own title out)."""
     for ax in fig.axes:
         for loc in ("left", "center", "right"):
             ax.set_title("", loc=loc)
