@@ -37,10 +37,6 @@ function mapNote(text) {
   $("map-info").textContent = text;
 }
 
-function setRobotRadius(r) {
-  state.scenario.robot = { ...(state.scenario.robot || {}), radius: r };
-}
-
 function autoHorizon() {
   const m = mapShown(), s = state.scenario;
   if (!m || !$("auto-horizon").checked || s.horizon === "free") return;
