@@ -386,19 +386,24 @@ function useScenario(scenario, name, map = null) {
 
 let builtins = [];
 
+// A menu of [value, title] options, each named by its value.
+function fillMenu(menu, items) {
+  menu.replaceChildren();
+  for (const [value, title] of items) {
+    const o = document.createElement("option");
+    o.value = value;
+    o.textContent = value;
+    if (title) o.title = title;
+    menu.appendChild(o);
+  }
+}
+
 async function loadBuiltins() {
   await loadModels();
   const resp = await fetch("/api/scenarios");
   const body = await resp.json();
   builtins = body.scenarios;
-  const menu = $("scenario");
-  menu.replaceChildren();
-  for (const s of builtins) {
-    const o = document.createElement("option");
-    o.value = s.name;
-    o.textContent = s.name;
-    menu.appendChild(o);
-  }
+  fillMenu($("scenario"), builtins.map((s) => [s.name]));
   if (builtins.length) useScenario(builtins[0].scenario, builtins[0].name);
 }
 

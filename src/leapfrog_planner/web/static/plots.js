@@ -27,7 +27,7 @@ function drawPlot(svg, t, ys, name, color, bound) {
   const t0 = t[0], t1 = t[t.length - 1];
   const X = (v) => L + ((v - t0) / (t1 - t0 || 1)) * (w - L - R);
   const Y = (v) => top + (1 - (v - lo) / (hi - lo)) * (h - top - bottom);
-  for (const { k, v, text } of ticks(lo, hi, Math.max(2, Math.floor((h - top - bottom) / 28))).values) {
+  for (const { k, v, text } of ticks(lo, hi, Math.max(3, Math.floor((h - top - bottom) / 24))).values) {
     el("line", { x1: L, y1: Y(v), x2: w - R, y2: Y(v), stroke: k === 0 ? COLORS.axis : COLORS.grid }, svg);
     el("text", { ...font, x: L - 4, y: Y(v) + 3.5, "text-anchor": "end", class: "tick" }, svg, text);
   }

@@ -11,15 +11,7 @@ let models = [];  // what /api/models answered
 async function loadModels() {
   const resp = await fetch("/api/models");
   models = (await resp.json()).models;
-  const menu = $("model");
-  menu.replaceChildren();
-  for (const m of models) {
-    const o = document.createElement("option");
-    o.value = m.name;
-    o.textContent = m.name;
-    o.title = m.description;
-    menu.appendChild(o);
-  }
+  fillMenu($("model"), models.map((m) => [m.name, m.description]));
 }
 
 function currentModel() {
