@@ -319,6 +319,16 @@ def test_the_robot_bounds_footprint_and_waypoints_are_planned_and_downloaded(
         round(float(browser.find_element(By.ID, f"wp-{i}-x").get_attribute("value")), 1)
         for i in (0, 1)
     ] == [-0.4, 0.4]  # in order along the way
+
+    def y0(d) -> float:
+        return float(d.find_element(By.ID, "wp-0-y").get_attribute("value"))
+
+    before = y0(browser)
+    first = browser.find_element(By.CSS_SELECTOR, 'rect.waypoint[data-waypoint="0"]')
+    ActionChains(browser).click_and_hold(first).move_by_offset(0, 10).move_by_offset(
+        0, 10
+    ).release().perform()  # dragged down
+    WebDriverWait(browser, WAIT).until(lambda d: y0(d) < before - 0.01)
     time.sleep(0.5)
     wait.until(lambda d: _settled(d) and _text(d, "status").startswith("converged"))
     assert not browser.find_element(By.ID, "error").is_displayed()

@@ -47,15 +47,22 @@ function setModel(name) {
   for (const k of ["radius", "margin"]) if (k in old) robot[k] = old[k];
   for (const c of m.controls) if (Array.isArray(old[c])) robot[c] = old[c];
   s.robot = robot;
+  matchStates(s);
+  state.result = null;
+  buildRobotPanel();
+  render();
+  schedule(0);
+}
+
+// The start and the goal of `s` as many numbers as its model has states (added ones 0).
+function matchStates(s) {
+  const m = models.find((x) => x.name === ((s.robot && s.robot.model) || "unicycle"));
+  if (!m) return;
   for (const key of ["start", "goal"]) {
     const p = s[key].slice(0, m.states.length);
     while (p.length < m.states.length) p.push(0);
     s[key] = p;
   }
-  state.result = null;
-  buildRobotPanel();
-  render();
-  schedule(0);
 }
 
 function field(id, title, cls = "num") {
