@@ -92,7 +92,8 @@ function drawGrid(svg, T) {
   for (const { k, v, text } of across(T.wx(0), T.wx(T.w))) {
     const X = T.X(v);
     el("line", { x1: X, y1: 0, x2: X, y2: T.h, stroke: k === 0 ? COLORS.axis : COLORS.grid }, g);
-    if (X > 24) el("text", { ...label, x: X + 2, y: T.h - 4 }, g, text);
+    const room = X > 24 && X + 2 + 6 * text.length < T.w;  // clear of the y labels and the edge
+    if (room) el("text", { ...label, x: X + 2, y: T.h - 4 }, g, text);
   }
   for (const { k, v, text } of across(T.wy(T.h), T.wy(0))) {
     const Y = T.Y(v);

@@ -27,23 +27,27 @@ function drawPlot(svg, t, ys, name, color, bound) {
   const t0 = t[0], t1 = t[t.length - 1];
   const X = (v) => L + ((v - t0) / (t1 - t0 || 1)) * (w - L - R);
   const Y = (v) => top + (1 - (v - lo) / (hi - lo)) * (h - top - bottom);
-  for (const { k, v, text } of ticks(lo, hi, Math.max(3, Math.floor((h - top - bottom) / 24))).values) {
-    el("line", { x1: L, y1: Y(v), x2: w - R, y2: Y(v), stroke: k === 0 ? COLORS.axis : COLORS.grid }, svg);
+  const across = Math.max(3, Math.floor((h - top - bottom) / 24));
+  for (const { k, v, text } of ticks(lo, hi, across).values) {
+    const stroke = k === 0 ? COLORS.axis : COLORS.grid;
+    el("line", { x1: L, y1: Y(v), x2: w - R, y2: Y(v), stroke }, svg);
     el("text", { ...font, x: L - 4, y: Y(v) + 3.5, "text-anchor": "end", class: "tick" }, svg, text);
   }
   const tt = ticks(t0, t1, Math.max(2, Math.floor((w - L - R) / 55))).values;
   tt.forEach(({ v, text }, i) => {
-    el("line", { x1: X(v), y1: h - bottom, x2: X(v), y2: h - bottom + 3, stroke: COLORS.axis }, svg);
-    const last = i === tt.length - 1;
-    el("text", { ...font, x: X(v), y: h - 5, "text-anchor": last && X(v) > w - R - 20 ? "end" : "middle",
-      class: "tick" }, svg, last ? `${text} s` : text);
+    el("line", { x1: X(v), y1: h - bottom, x2: X(v), y2: h - bottom + 3, stroke: COLORS.axis },
+      svg);
+    const last = i === tt.length - 1, anchor = last && X(v) > w - R - 20 ? "end" : "middle";
+    el("text", { ...font, x: X(v), y: h - 5, "text-anchor": anchor, class: "tick" }, svg,
+      last ? `${text} s` : text);
   });
   el("line", { x1: L, y1: top, x2: L, y2: h - bottom, stroke: COLORS.axis }, svg);
   for (const b of bound || []) {
     el("line", { x1: L, y1: Y(b), x2: w - R, y2: Y(b), stroke: COLORS.goal, "stroke-width": 1,
       "stroke-dasharray": "5 3", class: "bound" }, svg);
   }
-  const pts = t.map((v, i) => (ys[i] === null ? null : `${X(v).toFixed(1)},${Y(ys[i]).toFixed(1)}`));
+  const pts = t.map((v, i) => (ys[i] === null ? null
+    : `${X(v).toFixed(1)},${Y(ys[i]).toFixed(1)}`));
   el("polyline", { points: pts.filter((p) => p).join(" "), fill: "none", stroke: color,
     "stroke-width": 2 }, svg);
 }

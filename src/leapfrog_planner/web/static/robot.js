@@ -131,7 +131,9 @@ function refreshRobotFields(put) {
   if ($("model").value !== m.name) buildRobotPanel();
   put("radius", robot.radius !== undefined ? robot.radius : 0);
   put("margin", robot.margin !== undefined ? robot.margin : 0);
-  for (const p of m.parameters) put(`param-${p.name}`, robot[p.name] !== undefined ? robot[p.name] : "");
+  for (const p of m.parameters) {
+    put(`param-${p.name}`, robot[p.name] !== undefined ? robot[p.name] : "");
+  }
   for (const c of m.controls) {
     const b = Array.isArray(robot[c]) ? robot[c] : ["", ""];
     put(`bound-${c}-min`, b[0]);
@@ -153,7 +155,8 @@ function addWaypoint(x, y) {
   let best = 0, cost = Infinity;
   for (let i = 0; i + 1 < pts.length; i++) {
     const [a, b] = [pts[i], pts[i + 1]];
-    const c = Math.hypot(x - a[0], y - a[1]) + Math.hypot(b[0] - x, b[1] - y) - Math.hypot(b[0] - a[0], b[1] - a[1]);
+    const c = Math.hypot(x - a[0], y - a[1]) + Math.hypot(b[0] - x, b[1] - y)
+      - Math.hypot(b[0] - a[0], b[1] - a[1]);  // what the detour through (x, y) adds
     if (c < cost) { cost = c; best = i; }
   }
   s.waypoints = s.waypoints || [];
@@ -207,7 +210,8 @@ function refreshWaypoints(put) {
   if (list.children.length !== w.length) {
     list.replaceChildren();
     w.forEach((_, i) => {
-      const x = field(`wp-${i}-x`, `waypoint ${i + 1}: x`), y = field(`wp-${i}-y`, `waypoint ${i + 1}: y`);
+      const x = field(`wp-${i}-x`, `waypoint ${i + 1}: x`);
+      const y = field(`wp-${i}-y`, `waypoint ${i + 1}: y`);
       for (const [input, k] of [[x, 0], [y, 1]]) {
         input.addEventListener("input", () => {
           state.scenario.waypoints[i][k] = num(input.value);
