@@ -140,9 +140,13 @@ const overlaps = (a, b, pad = 2) => a.x < b.x + b.width + pad && b.x < a.x + a.w
 function labelObstacles(svg, T) {
   const boxes = [...svg.querySelectorAll("#start text, #goal text, #legend rect")]
     .map((e) => e.getBBox());
+  return { boxes, points: pathPoints(T) };
+}
+
+// The drawn path's points on the screen.
+function pathPoints(T) {
   const p = state.result && state.result.path;
-  const points = p ? p.x.map((x, i) => [T.X(x), T.Y(p.y[i])]) : [];
-  return { boxes, points };
+  return p ? p.x.map((x, i) => [T.X(x), T.Y(p.y[i])]) : [];
 }
 
 // The alternatives' labels ("converged 5.66387"), each at the first place along its path
@@ -289,8 +293,31 @@ function drawPose(svg, T, key, color) {
     "data-pose": key, style: "cursor: move" }, g);
   el("circle", { cx: hx, cy: hy, r: 6, fill: "transparent", stroke: color, "stroke-width": 1.5,
     "data-heading": key, style: "cursor: grab" }, g);
-  el("text", { x: T.X(x) + 10, y: T.Y(y) + 18, fill: color, "font-size": 12,
-    "font-family": "sans-serif", "font-weight": "bold" }, g, key);
+  const label = el("text", { fill: color, "font-size": 12, "font-family": "sans-serif",
+    "font-weight": "bold" }, g, key);
+  placePoseLabel(label, T, T.X(x), T.Y(y), [hx, hy]);
+}
+
+// A pose's label beside its point: below right, else at the first corner where it covers
+// neither the path drawn nor the heading's handle (the fewest points of them).
+function placePoseLabel(label, T, X, Y, handle) {
+  const points = pathPoints(T);
+  points.push(handle, [(X + handle[0]) / 2, (Y + handle[1]) / 2]);
+  let best = null;
+  for (const [dx, dy, anchor] of [[10, 20, "start"], [10, -12, "start"], [-10, 20, "end"],
+    [-10, -12, "end"]]) {
+    label.setAttribute("x", X + dx);
+    label.setAttribute("y", Y + dy);
+    label.setAttribute("text-anchor", anchor);
+    const b = label.getBBox();
+    const score = points.filter(([px, py]) => px > b.x - 4 && px < b.x + b.width + 4
+      && py > b.y - 4 && py < b.y + b.height + 4).length;
+    if (best === null || score < best.score) best = { score, dx, dy, anchor };
+    if (score === 0) break;
+  }
+  label.setAttribute("x", X + best.dx);
+  label.setAttribute("y", Y + best.dy);
+  label.setAttribute("text-anchor", best.anchor);
 }
 
 function drawLegend(svg, T) {
