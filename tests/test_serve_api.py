@@ -177,6 +177,117 @@ def test_a_scenario_file_is_opened_with_the_command_lines_messages(client):
     assert r.status_code == 400 and r.json()["error"].startswith("room.toml: invalid TOML:")
 
 
+#: A car with bounds on its speed and steering rate, a footprint and two waypoints: every
+#: control of the page's Robot and Waypoints panels set.
+CAR = {
+    "name": "car-room",
+    "horizon": 3.0,
+    "start": [0.0, 0.0, 0.0, 0.0],
+    "goal": [2.0, 0.0, 0.0, 0.0],
+    "waypoints": [[0.7, 0.4], [1.4, 0.4]],
+    "robot": {
+        "model": "car",
+        "wheelbase": 0.4,
+        "radius": 0.05,
+        "margin": 0.01,
+        "v": [-1.0, 1.5],
+        "sigma": [-2.0, 2.0],
+    },
+    "obstacles": [{"center": [1.0, 0.0], "radius": 0.15}],
+}
+
+
+def _robot(**keys) -> dict:
+    return dict(CAR, robot=dict(CAR["robot"], **keys))
+
+
+def test_the_models_are_listed_with_their_controls_and_parameters(client):
+    got = {m["name"]: m for m in client.get("/api/models").json()["models"]}
+    assert list(got) == ["unicycle", "diff-drive", "car"]
+    assert got["unicycle"]["controls"] == ["v", "omega"] and got["unicycle"]["parameters"] == []
+    assert got["diff-drive"]["controls"] == ["omega_R", "omega_L"]
+    assert got["car"]["states"] == ["x", "y", "theta", "delta"]
+    assert got["car"]["controls"] == ["v", "sigma", "omega"]
+    parameters = {p["name"]: p for p in got["car"]["parameters"]}
+    assert parameters["wheelbase"] == {"name": "wheelbase", "default": 0.5, "positive": True}
+    for m in got.values():  # the planner's own bound parameters are not the robot's
+        assert not any(p["name"].endswith(("_min", "_max", "_bounded")) for p in m["parameters"])
+
+
+def test_a_plan_with_a_model_bounds_a_footprint_and_waypoints(client):
+    """The car of the page's panels: converged, its footprint clear of the obstacle by the
+    margin, its controls within their bounds (up to the smoothing), plotted by their names;
+    the page's scenario file plans to the cost the page shows."""
+    r = client.post("/api/plan", json={"scenario": CAR, "options": {"partitions": 8}})
+    assert r.status_code == 200, r.text
+    v = r.json()
+    assert v["status"] == "converged" and v["optimal"] and v["model"] == "car"
+    assert v["control_names"] == ["v", "sigma", "omega"]
+    assert v["min_clearance"] >= CAR["robot"]["margin"]
+    path = v["path"]
+    centre = np.hypot(np.array(path["x"]) - 1.0, np.array(path["y"]))
+    assert centre.min() > 0.15 + 0.05  # the disc of the robot never touches the obstacle
+    for name in ("v", "sigma"):
+        lo, hi = CAR["robot"][name]
+        assert lo - 1e-3 <= min(path[name]) and max(path[name]) <= hi + 1e-3
+    assert len(path["delta"]) == len(path["t"])  # the car's fourth state, drawn too
+    text = client.post("/api/toml", json={"scenario": CAR, "options": {"partitions": 8}}).text
+    from leapfrog_planner import plan
+    from leapfrog_planner.planning.scenario import load_scenario_text
+
+    sc = load_scenario_text(text, "car-room.toml")
+    assert sc.to_dict()["robot"] == {**CAR["robot"], "turn_assist": 0.0}
+    assert sc.waypoints.tolist() == CAR["waypoints"]
+    assert plan(sc).cost == pytest.approx(v["cost"], rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("scenario", "message"),
+    [
+        (
+            _robot(wheel_radius=1.0),
+            "scenario: robot.wheel_radius: unknown key for model 'car' (did you mean 'wheelbase'?",
+        ),
+        (
+            dict(CAR, robot={"model": "diff-drive", "v": [0, 1]}),
+            "scenario: robot.v: unknown key for model 'diff-drive' (allowed: model, radius,"
+            " margin, wheel_radius, axle_length, omega_R, omega_L)",
+        ),
+        (
+            _robot(model="tank"),
+            "scenario: robot.model: unknown model 'tank' (known: unicycle, diff-drive, car)",
+        ),
+        (
+            _robot(v=[1.5, -1.0]),
+            "scenario: robot.v: expected [min, max] with min < max, got [1.5, -1.0]",
+        ),
+        (_robot(v=[0, 1, 2]), "scenario: robot.v: expected 2 numbers, got 3"),
+        (_robot(sigma=["", 1]), "scenario: robot.sigma[0]: expected a number, got string ''"),
+        (_robot(radius=-0.1), "scenario: robot.radius: must be >= 0, got -0.1"),
+        (_robot(margin="wide"), "scenario: robot.margin: expected a number, got string 'wide'"),
+        (_robot(wheelbase=0), "scenario: robot.wheelbase: must be > 0, got 0.0"),
+        (dict(CAR, start=[0, 0, 0]), "scenario: start: expected 4 numbers, got 3"),
+        (
+            dict(CAR, waypoints=[[1.0, 0.1]]),
+            "scenario: waypoints[0]: the robot (radius 0.05) at (1.0, 0.1) overlaps obstacles[0]",
+        ),
+        (dict(CAR, waypoints=[[1, 2, 3]]), "scenario: waypoints[0]: expected 2 numbers, got 3"),
+    ],
+)
+def test_bad_robots_and_waypoints_are_a_400_with_the_message(client, scenario, message):
+    r = client.post("/api/plan", json={"scenario": scenario})
+    assert r.status_code == 400, r.text
+    got = r.json()["error"]
+    assert "\n" not in got and got.startswith(message)
+    # the command line's words for the same file
+    from leapfrog_planner.errors import ScenarioError
+    from leapfrog_planner.planning.scenario import scenario_from_dict
+
+    with pytest.raises(ScenarioError) as e:
+        scenario_from_dict(scenario, "scenario")
+    assert str(e.value) == got
+
+
 @pytest.mark.parametrize(
     ("body", "message"),
     [

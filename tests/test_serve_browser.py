@@ -186,6 +186,176 @@ def test_downloads_of_the_result_and_the_view(server, browser, downloads):
     assert d["cost"] == pytest.approx(4.585248, abs=1e-6)
 
 
+def _settled(driver) -> bool:
+    """The last edit planned and drawn (the page plans a moment after an edit)."""
+    return not driver.find_element(By.ID, "busy").is_displayed()
+
+
+def _type(driver, element_id: str, text) -> None:
+    field = driver.find_element(By.ID, element_id)
+    field.clear()
+    field.send_keys(str(text))
+
+
+def _numbers(driver, selector: str) -> list[str]:
+    """The texts of ``selector`` that are numbers (the tick labels)."""
+    out = []
+    for e in driver.find_elements(By.CSS_SELECTOR, selector):
+        try:
+            float(e.text)
+        except ValueError:
+            continue
+        out.append(e.text)
+    return out
+
+
+def test_ticks_are_round_numbers(server, browser):
+    """Paper case 3's view has a grid line at x = 0 reached from -0.6 in steps of 0.2: its
+    label reads 0 (it read -5.551e-17), and every tick of the room and the plots is a short
+    round number."""
+    browser.get(server)
+    wait = WebDriverWait(browser, WAIT)
+    wait.until(lambda d: _text(d, "cost") not in ("", "–"))
+    case1 = _text(browser, "cost")
+    Select(browser.find_element(By.ID, "scenario")).select_by_value("paper-case-3")
+    wait.until(lambda d: _text(d, "cost") not in (case1, "–") and _settled(d))
+    room = _numbers(browser, "#view text")
+    plots = _numbers(browser, "#plots text")
+    assert "0" in room and len(room) >= 8 and len(plots) >= 8
+    for label in room + plots:
+        assert "e" not in label and len(label.lstrip("-").split(".")[-1]) <= 3, label
+        assert not label.startswith("-0") or float(label) != 0, label
+
+
+def _boxes_overlap(a: dict, b: dict) -> bool:
+    return (
+        a["x"] < b["x"] + b["width"]
+        and b["x"] < a["x"] + a["width"]
+        and a["y"] < b["y"] + b["height"]
+        and b["y"] < a["y"] + a["height"]
+    )
+
+
+def test_the_alternatives_labels_do_not_overlap(server, browser):
+    """Paper case 4 with six initial paths: seven other extremals, two of them close together
+    in the middle (their labels overlapped there); their labels ("converged 5.66387") are
+    drawn, and no two of their boxes overlap."""
+    _case4(browser, server)
+    planned = browser.execute_script("return seq")  # the page's count of plans asked for
+    _type(browser, "initial_paths", 6)
+    wait = WebDriverWait(browser, WAIT)
+    wait.until(lambda d: d.execute_script("return seq") > planned and _settled(d))
+    assert len(browser.find_elements(By.CSS_SELECTOR, "#alternatives-layer polyline")) >= 7
+    texts = [
+        e
+        for e in browser.find_elements(By.CSS_SELECTOR, "#view text")
+        if e.text.split(" ")[0] in ("converged", "collides", "failed", "max-iterations")
+    ]
+    assert len(texts) >= 6
+    boxes = [e.rect for e in texts]
+    for i, a in enumerate(boxes):
+        for b in boxes[:i]:
+            assert not _boxes_overlap(a, b), (a, b)
+
+
+def _shift_click_world(driver, x: float, y: float) -> None:
+    from selenium.webdriver.common.keys import Keys
+
+    view = driver.find_element(By.ID, "view")
+    px, py, w, h = driver.execute_script(
+        "const T = transform($('view')); return [T.X(arguments[0]), T.Y(arguments[1]), T.w, T.h];",
+        x,
+        y,
+    )
+    chain = ActionChains(driver).key_down(Keys.SHIFT)
+    chain.move_to_element_with_offset(view, px - w / 2, py - h / 2).click().key_up(Keys.SHIFT)
+    chain.perform()
+
+
+def _plotted(driver) -> list[str]:
+    return [
+        e.get_attribute("data-control") for e in driver.find_elements(By.CSS_SELECTOR, "#plots svg")
+    ]
+
+
+def test_the_robot_bounds_footprint_and_waypoints_are_planned_and_downloaded(
+    server, browser, downloads
+):
+    """A car with a bound on its speed, a footprint and two waypoints set on the page: each
+    change plans again, the plots follow the car's controls, and the scenario file the page
+    gives plans from the command line to the cost the page shows."""
+    browser.get(server)
+    wait = WebDriverWait(browser, WAIT)
+    wait.until(lambda d: _text(d, "cost") not in ("", "–"))  # paper case 1, planned on load
+    assert _plotted(browser) == ["v", "omega"]
+    Select(browser.find_element(By.ID, "model")).select_by_value("diff-drive")
+    wait.until(lambda d: _plotted(d) == ["omega_R", "omega_L"] and _settled(d))
+    assert browser.find_element(By.ID, "param-wheel_radius").get_attribute("placeholder") == "1"
+    assert browser.find_element(By.ID, "bound-omega_R-max").is_displayed()
+    assert _text(browser, "status").startswith("converged")
+
+    Select(browser.find_element(By.ID, "model")).select_by_value("car")
+    wait.until(lambda d: _plotted(d) == ["v", "sigma", "omega"] and _settled(d))
+    assert browser.find_element(By.ID, "start-3").is_displayed()  # the steering angle
+    _type(browser, "horizon", 3)
+    wait.until(lambda d: _settled(d) and _text(d, "status").startswith("converged"))
+    free = _text(browser, "cost")
+    _type(browser, "bound-v-min", -1)
+    _type(browser, "bound-v-max", 1.2)
+    wait.until(lambda d: _settled(d) and _text(d, "cost") not in (free, "–"))
+    assert "in [-1, 1.2]" in browser.find_element(By.CSS_SELECTOR, "#plot-0 .plot-title").text
+    assert len(browser.find_elements(By.CSS_SELECTOR, "#plot-0 line.bound")) == 2
+    browser.find_element(By.ID, "add").click()  # an obstacle on the straight way
+    for field, value in (("ob-cx", 0), ("ob-cy", 2), ("ob-r", 0.15)):
+        _type(browser, field, value)
+    _type(browser, "radius", 0.05)
+    _type(browser, "margin", 0.01)
+    wait.until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "#footprint circle.grown")) == 1)
+    for x in (-0.4, 0.4):
+        _shift_click_world(browser, x, 2.4)
+        time.sleep(0.3)
+    wait.until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "#waypoints rect.waypoint")) == 2)
+    assert [
+        round(float(browser.find_element(By.ID, f"wp-{i}-x").get_attribute("value")), 1)
+        for i in (0, 1)
+    ] == [-0.4, 0.4]  # in order along the way
+
+    def y0(d) -> float:
+        return float(d.find_element(By.ID, "wp-0-y").get_attribute("value"))
+
+    before = y0(browser)
+    first = browser.find_element(By.CSS_SELECTOR, 'rect.waypoint[data-waypoint="0"]')
+    ActionChains(browser).click_and_hold(first).move_by_offset(0, 10).move_by_offset(
+        0, 10
+    ).release().perform()  # dragged down
+    WebDriverWait(browser, WAIT).until(lambda d: y0(d) < before - 0.01)
+    time.sleep(0.5)
+    wait.until(lambda d: _settled(d) and _text(d, "status").startswith("converged"))
+    assert not browser.find_element(By.ID, "error").is_displayed()
+    shown = _text(browser, "cost")
+    cost = float(shown)
+
+    toml = downloads / "paper-case-1.toml"
+    toml.unlink(missing_ok=True)  # (another test's download of paper case 1)
+    browser.find_element(By.ID, "dl-toml").click()
+    wait.until(lambda d: toml.exists() and 'model = "car"' in toml.read_text())
+    text = toml.read_text()
+    assert "v = [-1.0, 1.2]" in text and "radius = 0.05" in text and "margin = 0.01" in text
+    assert "waypoints = [[-0.4" in text
+    out = downloads / "car.json"
+    cmd = [sys.executable, "-m", "leapfrog_planner.cli", "solve", str(toml), "--quiet"]
+    subprocess.run([*cmd, "--json", str(out)], check=True, timeout=120)
+    result = json.loads(out.read_text())
+    assert result["status"] == "converged" and result["min_clearance"] >= 0.01
+    assert result["cost"] == pytest.approx(cost, rel=2e-6)
+
+    planned = browser.execute_script("return seq")  # the page's count of plans asked for
+    browser.find_element(By.ID, "wp-1-remove").click()  # a waypoint removed plans again
+    wait.until(lambda d: len(d.find_elements(By.CSS_SELECTOR, "#waypoints rect.waypoint")) == 1)
+    wait.until(lambda d: d.execute_script("return seq") > planned and _settled(d))
+    assert _text(browser, "status").startswith("converged")
+
+
 MAPS = Path(__file__).parent / "data" / "maps"
 #: The TurtleBot3 arena: its nine pillars stand 1.1 m apart about (0, 0); between two rows of
 #: them, a straight run of 3.2 m (the horizon the page sets: 6.4 s at 0.5 m/s).

@@ -267,7 +267,8 @@ class Scenario:
             lo, hi = c.vector(value, 2, key, " [min, max]")
             c.magnitude((lo, hi), key, checks.COORDINATE_MAX)
             if not lo < hi:
-                c.fail(key, f"expected [min, max] with min < max, got [{lo!r}, {hi!r}]")
+                got = f"[{float(lo)!r}, {float(hi)!r}]"  # not numpy's repr, np.float64(1.0)
+                c.fail(key, f"expected [min, max] with min < max, got {got}")
             out[name] = (float(lo), float(hi))
         return out
 

@@ -2,6 +2,8 @@
 
 - ``GET /``: the page; ``GET /static/...``: its script and style (shipped in the package).
 - ``GET /api/scenarios``: the built-in scenarios, in the layout of a scenario file.
+- ``GET /api/models``: the vehicle models a scenario's ``[robot] model`` names: their states,
+  their controls (each can be bounded) and their parameters with the defaults.
 - ``POST /api/open`` ``{"toml", "name"}``: a scenario file opened on the page, checked (its
   ``[map]`` table is given back apart: the page opens the map's files itself).
 - ``POST /api/maps`` ``{"yaml", "image"}``: a ROS map opened on the page (:mod:`.maps`): its id,
@@ -195,6 +197,7 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
     routes = [
         Route("/", _page),
         Route("/api/scenarios", _scenarios),
+        Route("/api/models", _models),
         Route("/api/open", open_file, methods=["POST"]),
         Route("/api/maps", open_map, methods=["POST"]),
         Route("/api/maps/{id}.png", map_image),
@@ -218,6 +221,37 @@ async def _page(request):
 async def _scenarios(request):
     out = [{"name": n, "scenario": load_scenario(n).to_dict()} for n in builtin_scenarios()]
     return JSONResponse({"scenarios": out})
+
+
+def model_table() -> list[dict]:
+    """Each built-in model as the page's robot panel shows it: what the start and goal hold
+    (its states), what can be bounded (its controls) and its parameters by name, each with its
+    default and whether it must be positive (the planner's bound parameters left out)."""
+    from ..compiled.kernels import model_info
+    from ..model import MODELS
+
+    out = []
+    for name in MODELS:
+        info = model_info(name)
+        facts = zip(info.defaults, info.positive, strict=True)
+        table = dict(zip(info.parameters, facts, strict=True))
+        out.append(
+            {
+                "name": name,
+                "description": info.description,
+                "states": list(info.states),
+                "controls": list(info.controls),
+                "parameters": [
+                    {"name": p, "default": table[p][0], "positive": bool(table[p][1])}
+                    for p in info.robot_parameters
+                ],
+            }
+        )
+    return out
+
+
+async def _models(request):
+    return JSONResponse({"models": await anyio.to_thread.run_sync(model_table)})
 
 
 def _internal(request, exc) -> JSONResponse:

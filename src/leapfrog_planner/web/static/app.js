@@ -8,7 +8,7 @@ const COLORS = {
   grid: "#e8ebef", axis: "#b8c0ca", label: "#6b7685",
   obstacle: "#c7ced8", obstacleEdge: "#59636f", selected: "#1565c0",
   path: "#1565c0", reverse: "#d81b60", notOptimal: "#ef6c00", alternative: "#8a94a3",
-  start: "#1b7f3b", goal: "#b3261e", sweep: "#2e7d32", handle: "#ffffff",
+  start: "#1b7f3b", goal: "#b3261e", sweep: "#2e7d32", handle: "#ffffff", waypoint: "#7b1fa2",
 };
 const session = Math.random().toString(36).slice(2) + Date.now().toString(36);
 
@@ -17,6 +17,7 @@ const state = {
   name: "",              // what the scenario menu shows
   options: { method: "modified-newton", initial_paths: 3, partitions: 8 },
   selected: null,        // index of the selected obstacle
+  selectedWaypoint: null, // index of the selected waypoint
   result: null,          // the last plan's view
   frame: null,           // the sweep shown (index into result.frames), null: none
   bounds: null,          // world box shown: {x0, y0, x1, y1}
@@ -50,255 +51,6 @@ function short(v) {
 
 function wrapPi(a) {
   return a - 2 * Math.PI * Math.round(a / (2 * Math.PI));
-}
-
-function niceStep(span) {
-  const raw = span / 8;
-  const p = Math.pow(10, Math.floor(Math.log10(raw)));
-  for (const m of [1, 2, 5, 10]) if (m * p >= raw) return m * p;
-  return 10 * p;
-}
-
-function fitBounds() {
-  const s = state.scenario;
-  if (!s) return;
-  let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
-  const add = (x, y, r = 0) => {
-    x = val(x, NaN); y = val(y, NaN); r = Math.max(val(r), 0);
-    if (!Number.isFinite(x) || !Number.isFinite(y)) return;
-    x0 = Math.min(x0, x - r); x1 = Math.max(x1, x + r);
-    y0 = Math.min(y0, y - r); y1 = Math.max(y1, y + r);
-  };
-  add(s.start[0], s.start[1]);
-  add(s.goal[0], s.goal[1]);
-  for (const ob of s.obstacles || []) add(ob.center[0], ob.center[1], ob.radius);
-  mapBounds(add);
-  const path = state.result && state.result.path;
-  if (path) path.x.forEach((x, i) => add(x, path.y[i]));
-  if (!Number.isFinite(x0)) { x0 = -1; y0 = -1; x1 = 1; y1 = 1; }
-  const span = Math.max(x1 - x0, y1 - y0, 0.5);
-  const pad = 0.12 * span;
-  state.bounds = { x0: x0 - pad, y0: y0 - pad, x1: x1 + pad, y1: y1 + pad };
-}
-
-function transform(svg) {
-  const box = svg.getBoundingClientRect();
-  const w = Math.max(box.width, 100), h = Math.max(box.height, 100);
-  const b = state.bounds;
-  const s = Math.min(w / (b.x1 - b.x0), h / (b.y1 - b.y0));
-  const ox = (w - s * (b.x1 - b.x0)) / 2, oy = (h - s * (b.y1 - b.y0)) / 2;
-  return {
-    w, h, s,
-    X: (x) => ox + (x - b.x0) * s,
-    Y: (y) => h - oy - (y - b.y0) * s,
-    wx: (px) => b.x0 + (px - ox) / s,
-    wy: (py) => b.y0 + (h - oy - py) / s,
-  };
-}
-
-function el(name, attrs, parent, text) {
-  const e = document.createElementNS(SVGNS, name);
-  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, v);
-  if (text !== undefined) e.textContent = text;
-  if (parent) parent.appendChild(e);
-  return e;
-}
-
-// ------------------------------------------------------------------ the room
-
-function drawGrid(svg, T) {
-  const b = state.bounds;
-  const step = niceStep(Math.max(b.x1 - b.x0, b.y1 - b.y0));
-  const g = el("g", {}, svg);
-  el("rect", { x: 0, y: 0, width: T.w, height: T.h, fill: "#ffffff" }, g);
-  drawMap(g, T);
-  if (mapShown()) g.setAttribute("stroke-opacity", 0.45);
-  const x0 = T.wx(0), x1 = T.wx(T.w), y0 = T.wy(T.h), y1 = T.wy(0);
-  const label = { fill: COLORS.label, "font-size": 10, "font-family": "sans-serif" };
-  for (let x = Math.ceil(x0 / step) * step; x <= x1; x += step) {
-    const X = T.X(x), zero = Math.abs(x) < step / 2;
-    el("line", { x1: X, y1: 0, x2: X, y2: T.h, stroke: zero ? COLORS.axis : COLORS.grid }, g);
-    el("text", { ...label, x: X + 2, y: T.h - 4 }, g, fmt(x, 4));
-  }
-  for (let y = Math.ceil(y0 / step) * step; y <= y1; y += step) {
-    const Y = T.Y(y), zero = Math.abs(y) < step / 2;
-    el("line", { x1: 0, y1: Y, x2: T.w, y2: Y, stroke: zero ? COLORS.axis : COLORS.grid }, g);
-    el("text", { ...label, x: 3, y: Y - 3 }, g, fmt(y, 4));
-  }
-}
-
-function polyline(parent, T, xs, ys, attrs) {
-  const pts = xs.map((x, i) => `${T.X(x).toFixed(1)},${T.Y(ys[i]).toFixed(1)}`).join(" ");
-  return el("polyline", { points: pts, fill: "none", ...attrs }, parent);
-}
-
-function arrowHead(parent, T, x, y, theta, color, size = 7) {
-  const X = T.X(x), Y = T.Y(y), c = Math.cos(theta), s = -Math.sin(theta);
-  const p = [
-    [X + size * c, Y + size * s],
-    [X - size * c * 0.6 - size * s * 0.55, Y - size * s * 0.6 + size * c * 0.55],
-    [X - size * c * 0.6 + size * s * 0.55, Y - size * s * 0.6 - size * c * 0.55],
-  ];
-  el("polygon", { points: p.map((q) => q.map((v) => v.toFixed(1)).join(",")).join(" "),
-    fill: color }, parent);
-}
-
-function drawAlternatives(svg, T) {
-  const r = state.result;
-  if (!r) return;
-  const g = el("g", { id: "alternatives-layer", opacity: 0.5 }, svg);
-  for (const a of r.alternatives) {
-    if (!a.path) continue;
-    polyline(g, T, a.path.x, a.path.y, {
-      stroke: COLORS.alternative, "stroke-width": 2, "stroke-dasharray": "5 4" });
-    const m = Math.floor(a.path.x.length / 2);
-    el("text", { x: T.X(a.path.x[m]) + 5, y: T.Y(a.path.y[m]) - 5, fill: COLORS.label,
-      "font-size": 11, "font-family": "sans-serif" }, g, `${a.status} ${fmt(a.cost)}`);
-  }
-}
-
-function drawPath(svg, T) {
-  const r = state.result;
-  if (!r || !r.path) return;
-  const p = r.path;
-  const g = el("g", { id: "path", "data-cost": String(r.cost) }, svg);
-  const base = r.optimal ? COLORS.path : COLORS.notOptimal;
-  const dash = r.optimal ? "none" : "7 4";
-  // split into forward and reversing stretches (v < 0)
-  let i = 0;
-  while (i < p.x.length - 1) {
-    const rev = p.reverse[i];
-    let j = i;
-    while (j < p.x.length - 1 && p.reverse[j] === rev) j++;
-    polyline(g, T, p.x.slice(i, j + 1), p.y.slice(i, j + 1), {
-      stroke: rev ? COLORS.reverse : base, "stroke-width": 3,
-      "stroke-dasharray": rev ? "2 3" : dash, "stroke-linecap": "round",
-      class: rev ? "reversing" : "forward" });
-    i = j;
-  }
-  const n = p.x.length, every = Math.max(1, Math.round(n / 14));
-  for (let k = every; k < n - every / 2; k += every) {
-    arrowHead(g, T, p.x[k], p.y[k], p.theta[k], p.reverse[k] ? COLORS.reverse : base, 7);
-  }
-}
-
-function drawSweep(svg, T) {
-  const r = state.result;
-  if (!r || state.frame === null || !r.frames[state.frame]) return;
-  const f = r.frames[state.frame];
-  const g = el("g", { id: "sweep-layer" }, svg);
-  polyline(g, T, f.x, f.y, { stroke: COLORS.sweep, "stroke-width": 1.5, "stroke-dasharray": "4 3" });
-  f.x.forEach((x, i) => el("circle", { cx: T.X(x), cy: T.Y(f.y[i]), r: 4, fill: COLORS.sweep,
-    stroke: "#fff", "stroke-width": 1 }, g));
-}
-
-function drawObstacles(svg, T) {
-  const g = el("g", { id: "obstacles" }, svg);
-  (state.scenario.obstacles || []).forEach((ob, i) => {
-    const cx = val(ob.center[0]), cy = val(ob.center[1]), r = Math.max(val(ob.radius), 0);
-    const sel = i === state.selected;
-    el("circle", { cx: T.X(cx), cy: T.Y(cy), r: Math.max(r * T.s, 2), fill: COLORS.obstacle,
-      "fill-opacity": 0.85, stroke: sel ? COLORS.selected : COLORS.obstacleEdge,
-      "stroke-width": sel ? 2.5 : 1, "data-obstacle": i, class: "obstacle",
-      style: "cursor: move" }, g);
-    el("circle", { cx: T.X(cx + r), cy: T.Y(cy), r: 4.5, fill: COLORS.handle,
-      stroke: sel ? COLORS.selected : COLORS.obstacleEdge, "stroke-width": 1.2,
-      "data-resize": i, class: "resize", style: "cursor: ew-resize" }, g);
-  });
-}
-
-function drawPose(svg, T, key, color) {
-  const p = state.scenario[key];
-  const x = val(p[0]), y = val(p[1]), th = val(p[2]);
-  const g = el("g", { id: key }, svg);
-  const L = 34, hx = T.X(x) + L * Math.cos(th), hy = T.Y(y) - L * Math.sin(th);
-  el("line", { x1: T.X(x), y1: T.Y(y), x2: hx, y2: hy, stroke: color, "stroke-width": 2 }, g);
-  arrowHead(g, { X: () => hx, Y: () => hy }, 0, 0, th, color, 9);
-  el("circle", { cx: T.X(x), cy: T.Y(y), r: 8, fill: color, stroke: "#fff", "stroke-width": 2,
-    "data-pose": key, style: "cursor: move" }, g);
-  el("circle", { cx: hx, cy: hy, r: 6, fill: "transparent", stroke: color, "stroke-width": 1.5,
-    "data-heading": key, style: "cursor: grab" }, g);
-  el("text", { x: T.X(x) + 10, y: T.Y(y) + 18, fill: color, "font-size": 12,
-    "font-family": "sans-serif", "font-weight": "bold" }, g, key);
-}
-
-function drawLegend(svg, T) {
-  const r = state.result;
-  const g = el("g", { id: "legend", "font-size": 11, "font-family": "sans-serif" }, svg);
-  const rows = [];
-  if (r) {
-    rows.push([r.optimal ? COLORS.path : COLORS.notOptimal, r.optimal ? "optimal path"
-      : r.trajectory_source]);
-    if (r.path && r.path.reverse.some((v) => v)) rows.push([COLORS.reverse, "reversing (v < 0)"]);
-    if (r.alternatives.some((a) => a.path)) rows.push([COLORS.alternative, "other initial paths"]);
-    if (state.frame !== null) rows.push([COLORS.sweep, "Leapfrog junctions"]);
-  }
-  const w = 150, x = T.w - w - 8;
-  if (rows.length) el("rect", { x, y: 6, width: w, height: 8 + 16 * rows.length, fill: "#fff",
-    "fill-opacity": 0.85, stroke: COLORS.grid }, g);
-  rows.forEach(([c, text], i) => {
-    el("line", { x1: x + 8, y1: 18 + 16 * i, x2: x + 28, y2: 18 + 16 * i, stroke: c,
-      "stroke-width": 3 }, g);
-    el("text", { x: x + 34, y: 22 + 16 * i, fill: "#333" }, g, text);
-  });
-}
-
-function drawRoom() {
-  const svg = $("view");
-  svg.replaceChildren();
-  if (!state.scenario) return;
-  if (!state.bounds) fitBounds();
-  const T = transform(svg);
-  svg.setAttribute("viewBox", `0 0 ${T.w} ${T.h}`);
-  svg.setAttribute("width", T.w);
-  svg.setAttribute("height", T.h);
-  drawGrid(svg, T);
-  drawObstacles(svg, T);
-  drawAlternatives(svg, T);
-  drawPath(svg, T);
-  drawSweep(svg, T);
-  drawPose(svg, T, "start", COLORS.start);
-  drawPose(svg, T, "goal", COLORS.goal);
-  drawLegend(svg, T);
-}
-
-// ------------------------------------------------------------------ plots of the controls
-
-function drawPlot(svg, t, ys, name, color) {
-  svg.replaceChildren();
-  const box = svg.getBoundingClientRect();
-  const w = Math.max(box.width, 100), h = Math.max(box.height, 80);
-  svg.setAttribute("viewBox", `0 0 ${w} ${h}`);
-  el("rect", { x: 0, y: 0, width: w, height: h, fill: "#fff" }, svg);
-  const font = { "font-size": 11, "font-family": "sans-serif", fill: COLORS.label };
-  el("text", { ...font, x: 8, y: 14, fill: "#333", "font-weight": "bold" }, svg, `${name}(t)`);
-  if (!t || !ys) return;
-  const good = ys.filter((v) => v !== null);
-  let lo = Math.min(0, ...good), hi = Math.max(0, ...good);
-  if (hi - lo < 1e-9) { hi += 1; lo -= 1; }
-  const L = 46, R = 10, top = 22, bottom = 20;
-  const X = (v) => L + ((v - t[0]) / (t[t.length - 1] - t[0] || 1)) * (w - L - R);
-  const Y = (v) => top + (1 - (v - lo) / (hi - lo)) * (h - top - bottom);
-  el("line", { x1: L, y1: Y(0), x2: w - R, y2: Y(0), stroke: COLORS.axis }, svg);
-  el("line", { x1: L, y1: top, x2: L, y2: h - bottom, stroke: COLORS.axis }, svg);
-  el("text", { ...font, x: L - 4, y: Y(hi) + 4, "text-anchor": "end" }, svg, fmt(hi, 3));
-  el("text", { ...font, x: L - 4, y: Y(lo) + 4, "text-anchor": "end" }, svg, fmt(lo, 3));
-  el("text", { ...font, x: L, y: h - 5 }, svg, fmt(t[0], 3));
-  el("text", { ...font, x: w - R, y: h - 5, "text-anchor": "end" }, svg, `t = ${fmt(t[t.length - 1], 3)}`);
-  const pts = t.map((v, i) => (ys[i] === null ? null : `${X(v).toFixed(1)},${Y(ys[i]).toFixed(1)}`));
-  el("polyline", { points: pts.filter((p) => p).join(" "), fill: "none", stroke: color,
-    "stroke-width": 2 }, svg);
-}
-
-function drawPlots() {
-  const r = state.result;
-  const names = r ? r.control_names : ["v", "omega"];
-  const colors = [COLORS.path, "#6a1b9a"];
-  [0, 1].forEach((k) => {
-    const name = names[k];
-    drawPlot($(`plot-${k}`), r && r.path ? r.path.t : null, r && r.path ? r.path[name] : null,
-      name || "", colors[k]);
-  });
 }
 
 // ------------------------------------------------------------------ the panel
@@ -355,9 +107,9 @@ function refreshFields() {
   if (!free) put("horizon", s.horizon);
   if (free && s.cost && s.cost.cruise_speed !== undefined) put("cruise-speed", s.cost.cruise_speed);
   put("weight", s.penalty ? s.penalty.weight : 100);
-  put("radius", s.robot && s.robot.radius !== undefined ? s.robot.radius : 0);
   $("close-map").disabled = !state.map;
-  for (const key of ["start", "goal"]) for (const i of [0, 1, 2]) put(`${key}-${i}`, s[key][i]);
+  for (const key of ["start", "goal"]) s[key].forEach((v, i) => { if (i < 4) put(`${key}-${i}`, v); });
+  refreshRobotFields(put);
   const ob = state.selected === null ? null : s.obstacles[state.selected];
   for (const [id, get] of [["ob-cx", (o) => o.center[0]], ["ob-cy", (o) => o.center[1]],
     ["ob-r", (o) => o.radius]]) {
@@ -527,6 +279,7 @@ function onPointerDown(ev) {
   if (d.obstacle !== undefined) {
     const i = Number(d.obstacle), ob = s.obstacles[i];
     state.selected = i;
+    state.selectedWaypoint = null;
     state.drag = { kind: "obstacle", i, dx: val(ob.center[0]) - x, dy: val(ob.center[1]) - y };
   } else if (d.resize !== undefined) {
     state.selected = Number(d.resize);
@@ -536,8 +289,17 @@ function onPointerDown(ev) {
     state.drag = { kind: "pose", key: d.pose, dx: val(p[0]) - x, dy: val(p[1]) - y };
   } else if (d.heading !== undefined) {
     state.drag = { kind: "heading", key: d.heading };
+  } else if (d.waypoint !== undefined) {
+    const i = Number(d.waypoint), w = s.waypoints[i];
+    state.selectedWaypoint = i;
+    state.selected = null;
+    state.drag = { kind: "waypoint", i, dx: val(w[0]) - x, dy: val(w[1]) - y };
+  } else if (ev.shiftKey && !mapShown()) {
+    addWaypoint(x, y);  // Shift+click: a waypoint there
+    return;
   } else {
     state.selected = null;
+    state.selectedWaypoint = null;
     placeLater(x, y);  // on a map, a click places the start or the goal
     render();
     return;
@@ -561,6 +323,8 @@ function onPointerMove(ev) {
     s[d.key][0] = x + d.dx;
     s[d.key][1] = y + d.dy;
     autoHorizon();
+  } else if (d.kind === "waypoint") {
+    s.waypoints[d.i] = [x + d.dx, y + d.dy];
   } else if (d.kind === "heading") {
     const p = s[d.key];
     const a = Math.atan2(y - val(p[1]), x - val(p[0]));
@@ -609,29 +373,37 @@ function useScenario(scenario, name, map = null) {
     partitions: solver.partitions || 8,
   };
   state.selected = null;
+  state.selectedWaypoint = null;
   state.result = null;
   state.frame = null;
   stopAnimation();
   state.bounds = null;
   fitBounds();
+  buildRobotPanel();
   render();
   schedule(0);
 }
 
 let builtins = [];
 
+// A menu of [value, title] options, each named by its value.
+function fillMenu(menu, items) {
+  menu.replaceChildren();
+  for (const [value, title] of items) {
+    const o = document.createElement("option");
+    o.value = value;
+    o.textContent = value;
+    if (title) o.title = title;
+    menu.appendChild(o);
+  }
+}
+
 async function loadBuiltins() {
+  await loadModels();
   const resp = await fetch("/api/scenarios");
   const body = await resp.json();
   builtins = body.scenarios;
-  const menu = $("scenario");
-  menu.replaceChildren();
-  for (const s of builtins) {
-    const o = document.createElement("option");
-    o.value = s.name;
-    o.textContent = s.name;
-    menu.appendChild(o);
-  }
+  fillMenu($("scenario"), builtins.map((s) => [s.name]));
   if (builtins.length) useScenario(builtins[0].scenario, builtins[0].name);
 }
 
@@ -704,13 +476,16 @@ function wire() {
   svg.addEventListener("pointercancel", onPointerUp);
   svg.addEventListener("dblclick", (ev) => {
     cancelPlace();
-    if (ev.target.dataset && (ev.target.dataset.obstacle || ev.target.dataset.pose)) return;
+    const d = ev.target.dataset || {};
+    if (ev.shiftKey || d.obstacle || d.pose || d.waypoint) return;
     const [x, y] = pointerWorld(ev);
     addObstacle(x, y);
   });
   document.addEventListener("keydown", (ev) => {
     const typing = ["INPUT", "SELECT", "TEXTAREA"].includes(document.activeElement.tagName);
-    if (!typing && (ev.key === "Delete" || ev.key === "Backspace")) removeObstacle();
+    if (typing || !(ev.key === "Delete" || ev.key === "Backspace")) return;
+    if (state.selectedWaypoint !== null) removeWaypoint(state.selectedWaypoint);
+    else removeObstacle();
   });
   $("scenario").addEventListener("change", () => {
     const s = builtins.find((b) => b.name === $("scenario").value);
@@ -743,9 +518,8 @@ function wire() {
   onField("weight", (v) => {
     state.scenario.penalty = { ...(state.scenario.penalty || {}), weight: v };
   });
-  onField("radius", (v) => { setRobotRadius(v); });
   for (const key of ["start", "goal"]) {
-    for (const i of [0, 1, 2]) {
+    for (const i of [0, 1, 2, 3]) {
       onField(`${key}-${i}`, (v) => { state.scenario[key][i] = v; autoHorizon(); });
     }
   }
@@ -777,6 +551,7 @@ function wire() {
   $("dl-png").addEventListener("click", downloadPng);
   window.addEventListener("resize", () => { drawRoom(); drawPlots(); });
   wireMap();
+  wireRobot();
 }
 
 wire();

@@ -2,7 +2,8 @@
 // together; the server loads them with the project's loader and answers with an id (which
 // every plan names), the map's place in the world and a start and goal in open space. The map
 // is drawn under everything as the server's PNG (one pixel a cell, grey as ROS shows it),
-// placed at its origin and turned by the origin's yaw. Uses app.js's state and helpers.
+// placed at its origin and turned by the origin's yaw. Uses app.js's state and helpers (and
+// robot.js's).
 "use strict";
 
 const MAX_MAP_MB = 64;       // the server's bound on the two files together
@@ -35,10 +36,6 @@ function readDataUrl(blob) {
 
 function mapNote(text) {
   $("map-info").textContent = text;
-}
-
-function setRobotRadius(r) {
-  state.scenario.robot = { ...(state.scenario.robot || {}), radius: r };
 }
 
 function autoHorizon() {
@@ -95,9 +92,11 @@ function useMap(info) {
     s.map = { id: info.id };
     s.name = info.name.replace(/\.[^.]*$/, "") || "map";
     s.obstacles = [];
+    delete s.waypoints;  // not taken with a map
     s.penalty = { ...(s.penalty || {}), weight: 1 };
     setRobotRadius(info.radius);
     if (info.start && info.goal) { s.start = info.start; s.goal = info.goal; }
+    matchStates(s);  // the car's steering angle, 0
     $("auto-horizon").checked = true;
     autoHorizon();
     mapNote(`${info.name}: ${info.columns} × ${info.rows} cells of ${fmt(info.resolution)} m.`
