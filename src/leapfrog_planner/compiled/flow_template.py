@@ -82,6 +82,15 @@ def _finite(x):
 
 
 # The entry points release the GIL, so that threads (one per initial path) integrate in parallel.
+@njit(cache=True, error_model="numpy", inline=INLINE)
+def _record(Z_out, row, Y):
+    """``(z, cost)`` of ``Y`` into row ``row`` of the samples, element by element: a slice
+    assignment has its shapes checked, and compiling that check's error message (numba's
+    string formatting) cost seconds of a fresh machine's first plan."""
+    for m in range(NZ + 1):
+        Z_out[row, m] = Y[m]
+
+
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, nogil=True)
 def erk_fixed(Y0, t0, t1, k, dynamics, nsteps, samples):
     """``nsteps`` equal steps; returns (Y1, status, steps, 0 rejected). Records (t, z, cost) in
@@ -98,7 +107,7 @@ def erk_fixed(Y0, t0, t1, k, dynamics, nsteps, samples):
     record = T_out.size > nsteps
     if record:
         T_out[0] = t0
-        Z_out[0, :] = Y[: NZ + 1]
+        _record(Z_out, 0, Y)
     for step in range(nsteps):
         for i in range(s):
             _stage_states(Y, K, A, i, h, Yt)
@@ -112,7 +121,7 @@ def erk_fixed(Y0, t0, t1, k, dynamics, nsteps, samples):
             return Y, NON_FINITE, step + 1, 0
         if record:
             T_out[step + 1] = t0 + (step + 1) * h
-            Z_out[step + 1, :] = Y[: NZ + 1]
+            _record(Z_out, step + 1, Y)
     return Y, OK, nsteps, 0
 
 
@@ -217,7 +226,7 @@ def erk_adaptive(Y0, t0, t1, k, dynamics, control, samples):
     record = T_out.size > 0
     if record:
         T_out[0] = t0
-        Z_out[0, :] = Y[:n_err]
+        _record(Z_out, 0, Y)
     aug_rhs(Y, k, p, obs, weight, exponent, K[0])
     if not (_all_finite(Y, n) and _all_finite(K[0], n)):
         return Y, NON_FINITE, 0, 0
@@ -269,7 +278,7 @@ def erk_adaptive(Y0, t0, t1, k, dynamics, control, samples):
             return Y, NON_FINITE, accepted, rejected
         if record:
             T_out[accepted] = t
-            Z_out[accepted, :] = Y[:n_err]
+            _record(Z_out, accepted, Y)
     return Y, OK, accepted, rejected
 
 

@@ -19,8 +19,10 @@ import numpy as np
 from ..bvp.shooting import loops_ready
 from ..compiled import background
 from ..compiled.kernels import model_info
+from ..compiled.linear import dot, newton_correction, transpose_times
+from ..compiled.linear import solve as linear_solve
 from ..integrate.flow import Flow
-from .planner import plan
+from .planner import Planner, plan
 from .scenario import Scenario
 
 #: What warming up runs: every local method, then the multiple-shooting final solve.
@@ -55,11 +57,23 @@ def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
     with background.here() if here else contextlib.nullcontext():
         flow = Flow(sc.problem())
         if not loops_ready(flow):  # a fresh cache: the process compiling the loops was started,
-            # and it compiles the initial paths' functions first, while this one compiles the
-            # integrator
+            # and it compiles the planning functions first, while this one compiles the
+            # integrator, so that each loads what the other compiled (two cores at work)
             flow(0.0, np.zeros(2 * flow.nx), 1.0, sensitivity="costate")
+        _planning_functions(sc, flow.nx)
         for options in runs:
             plan(sc, threads=1, initial_paths=1, **options)
         if not background.in_background():  # the loops were compiled here, if missing
             background.finished(model_info(model).kernels)
     return time.perf_counter() - t0
+
+
+def _planning_functions(scenario: Scenario, nx: int) -> None:
+    """Compile (or load) the compiled functions a plan needs besides the model's kernels: the
+    initial paths' and the Python Newton loop's linear algebra."""
+    Planner(scenario, initial_paths=1).initial_paths()
+    J, F = np.eye(nx), np.ones(nx)
+    newton_correction(J, F, 1e13)
+    linear_solve(J, F)
+    transpose_times(J, F)
+    dot(F, F)
