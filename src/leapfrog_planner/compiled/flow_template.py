@@ -218,7 +218,6 @@ def erk_adaptive(Y0, t0, t1, k, dynamics, control, samples):
     T_out, Z_out = samples
     n = Y0.size
     s = b.size
-    n_err = NZ + 1
     K = np.empty((s + 1, n))
     Y = Y0.copy()
     Ynew = np.empty(n)
