@@ -1,5 +1,5 @@
 """``leapfrog serve`` answers from its start, also while its solver processes are being prepared
-(a fresh machine compiles the kernels, about a minute a model): ``/api/health`` says which model
+(a fresh machine compiles the kernels, about 20 s a model): ``/api/health`` says which model
 they are at and how far; a plan asked before then is refused at once with that progress (503,
 ``Retry-After``) and answered as soon as a process is ready. A fresh machine is stood in for by
 solver processes that wait at each model until the test opens its gate

@@ -121,7 +121,7 @@ def _ensure_compiled(model: str, show: bool, methods, here: bool = False) -> Non
         _line(f"compiled the {what} in {seconds:.0f} s")
     if _loops_compiling(model):
         _line(
-            f"compiling the {model} model's Newton loop in the background (about 40 s); until it"
+            f"compiling the {model} model's Newton loop in the background (half a minute); until it"
             " is ready, plans run the Python loop: the same answers, bit for bit, slower"
         )
 
@@ -142,8 +142,10 @@ def _line(text: str) -> None:
 def warmup(models):
     """Compile the kernels of MODELS (default: every built-in model) ahead of time.
 
-    The first plan of a model on a machine compiles its kernels (about 40 s); they are cached on
-    disk, and later runs load them in well under a second. One kernel set per model serves every
+    The first plan of a model on a machine compiles its kernels (about 20 s, and its compiled
+    Newton loops half a minute more in the background); `warmup` compiles all of them here
+    (about a minute a model). They are cached on disk, and later runs load them in well under a
+    second. One kernel set per model serves every
     scenario: obstacles, maps, bounds on the controls and the robot's size are data."""
     from ..model import MODELS
 

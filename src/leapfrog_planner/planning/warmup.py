@@ -1,7 +1,8 @@
 """Compiling a model's kernels ahead of the first plan.
 
 numba compiles each kernel on its first call and caches the machine code on disk, so the first
-plan on a machine takes about 40 s per model and every later one loads in a fraction of a second.
+plan of a model on a machine takes about 20 s (its compiled Newton loops half a minute more, in
+the background) and every later one loads in a fraction of a second.
 :func:`warm_up` makes that first call on purpose: a small plan with every local method and both
 final solvers, so that no kernel is left to compile in the middle of a real plan, and a plan's
 reported time never includes compiling. Where the compiled Newton loops are missing, they are

@@ -8,7 +8,7 @@ instead of piling up. A request still waiting when a newer one of the same sessi
 dropped (:class:`Superseded`): the page only wants the answer to its latest edit.
 
 :meth:`SolvePool.start` returns at once: the processes warm up in the background (on a fresh
-machine the first compiles the kernels, about a minute a model), each saying which model it is
+machine the first compiles the kernels, about 20 s a model), each saying which model it is
 at (``preparing`` in :meth:`SolvePool.stats`); while none is ready, a request is refused at once
 with that progress (:class:`Preparing`, HTTP 503). :meth:`SolvePool.run` blocks; the web
 application calls it from a thread.
@@ -30,7 +30,7 @@ from multiprocessing.connection import Connection
 
 log = logging.getLogger(__name__)
 
-#: How long a worker may take to start (a fresh machine compiles the kernels: about 40 s a model).
+#: How long a worker may take to start (a fresh machine compiles the kernels: about 20 s a model).
 START_TIMEOUT_S = 900.0
 
 #: The module a solver process runs (``python -m WORKER THREADS MODEL...``).
@@ -72,7 +72,7 @@ def preparing_text(progress: dict) -> str:
     where = f"the {model} kernels, model {done + 1} of {total}, " if model else ""
     return (
         f"the solver is being prepared ({where}{progress['seconds']:.0f} s so far; the first"
-        " start on a machine compiles the kernels, about a minute a model)"
+        " start on a machine compiles the kernels, about 20 s a model)"
     )
 
 

@@ -192,7 +192,7 @@ async function planNow() {
 
 // ------------------------------------------------------------------ the solver's warm-up
 
-// A first start on a machine compiles the kernels (about a minute a model): until a solver
+// A first start on a machine compiles the kernels (about 20 s a model): until a solver
 // process is ready the server answers a plan with 503, and /api/health says how far it is.
 let waitingForSolver = false, watching = false;
 
@@ -207,7 +207,7 @@ async function health() {
 function preparingText(p) {
   const where = p.model ? `the ${p.model} kernels (model ${p.models_done + 1} of ${p.models}), ` : "";
   return `Preparing the solver: ${where}${p.seconds.toFixed(0)} s so far. A first start on a ` +
-    "machine compiles the kernels, about a minute a model; the plan runs as soon as it is ready.";
+    "machine compiles the kernels, about 20 s a model; the plan runs as soon as it is ready.";
 }
 
 // Show the warm-up's progress until a solver process is ready, then plan what waited for it.
