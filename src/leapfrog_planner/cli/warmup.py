@@ -94,7 +94,7 @@ def _ensure_compiled(model: str, show: bool, methods, here: bool = False) -> Non
     from ..planning.warmup import warm_up
 
     what = f"{model} kernels"
-    expected = 15 if background.in_background() and not here else 55
+    expected = 20 if background.in_background() and not here else 60  # measured: 21 s, 61 s
     note = f"compiling the {what}, once per machine (about {expected} s)"
     if not show:
         with held_interrupts():
@@ -145,8 +145,8 @@ def warmup(models):
     The first plan of a model on a machine compiles its kernels (about 20 s, and its compiled
     Newton loops half a minute more in the background); `warmup` compiles all of them here
     (about a minute a model). They are cached on disk, and later runs load them in well under a
-    second. One kernel set per model serves every
-    scenario: obstacles, maps, bounds on the controls and the robot's size are data."""
+    second. One kernel set per model serves every scenario: obstacles, maps, bounds on the
+    controls and the robot's size are data."""
     from ..model import MODELS
 
     unknown = [m for m in models if m not in MODELS]

@@ -166,7 +166,7 @@ def run_bench(
             progress(ExperimentEvent(done, total, label))
 
     emit("warm-up (loading compiled kernels)")
-    warm_up(here=True)  # the compiled loops are what it times
+    warm_up()
     outcomes, floors = [], []
 
     def step_of(name: str):

@@ -195,7 +195,7 @@ def run_work_precision(
     s = settings or WorkPrecisionSettings()
     if not peers.casadi_available():
         raise SettingsError("the work-precision benchmark needs CasADi: pip install '.[bench]'")
-    warm_up(here=True)  # the compiled loops are what it times
+    warm_up()
     todo = scenarios(s)
     points, refs, notes = [], [], []
     for k, sc in enumerate(todo):

@@ -39,7 +39,7 @@ RUNS = (
 def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
     """Compile (or load from the disk cache) every kernel of ``model``, or only those that the
     local ``methods`` (and their multiple-shooting final solve) use. Returns the seconds taken
-    (about 15 on a fresh machine, well under one once cached). Missing compiled Newton loops
+    (about 20 on a fresh machine, well under one once cached). Missing compiled Newton loops
     are compiled in the background, or, with ``here``, in this process (a minute in all): what
     a command that times them needs."""
     t0 = time.perf_counter()
