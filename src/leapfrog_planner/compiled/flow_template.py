@@ -48,6 +48,14 @@ def aug_rhs(Y, k, p, obs, weight, exponent, out):
             out[ry + c] -= Pxy * s0 + Pyy * s1
 
 
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+def aug_rhs_once(Y, k, p, obs, weight, exponent, out):
+    """:func:`aug_rhs` called, not inlined, for the evaluations made once per integration (the
+    first derivative, the starting step's trial): each inlined copy of the model cost seconds
+    of a fresh machine's first compile, and a call gives the same bits (no fast math)."""
+    aug_rhs(Y, k, p, obs, weight, exponent, out)
+
+
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline=INLINE)
 def _stage_states(Y, K, A, i, h, Yt):
     n = Y.size
@@ -173,7 +181,7 @@ def _initial_step(Y, f0, t0, t1, k, dynamics, control):
         Y1[m] = Y[m] + direction * h0 * f0[m]
     f1 = np.empty(n)
     p, obs, weight, exponent = dynamics.equation
-    aug_rhs(Y1, k, p, obs, weight, exponent, f1)
+    aug_rhs_once(Y1, k, p, obs, weight, exponent, f1)
     d2 = 0.0
     for m in range(n_err):
         scale = atol + abs(Y[m]) * rtol
@@ -226,7 +234,7 @@ def erk_adaptive(Y0, t0, t1, k, dynamics, control, samples):
     if record:
         T_out[0] = t0
         _record(Z_out, 0, Y)
-    aug_rhs(Y, k, p, obs, weight, exponent, K[0])
+    aug_rhs_once(Y, k, p, obs, weight, exponent, K[0])
     if not (_all_finite(Y, n) and _all_finite(K[0], n)):
         return Y, NON_FINITE, 0, 0
     direction = 1.0 if t1 >= t0 else -1.0
