@@ -399,9 +399,17 @@ def is_result_file(path) -> bool:
             head = fh.read(4096)
     except OSError:
         return False
+    return _format_of(head) is not None
+
+
+def _format_of(head: bytes) -> str | None:
+    """Which kind of result file begins with the bytes ``head``: ``"npz"`` (a zip), ``"json"``
+    (an object, after an optional byte-order mark) or None."""
     if head.startswith(b"PK"):
-        return True
-    return head.removeprefix(b"\xef\xbb\xbf").lstrip().startswith(b"{")
+        return "npz"
+    if head.removeprefix(b"\xef\xbb\xbf").lstrip().startswith(b"{"):
+        return "json"
+    return None
 
 
 def load_result(path) -> dict[str, Any]:
@@ -412,7 +420,7 @@ def load_result(path) -> dict[str, Any]:
     try:
         with open(path, "rb") as fh:
             head = fh.read(4)
-        if head.startswith(b"PK"):  # a zip: NPZ
+        if _format_of(head) == "npz":
             with np.load(path, allow_pickle=False) as z:
                 if "result_json" not in z.files:
                     raise ResultFileError(f"{name}: not a leapfrog result file")
