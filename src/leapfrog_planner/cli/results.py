@@ -163,9 +163,9 @@ def export(result, csv_path, ros_path, bag, dt, frame, **bag_settings):
     }
     try:
         if bag is not None:
-            from ..planning.ros_bag import rosbags_available
+            from ..planning.ros_bag import require_rosbags
 
-            rosbags_available()
+            require_rosbags()
         res = _load(result)
         for option, path in outputs.items():
             if path is not None:

@@ -36,7 +36,7 @@ STORE = "ROS2_JAZZY"
 BAG_VERSION = 8  # read by Humble (its QoS written as numbers) and by every later distribution
 
 
-def rosbags_available() -> None:
+def require_rosbags() -> None:
     """Raise :class:`.export.ExportError` saying how to install ``rosbags`` when it is missing."""
     try:
         import rosbags.rosbag2  # noqa: F401
@@ -150,7 +150,7 @@ def write_bag(
     """Write the ROS 2 bag of the module's documentation to the new folder ``path``, times from
     ``start`` (seconds since the epoch; 0 by default). The folder must not exist; the bag is
     written beside it under a temporary name and renamed when whole, so no half bag stays."""
-    rosbags_available()
+    require_rosbags()
     if storage not in STORAGES:
         raise ExportError(f"storage must be one of {', '.join(STORAGES)}, got {storage!r}")
     if not (isinstance(start, int | float) and 0 <= start < 2**63 / 1e9):
