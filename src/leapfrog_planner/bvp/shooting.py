@@ -439,6 +439,9 @@ _READY: set[str] = set()
 #: When the disk cache is to be asked again about a module's loops (time.monotonic()): not on
 #: every local solve while they compile.
 _NEXT_LOOK: dict[str, float] = {}
+#: Kernel modules whose loops this process has had compiled in the background: once, so that a
+#: background compile that keeps failing is not started again every few seconds.
+_STARTED: set[str] = set()
 LOOK_EVERY_S = 2.0
 
 
@@ -462,7 +465,9 @@ def loops_ready(flow: Flow) -> bool:
         _READY.add(K.__name__)
         background.finished(K)
         return True
-    background.start(model, K)
+    if K.__name__ not in _STARTED:
+        _STARTED.add(K.__name__)
+        background.start(model, K)
     return False
 
 
