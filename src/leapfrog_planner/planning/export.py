@@ -81,30 +81,28 @@ def body_velocities(result, cols: dict[str, np.ndarray]) -> dict[str, np.ndarray
     car's ``v`` and ``v tan(delta) / L``). None for a model that is not built in or whose first
     states are not ``x, y, theta``. A motion the robot cannot make (the assisted car's, said in
     the result's message) gets what the robot's own model makes of its controls."""
+    from ..compiled.kernels import model_info
     from ..errors import ModelError
-    from ..model import get_model
 
     if tuple(result.state_names[:3]) != ("x", "y", "theta"):
         return None
     try:
-        model = get_model(result.model)
+        info = model_info(result.model)
     except ModelError:
         return None
-    if len(model.states) != len(result.state_names) or model.nu != len(result.control_names):
+    if info.states != tuple(result.state_names) or info.controls != tuple(result.control_names):
         return None
-    import sympy as sp
-
-    values = dict(zip(model.parameter_names, model.defaults, strict=True))
-    if result.task is not None:
-        values |= result.task.model_parameters
-    f = sp.lambdify([model.states, model.controls, model.parameters], model.dynamics[:3])
-    x = [cols[n] for n in result.state_names]
-    u = [cols[n] for n in result.control_names]
-    shape = np.shape(cols["t"])
-    xdot, ydot, thdot = (
-        np.broadcast_to(np.asarray(e, dtype=float), shape)
-        for e in f(x, u, [values[n] for n in model.parameter_names])
-    )
+    given = None if result.task is None else result.task.model_parameters
+    p = np.asarray(info.parameter_values(given), dtype=float)
+    X = np.column_stack([np.asarray(cols[n], dtype=float) for n in info.states])
+    U = np.column_stack([np.asarray(cols[n], dtype=float) for n in info.controls])
+    nx, nu = info.nx, info.nu
+    f, A, B, R = np.empty(nx), np.empty((nx, nx)), np.empty((nx, nu)), np.empty((nu, nu))
+    rates = np.empty((X.shape[0], 3))
+    for r in range(X.shape[0]):  # the model's own f(x, u): its compiled linearisation
+        info.kernels.linearize(X[r], U[r], p, f, A, B, R)
+        rates[r] = f[:3]
+    xdot, ydot, thdot = rates.T
     th = cols["theta"]
     return {"linear_x": xdot * np.cos(th) + ydot * np.sin(th), "angular_z": np.array(thdot)}
 
