@@ -87,6 +87,8 @@ def test_until_the_loops_are_compiled_a_plan_runs_the_python_loop_to_the_same_bi
     assert r.status == reference.status == "converged"
     assert r.cost == reference.cost
     np.testing.assert_array_equal(_trajectory(r), _trajectory(reference))
+    # and the same work: both loops skip J where convergence is predicted
+    assert (r.f_evals, r.newton_iterations) == (reference.f_evals, reference.newton_iterations)
 
 
 def test_a_block_under_here_and_the_environment_compile_in_this_process(monkeypatch):

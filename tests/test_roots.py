@@ -280,7 +280,7 @@ def test_a_converging_iteration_never_stalls():
     "kw",
     [{"tol": 0.0}, {"max_iterations": 0}, {"max_iterations": 2.5}, {"max_cond": 1.0},
      {"divergence": 0.5}, {"stall_window": -1}, {"stall_window": 1.5}, {"stall_factor": 1.0},
-     {"stall_factor": 0.0}],
+     {"stall_factor": 0.0}, {"predict": 1}, {"predict": "yes"}],
 )  # fmt: skip
 def test_bad_root_settings_are_refused(kw):
     with pytest.raises(SettingsError):
@@ -296,3 +296,19 @@ def test_unknown_method_and_bad_strategy_options():
     r = solve_root(ARCTAN, [10.0], ModifiedNewtonStep(max_halvings=1))
     assert r.status is RootStatus.LINE_SEARCH_FAILED
     assert solve_root(ARCTAN, [10.0], ModifiedNewtonStep(max_halvings=30)).success
+
+
+@pytest.mark.parametrize("method", ["newton", "modified-newton"])
+@pytest.mark.parametrize(("system", "x0"), [(SQRT2, [3.0]), (SQRT2, [-40.0]), (FR, [6.0, 4.5])])
+def test_predicted_convergence_spares_jacobians_only(system, x0, method):
+    """``predict``: the full steps predicted to converge are evaluated without the Jacobian:
+    the same iterates, norms and damping, fewer Jacobians, and J wherever an iterate did not
+    converge after all (the loop would otherwise fail on a missing J)."""
+    plain = solve_root(system, x0, method, RootSettings(tol=1e-9))
+    fast = solve_root(system, x0, method, RootSettings(tol=1e-9, predict=True))
+    assert fast.status == plain.status == RootStatus.CONVERGED
+    for name in ("x", "F", "residual_norms", "step_sizes"):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(plain, name), err_msg=name)
+    assert fast.jac_evals < plain.jac_evals
+    wrong = fast.f_evals - plain.f_evals  # predictions that failed: evaluated again with J
+    assert 0 <= wrong < fast.iterations

@@ -6,6 +6,9 @@ still do what it is used for (converge, or make classical Newton fail).
 
 from __future__ import annotations
 
+from dataclasses import replace
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -478,6 +481,12 @@ def test_affine_guess_does_not_depend_on_whole_turns_of_the_heading(turns):
         (3, None, "nleq-err", None),
         (4, "far", "nleq-err", None),  # the damping collapses, or wanders
         (1, "huge", "nleq-err", None),  # non-finite
+        # F alone where convergence is predicted (Leapfrog's local solves)
+        (1, None, "newton", RootSettings(predict=True)),
+        (3, None, "modified-newton", RootSettings(predict=True)),
+        (4, "far", "newton", RootSettings(predict=True)),
+        (4, "far", "modified-newton", RootSettings(predict=True, tol=1e-12)),
+        (4, None, "modified-newton", RootSettings(predict=True)),
     ],
 )
 def test_compiled_newton_is_the_python_loop_bit_for_bit(case, guess, method, root):
@@ -528,9 +537,11 @@ def test_local_shooter_is_solve_shooting_bit_for_bit(case, guess, method, root, 
         "good": GOOD_GUESS.get(case), "huge": np.full(3, 1e200),
         "far": CASE4_FAR, None: None,
     }[guess]  # fmt: skip
+    # The shooter's solves predict convergence (RootSettings.predict); solve_shooting is told to.
     settings = ShootingSettings(
-        samples=0, integrator=SHORT, root=root or RootSettings(), compiled=compiled
-    )
+        samples=0, integrator=SHORT, root=replace(root or RootSettings(), predict=True),
+        compiled=compiled,
+    )  # fmt: skip
     prob = c.problem("unicycle")
     flow = Flow(prob, SHORT)
     shooter = LocalShooter(prob, flow, settings, method)
@@ -571,8 +582,8 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
         # Case 1 ends 1.7e-3, 6.8e-6 (NM; MNM alike): 1.7e-3^3 / 3.8e-2^2 = 3.4e-6 is not
         # predicted below 1e-6 / 10, 6.8e-6^3 / 1.7e-3^2 = 1.1e-10 is. Case 3 ends 8.1e-4,
         # 1.5e-8: predicted 5e-18 <= 1e-10 / 10.
-        root = RootSettings(tol=tol)
-        solver = compiled_solver(flow, get_strategy(method), root, True, predict)
+        root = RootSettings(tol=tol, predict=predict)
+        solver = compiled_solver(flow, get_strategy(method), root, True)
         m = root.max_iterations
         out[predict] = flow.kernels.shoot_newton(
             Ends(start, goal, np.array([0.0, 1.0])), s0, solver, flow.dynamics,
@@ -588,6 +599,62 @@ def test_predicted_convergence_skips_the_last_jacobian_only(case, tol, method):
     assert last0[1].size == nz + 1 + nz * prob.model.nx  # the state, cost and sensitivities
     assert last1[1].size == nz + 1  # F alone
     np.testing.assert_array_equal(last0[1][: nz + 1], last1[1])
+
+
+# F of a scalar problem at the three points of one MNM step from x = 0 (F = 1, J = 1, d = 1:
+# the test asks |F|^2 <= 1 - 2^-m / 2): the full step (x = -1) is predicted to converge but does
+# not (|F| = 0.75 fails the test), the half step (-0.5, |F| = 0.8) passes it, and the best of
+# the two, the full step, is the new iterate. It must carry its Jacobian.
+MISPREDICTED = {0.0: 1.0, -1.0: 0.75, -0.5: 0.8}
+
+
+def _mispredicted_F(x):
+    return np.array([MISPREDICTED[float(x[0])]])
+
+
+def _mispredicted_J(x):
+    return np.array([[2.0 + x[0]]])
+
+
+def test_a_mispredicted_full_step_taken_as_the_best_trial_carries_its_jacobian(monkeypatch):
+    """With ``predict``, MNM's full step is evaluated without J; where it then does not
+    converge, it is evaluated again with J, also when it fails the step's test and is taken
+    later as the best trial. (The compiled step returned it with a zero J: the next iteration
+    would have reported a singular Jacobian.) The Python step and the compiled one (run as
+    Python, on the same function) agree: the iterate, its damping, J and the counts."""
+    from leapfrog_planner.compiled.abi import Iterate
+    from leapfrog_planner.roots import FunctionSystem
+    from leapfrog_planner.roots.steps import Evaluator
+
+    root = RootSettings(tol=1e-2, predict=True)
+    x, F, J, d = np.zeros(1), np.ones(1), np.ones((1, 1)), np.ones(1)
+    evaluate = Evaluator(FunctionSystem(_mispredicted_F, _mispredicted_J), root.tol)
+    evaluate.predicted = True
+    step = ModifiedNewtonStep().step(evaluate, x, F, J, d, None, 1.0, None)
+    assert (step.x[0], step.lam, step.J[0, 0]) == (-1.0, 1.0, 1.0)
+    assert (evaluate.f_evals, evaluate.jac_evals) == (3, 2)
+
+    def trial(s, residual, best_norm, jac, counts):
+        F = _mispredicted_F(s)
+        counts[0], counts[1] = counts[0] + 1, counts[1] + (not jac)
+        point = Iterate(s, F, _mispredicted_J(s) if jac else np.zeros((1, 1)))
+        return True, point, ((s.copy(), np.empty(0), True), min(best_norm, abs(F[0])))
+
+    from leapfrog_planner.bvp.shooting import compiled_solver
+
+    K = CASES[1].problem("unicycle").model.kernels
+    monkeypatch.setattr(K, "_trial", trial)
+    monkeypatch.setattr(K, "_full_step", K._full_step.py_func)
+    solver = compiled_solver(Flow(CASES[1].problem("unicycle"), SHORT), ModifiedNewtonStep(),
+                             root, True)  # fmt: skip
+    counts = np.zeros(3, np.int64)
+    norms = np.array([1e3, 1.0])  # |F|^3 / |F_prev|^2 * 10 = 1e-5 <= tol: predicted
+    seen = ((x, np.empty(0), True), 1.0)
+    found, best, lam, _ = K._mnm_step.py_func(
+        Iterate(x, F, J), d, 1.0, norms, solver, SimpleNamespace(jacobian=True), seen, counts
+    )
+    assert found and (best.x[0], lam, best.J[0, 0]) == (-1.0, 1.0, 1.0)
+    assert (counts[0], counts[0] - counts[1]) == (3, 2)
 
 
 @pytest.mark.parametrize(
@@ -621,9 +688,8 @@ def test_the_compiled_loops_record_has_one_type_whatever_the_numbers_type(method
     whole = RootSettings(tol=1, max_cond=10**12, divergence=100)
     floats = RootSettings(tol=1.0, max_cond=1e12, divergence=100.0)
     types = {
-        str(numba.typeof(compiled_solver(flow, get_strategy(method), s, inexact, predict)))
-        for s in (whole, floats, RootSettings())
+        str(numba.typeof(compiled_solver(flow, get_strategy(method), s, inexact)))
+        for s in (whole, floats, RootSettings(), RootSettings(predict=True))
         for inexact in (0, False, True)
-        for predict in (0, 1, True)
     }
     assert len(types) == 1, types

@@ -104,7 +104,8 @@ class ShootingSystem:
         self.flow, self.t0, self.t1 = flow, float(t0), float(t1)
         self.inexact = inexact and flow.tableau.adaptive
         self._base = (flow.settings.rtol, flow.settings.atol)
-        self._norm = np.inf  # |F| of the latest evaluation, sets the next tolerance
+        self._norm = np.inf  # the smallest |F| so far, sets the next tolerance
+        self._norm_used = np.inf  # the one the latest evaluation used
         # The compiled loop's view of the problem: end states and junction times, copies that
         # the Python evaluation reads too.
         self.ends = Ends.of(x0, x1, [self.t0, self.t1])
@@ -115,10 +116,14 @@ class ShootingSystem:
         self.last = None  # (s, FlowResult) of the latest evaluation, reused for the result
 
     def evaluate(self, s, jacobian):
+        # The point just evaluated, again (F alone first, now with J: RootSettings.predict),
+        # is integrated at the same tolerance, so that it has the same F.
+        if not (self.last is not None and np.array_equal(self.last[0], s)):
+            self._norm_used = self._norm
         self._z0[self.nx :] = s
         rtol, atol = self._base
         if self.inexact:
-            loose = min(1e-6, 1e-4 * self._norm)
+            loose = min(1e-6, 1e-4 * self._norm_used)
             rtol, atol = max(rtol, loose), max(atol, loose)
         sens = "costate" if jacobian else None
         r = self.flow(self.t0, self._z0, self.t1, sensitivity=sens, rtol=rtol, atol=atol)
@@ -279,18 +284,15 @@ _FUSED = (NewtonStep, ModifiedNewtonStep, NleqErrStep)  # codes 0, 1, 2 of shoot
 _CODES = tuple(RootStatus)  # the compiled loop's status codes, in RootStatus order
 
 
-def compiled_solver(
-    flow: Flow, strategy, settings: RootSettings, inexact: bool, predict: bool = False
-) -> Solver:
+def compiled_solver(flow: Flow, strategy, settings: RootSettings, inexact: bool) -> Solver:
     """How ``shoot_newton`` solves (its :class:`~..compiled.abi.Solver` record): the method's
-    code, the root settings, the step's fields and the flow's accuracy. ``predict``: skip the
-    Jacobian where convergence is predicted (see the loop)."""
+    code, the root settings, the step's fields and the flow's accuracy."""
     # Every field converted to its record type: numba types a record by its fields, so an int
     # where a float belongs (RootSettings(divergence=100)) compiled the loop a second time.
     root = RootParams(
         float(settings.tol), int(settings.max_iterations), float(settings.max_cond),
         float(settings.divergence), int(settings.stall_window), float(settings.stall_factor),
-        bool(predict),
+        bool(settings.predict),
     )  # fmt: skip
     step = _step_params(strategy)
     accuracy = Accuracy(flow.control, bool(inexact and flow.tableau.adaptive), int(flow.nx))
@@ -341,12 +343,10 @@ class LocalShooter:
     packaging of :func:`solve_shooting` (result objects, messages, checks of the ends) cost as
     much as the compiled loop itself (measured: 121 -> 83 us for a 3-iteration local solve of
     paper case 4). The compiled loop is called directly with its arguments packed once; the
-    iterates, statuses and iterations are those of :func:`solve_shooting`, bit for bit (tested).
-    Unlike :func:`solve_shooting`, it evaluates F alone where Newton's convergence is predicted
-    (``predict``; the Jacobian is dropped where it would not be used): one evaluation more per
-    wrong prediction, so its F evaluations may exceed those of the Python loop by a few per cent
-    (measured: 0.3-1% over a run; the tests bound it at 2%). Methods the compiled loop does not
-    fuse go through :func:`solve_shooting`.
+    iterates, statuses, iterations and evaluations are those of :func:`solve_shooting`, bit for
+    bit (tested). Its solves predict convergence (RootSettings.predict: the Jacobian is dropped
+    where it would not be used), in the compiled loop and in the Python loop alike (methods the
+    compiled loop does not fuse, or while it compiles, go through :func:`solve_shooting`).
 
     Not thread-safe: it reuses its history buffers (Leapfrog builds one per run).
     """
@@ -357,12 +357,11 @@ class LocalShooter:
         self.problem, self.flow, self.settings, self.method = problem, flow, settings, method
         self.strategy = get_strategy(method or settings.method)
         self._fused = settings.compiled and runs_compiled(flow, self.strategy)
-        self._plain = replace(settings, samples=0)  # for solve_shooting (methods not fused)
+        root = replace(settings.root, predict=True)
+        self._plain = replace(settings, samples=0, root=root)  # for solve_shooting (not fused)
         if self._fused:
-            m = settings.root.max_iterations
-            self._solver = compiled_solver(
-                flow, self.strategy, settings.root, settings.inexact, predict=True
-            )
+            m = root.max_iterations
+            self._solver = compiled_solver(flow, self.strategy, root, settings.inexact)
             self._history = History(np.empty(m + 1), np.empty(m))
         self._newton = None  # shoot_newton's entry point, bound on the first call
         self._nx = problem.model.nx

@@ -48,6 +48,24 @@ def transpose_times(J, F):
     return out
 
 
+# F alone is evaluated where Newton's quadratic convergence predicts convergence with this
+# margin: |F_k+1| ~ |F_k|^3 / |F_k-1|^2 <= tol / PREDICT_MARGIN. A wrong prediction costs an
+# evaluation, a right one the variational equations (about a quarter of one). Measured on 50
+# random scenarios: margin 100 skips J in 10% of the local evaluations for 0.3% more of them,
+# 10 in 14% for 0.4% more, 1 in 17% for 1.4% more.
+PREDICT_MARGIN = 10.0
+
+
+@njit(cache=True)
+def converges_next(before: float, last: float, tol: float) -> bool:
+    """Whether Newton's next iterate is predicted to reach ``|F| <= tol``, from ``|F|`` of the
+    last two iterates (``before``, ``last``): the same test in both loops (RootSettings.predict).
+    """
+    if not before > 0.0:
+        return False
+    return last * last * last / (before * before) * PREDICT_MARGIN <= tol
+
+
 @njit(cache=True)
 def solve(J, b):
     """``J^-1 b`` through the same LAPACK call as :func:`newton_correction` and the compiled

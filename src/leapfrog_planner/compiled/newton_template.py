@@ -19,7 +19,7 @@ from leapfrog_planner.compiled.abi import (
     StepControl,
     SweepOutcome,
 )
-from leapfrog_planner.compiled.linear import dot, transpose_times
+from leapfrog_planner.compiled.linear import converges_next, dot, transpose_times
 
 # Simple shooting with classical Newton, the paper's modified Newton or NLEQ-ERR, fused into
 # one call.
@@ -159,22 +159,19 @@ def _trial(s, residual, best_norm, jac, counts):
     return ok, Iterate(s, F, J), ((s.copy(), Y, ok), min(best_norm, norm))
 
 
-# F alone is evaluated where Newton's quadratic convergence predicts convergence with this
-# margin: |F_k+1| ~ |F_k|^3 / |F_k-1|^2 <= tol / PREDICT_MARGIN. A wrong prediction costs an
-# evaluation, a right one the variational equations (about a quarter of one). Measured on 50
-# random scenarios: margin 100 skips J in 10% of the local evaluations for 0.3% more of them,
-# 10 in 14% for 0.4% more, 1 in 17% for 1.4% more.
-PREDICT_MARGIN = 10.0
-
-
 @njit(cache=True, error_model="numpy")
-def _converges(norms, tol):
-    """Whether the next iterate is predicted to converge, from the last two of ``norms``."""
+def _full_step(x, norms, root, residual, seen, counts):
+    """The evaluation at a full Newton step's point ``x``: F alone where convergence is predicted
+    there (``root.predict``; :func:`converges_next` on the last two of ``norms``), and again
+    with J where it then does not come (at the same tolerance: the same F). So every iterate
+    returned without J has converged. Returns (ok, iterate, seen)."""
     n = norms.size
-    if n < 2 or not norms[n - 2] > 0.0:
-        return False
-    f = norms[n - 1]
-    return f * f * f / (norms[n - 2] * norms[n - 2]) * PREDICT_MARGIN <= tol
+    alone = root.predict and n >= 2 and converges_next(norms[n - 2], norms[n - 1], root.tol)
+    before = seen[1]
+    ok, point, seen = _trial(x, residual, before, not alone, counts)
+    if alone and ok and not math.sqrt(dot(point.F, point.F)) <= root.tol:
+        ok, point, seen = _trial(x, residual, before, residual.jacobian, counts)
+    return ok, point, seen
 
 
 @njit(cache=True, error_model="numpy")
@@ -241,13 +238,11 @@ def _mnm_step(point, d, cond, norms, solver, residual, seen, counts):
     for m in range(solver.step.max_halvings + 1):
         lt = 2.0**-m
         xt = x - lt * d
-        jac = not (root.predict and m == 0 and _converges(norms, root.tol))
-        before = seen[1]
-        okt, trial, seen = _trial(xt, residual, before, jac, counts)
+        if m == 0:
+            okt, trial, seen = _full_step(xt, norms, root, residual, seen, counts)
+        else:
+            okt, trial, seen = _trial(xt, residual, seen[1], residual.jacobian, counts)
         h = dot(trial.F, trial.F) if okt else np.inf
-        if not jac and h <= h0 - lt * slope and not math.sqrt(h) <= root.tol:
-            # Accepted but not converged: the next iteration needs J here (same F).
-            okt, trial, seen = _trial(xt, residual, before, residual.jacobian, counts)
         if m == 0 or h < best_h:
             best_h, best, lam = h, trial, lt
         if h <= h0 - lt * slope:
@@ -275,19 +270,6 @@ def _verdict(norms, iteration, root):
 
 
 @njit(cache=True, error_model="numpy")
-def _evaluate_at(x, norms, root, residual, seen, counts):
-    """The new iterate's F and J after a full Newton step: F alone first where convergence is
-    predicted (``root.predict``), and J too if it does not come. Returns (ok, iterate, seen)."""
-    jac = not (root.predict and _converges(norms, root.tol))
-    before = seen[1]
-    ok, point, seen = _trial(x, residual, before, jac, counts)
-    if not jac and not (ok and math.sqrt(dot(point.F, point.F)) <= root.tol):
-        # Not converged after all: the next iteration needs J here (same F).
-        ok, point, seen = _trial(x, residual, before, residual.jacobian, counts)
-    return ok, point, seen
-
-
-@njit(cache=True, error_model="numpy")
 def _out(code, point, iterations, n, cond, seen, counts):
     """shoot_newton's NewtonOutcome."""
     evals = counts[EVALS]
@@ -302,9 +284,9 @@ def shoot_newton(ends, s0, solver, dynamics, history):
     """Simple (or, over more junction times, multiple) shooting from ``s0`` by the ``solver``'s
     method: Newton (0), MNM (1) or NLEQ-ERR (2), with its settings; ``history`` receives |F| of
     the iterates and the damping of the steps. With ``solver.root.predict``, NM and MNM (its
-    full step) evaluate F alone where :func:`_converges` predicts convergence, and again with
-    J if it does not come: the same iterates, with one evaluation more per wrong prediction
-    (evaluations count both kinds). Returns a NewtonOutcome: the status code, the final iterate
+    full step) evaluate F alone where convergence is predicted (:func:`_full_step`), as the
+    Python loop does with RootSettings.predict: the same iterates, counts and statuses.
+    Returns a NewtonOutcome: the status code, the final iterate
     and its residual, the counts, ``last = (s, Y, ok)`` the latest evaluation (for the result's
     cost and end costate), the accepted integrator steps of all evaluations and the number of
     evaluations that carried the variational equations.
@@ -352,7 +334,7 @@ def shoot_newton(ends, s0, solver, dynamics, history):
                 point = Iterate(point.x, np.full(point.x.size, np.nan), point.J)
             return _out(DIVERGED, point, done, n, cond, seen, counts)
         if not have_F:
-            ok, point, seen = _evaluate_at(point.x, norms[:n], root, residual, seen, counts)
+            ok, point, seen = _full_step(point.x, norms[:n], root, residual, seen, counts)
             if not ok:
                 return _out(NON_FINITE_F, point, done, n, cond, seen, counts)
     return _out(MAX_ITERATIONS, point, done, n, cond, seen, counts)

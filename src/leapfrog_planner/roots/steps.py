@@ -41,10 +41,14 @@ def _sumsq(A) -> float:
 
 
 class Evaluator:
-    """Counts evaluations for the loop; handed to strategies for their trial points."""
+    """Counts evaluations for the loop; handed to strategies for their trial points.
+    ``predicted``: whether the loop predicts the current full Newton step to converge (set by
+    the loop each iteration, RootSettings.predict)."""
 
-    def __init__(self, system):
+    def __init__(self, system, tol: float):
         self.system = system
+        self.tol = tol
+        self.predicted = False
         self.f_evals = 0
         self.jac_evals = 0
 
@@ -57,6 +61,18 @@ class Evaluator:
             F, J = None, None
         if J is not None and not math.isfinite(_sumsq(J)):
             F, J = None, None  # a NaN Jacobian makes the point as unusable as a NaN residual
+        return F, J
+
+    def full_step(self, x):
+        """``(F, J)`` at a full Newton step's point ``x``: F alone where the loop predicts
+        convergence there, and again with J where it then does not come (the same point
+        evaluated twice in a row gives the same F: see ShootingSystem.evaluate). So only an
+        iterate with ``|F| <= tol`` ever comes without its Jacobian."""
+        if not self.predicted:
+            return self(x, jacobian=True)
+        F, J = self(x, jacobian=False)
+        if F is not None and not vnorm(F) <= self.tol:
+            F, J = self(x, jacobian=True)
         return F, J
 
 
@@ -101,8 +117,9 @@ class ModifiedNewtonStep:
             lam = 2.0**-m
             xt = x - lam * d
             # Fetch the Jacobian with every trial: it costs ~20% more than F alone, while the
-            # accepted trial would otherwise be evaluated a second time by the loop.
-            Ft, Jt = evaluate(xt, jacobian=True)
+            # accepted trial would otherwise be evaluated a second time by the loop. The full
+            # step may go without it where it is predicted to converge.
+            Ft, Jt = evaluate.full_step(xt) if m == 0 else evaluate(xt, jacobian=True)
             h = dot(Ft, Ft) if Ft is not None else np.inf
             if best is None or h < best[0]:
                 best = (h, Step(xt, lam, Ft, Jt))
