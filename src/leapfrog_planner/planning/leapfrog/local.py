@@ -189,23 +189,28 @@ class LocalSolver:
     # ------------------------------------------------------------------ the two uses
 
     def sweep_solve(self, ta, xa, tb, xb, guess, mid, warm_failed, level: Junctions, i: int):
-        """In a sweep, the local problem of junction ``i`` of ``level``: the direct attempts,
-        then continuation in the obstacle weight, then in the end state (once per junction
-        and level: where it fails once it fails again, and each try costs up to
+        """In a sweep, the local problem of junction ``i`` of ``level``: the warm ``guess``
+        (unless it was tried and ``warm_failed``: the compiled sweep tries it), then the
+        direct attempts, then continuation in the obstacle weight, then in the end state (once
+        per junction and level: where it fails once it fails again, and each try costs up to
         ``continuation_steps`` solves).
 
-        A problem that failed before in this run with the very same data (ends, guess, middle
-        junction) and the same strategies or more fails at once: every strategy is
-        deterministic, so it would fail again. Where a stretch of junctions is stuck, the next
-        sweep poses the same problems (1,000 obstacles: 3 to 14 repeats a plan, each a failed
-        continuation of 10 to 80 ms)."""
-        key = np.concatenate([(ta, tb, mid[0], warm_failed), xa, xb, guess, mid[1], mid[2]])
-        key = key.tobytes()
+        Where the warm guess fails on a problem that failed before in this run with the very
+        same data (ends, guess, middle junction) and the same strategies or more, the rest
+        fails at once: every strategy is deterministic, so it would fail again. Where a stretch
+        of junctions is stuck, the next sweep poses the same problems (1,000 obstacles: 3 to
+        14 repeats a plan, each a failed continuation of 10 to 80 ms). The warm attempt itself
+        is always made, as the compiled sweep makes it: the same work either way."""
+        if not warm_failed:
+            r = self.solve(ta, xa, tb, xb, guess)
+            if r.success:
+                return r
+        key = np.concatenate([(ta, tb, mid[0]), xa, xb, guess, mid[1], mid[2]]).tobytes()
         end_state = i not in level.hopeless
         before = self._failed.get(key)
         if before is not None and (before[0] or not end_state):
             return before[1]
-        r = self.direct(ta, xa, tb, xb, guess, mid=mid, warm_failed=warm_failed)
+        r = self.direct(ta, xa, tb, xb, guess, mid=mid, warm_failed=True)
         if not r.success and self.has_obstacles:
             r = self.weight_continuation(ta, xa, tb, xb, guess)
         if not r.success and end_state:
