@@ -1,5 +1,8 @@
-"""What a solver process of ``leapfrog serve`` runs: it loads the compiled kernels once, then
-answers jobs from its pipe, one at a time, until the pipe closes.
+"""What a solver process of ``leapfrog serve`` runs: it answers jobs from its pipe, one at a
+time, until the pipe closes, while a thread of its own warms the models up (loads their compiled
+kernels, or on a fresh machine compiles them, about 20 s a model), one after the other, in the
+order given. The server sends a job only for a model already warm: a plan of the first model is
+answered while the others are still compiling.
 
 A job is ``(kind, scenario, options, image)``: what to send back, ``"view"`` (what the page
 draws, as JSON), ``"json"`` (the result file ``leapfrog solve --json`` writes) or ``"csv"``
@@ -7,6 +10,9 @@ draws, as JSON), ``"json"`` (the result file ``leapfrog solve --json`` writes) o
 file; the planner's options; and the image of a map opened on the page (``None`` without one:
 its YAML file may name the image where it lay on the user's machine). The answer is ``("ok",
 bytes)``, ``("bad", message)`` for input the planner refused, or ``("error", message)``.
+
+Between the answers, in the order things happen, the warm-up says where it is: ``("warming",
+model)`` as it starts a model, then ``("warm", model)``, or ``("warm-failed", model, message)``.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ import os
 import signal
 import sys
 import tempfile
+import threading
 from collections import OrderedDict
 from pathlib import Path
 
@@ -97,36 +104,59 @@ def answer(job, threads: int = 0) -> tuple[str, object]:
         return "error", f"{type(e).__name__}: {' '.join(str(e).splitlines())}"
 
 
+#: The kinds of the warm-up's messages (every other message answers a job).
+WARMING, WARM, WARM_FAILED = "warming", "warm", "warm-failed"
+
+
+class Outbox:
+    """The process's end of the pipe to the server, shared by the warm-up thread and the job
+    loop: one message at a time goes through it."""
+
+    def __init__(self, connection):
+        self._connection = connection
+        self._lock = threading.Lock()
+
+    def send(self, message) -> None:
+        with self._lock:
+            self._connection.send(message)
+
+
 def warm(models, send) -> None:
-    """Warm the kernels of ``models`` up, saying ``("warming", index)`` before each model."""
+    """Warm the kernels of ``models`` up, one after the other, saying where it is through
+    ``send`` (see the module's documentation). A model that fails is said and left: the
+    others are still warmed up."""
     from ..planning.warmup import warm_up
 
-    for index, model in enumerate(models):
-        send.send(("warming", index))
-        warm_up(model)
+    for model in models:
+        send((WARMING, model))
+        try:
+            warm_up(model)
+        except Exception as e:  # said to the server, which refuses plans of that model
+            log.exception("warm-up of %s failed", model)
+            send((WARM_FAILED, model, f"{type(e).__name__}: {' '.join(str(e).splitlines())}"))
+        else:
+            send((WARM, model))
 
 
 def serve(receive, send, models, threads: int) -> None:
-    """The process's loop: warm up (saying which model it is at), say ``("ready", pid)``, then
-    answer jobs."""
+    """The process's loop: start warming ``models`` up in a thread, and answer jobs meanwhile
+    (the server sends only jobs of models already warm)."""
     from ..batch.orphans import die_with_parent
 
     die_with_parent()
     # Ctrl-C at the server reaches its whole process group: the server ends its workers itself
     # (interrupted inside numba, a process can die of a segmentation fault).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        warm(models, send)
-    except Exception as e:
-        send.send(("error", f"warm-up failed: {type(e).__name__}: {e}"))
-        return
-    send.send(("ready", os.getpid()))
+    outbox = Outbox(send)
+    warming = threading.Thread(target=warm, args=(models, outbox.send), name="leapfrog-warm-up")
+    warming.daemon = True  # the process ends when its pipe closes, warm or not
+    warming.start()
     while True:
         try:
             job = receive.recv()
         except (EOFError, OSError):  # the server closed the pipe: done
             return
-        send.send(answer(job, threads))
+        outbox.send(answer(job, threads))
 
 
 def main(argv: list[str]) -> None:
