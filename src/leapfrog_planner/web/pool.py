@@ -127,11 +127,11 @@ class _Worker:
                 self._note(*message)
             else:
                 self.answers.put(message)
+        self.answers.put(None)
         with self._lock:
             self.ended = True
+            self.warmed.set()
             self._lock.notify_all()
-        self.warmed.set()
-        self.answers.put(None)
 
     def _note(self, kind: str, model: str, why: str = "") -> None:
         """A message of the warm-up: ``model`` is being warmed up, warm, or failed (``why``)."""
@@ -143,10 +143,9 @@ class _Worker:
             else:
                 self.state[model], self.failures[model] = FAILED, why
                 log.error("a solver process could not prepare the %s kernels: %s", model, why)
-            done = all(s in (READY, FAILED) for s in self.state.values())
+            if all(s in (READY, FAILED) for s in self.state.values()):
+                self.warmed.set()
             self._lock.notify_all()
-        if done:
-            self.warmed.set()
 
     def serves(self, model: str | None) -> bool:
         """Whether a plan of ``model`` can be sent to it: warm (a model it does not warm up,
@@ -264,15 +263,15 @@ class SolvePool:
             threading.Thread(target=self._watch, args=(w,), daemon=True).start()
 
     def wait_ready(self, timeout: float = START_TIMEOUT_S) -> bool:
-        """Wait until a process has warmed every model up (true), none is left starting, or
-        ``timeout`` s."""
+        """Wait until a process has warmed every model up (true), none is left warming up (a
+        model's warm-up failed, or no process is running), or ``timeout`` s."""
         end = time.monotonic() + timeout
         with self._lock:
             while True:
                 if any(w.ready for w in self._all):
                     return True
                 left = end - time.monotonic()
-                if not self._all or self._closed or left <= 0:
+                if not any(w.warming for w in self._all) or self._closed or left <= 0:
                     return False
                 self._lock.wait(min(left, 0.5))
 
