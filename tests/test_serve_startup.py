@@ -69,6 +69,8 @@ def test_health_and_plans_while_the_solver_is_prepared(gate):
 
         (gate / "unicycle").touch()
         _until(lambda: client.get("/api/health").json()["models"]["unicycle"] == "ready")
+        # the diff-drive is compiled by a process of its own, starting meanwhile
+        _until(lambda: client.get("/api/health").json()["models"]["diff-drive"] == "compiling")
         h = client.get("/api/health").json()
         assert h["models"] == {"unicycle": "ready", "diff-drive": "compiling"}
         assert h["ready"] == 0 and h["preparing"]["model"] == "diff-drive"
