@@ -7,11 +7,12 @@ requests are admitted at once; one more is refused at once (:class:`PoolFull`, H
 instead of piling up. A request still waiting when a newer one of the same session arrives is
 dropped (:class:`Superseded`): the page only wants the answer to its latest edit.
 
-:meth:`SolvePool.start` returns at once. Each process warms its models up in a thread of its
-own, one after the other (on a fresh machine the first process compiles the kernels, about 20 s
-a model; the others start once it is done and load them from the disk cache), and takes jobs
-meanwhile: a plan is sent to a process whose warm-up is past that plan's model. While no process
-is, the plan is refused at once with the warm-up's progress (:class:`Preparing`, HTTP 503).
+:meth:`SolvePool.start` returns at once. Each process warms its models up one after the
+other, in their order (on a fresh machine the first process compiles the kernels, about 20 s a
+model; the others start once it is done and load them from the disk cache), and takes jobs as
+soon as its first model is warm (see :mod:`.worker`): a plan is sent only to a process that has
+warmed that plan's model up. While none has, the plan is refused at once with the warm-up's
+progress (:class:`Preparing`, HTTP 503).
 :meth:`SolvePool.stats` says each model's state (:data:`WAITING`, :data:`COMPILING`,
 :data:`READY`, :data:`FAILED`) and where the warm-up is (``preparing``). :meth:`SolvePool.run`
 blocks; the web application calls it from a thread.
