@@ -157,9 +157,10 @@ def serve(receive, send, models, threads: int) -> None:
     from multiprocessing.connection import wait
 
     _as_a_child()
-    first, rest = models[0], list(models[1:])
-    send.send((WARMING, first))
-    warm_here(first, send.send)  # nothing to answer before it
+    rest = list(models[1:])
+    if models:  # nothing to answer before the first
+        send.send((WARMING, models[0]))
+        warm_here(models[0], send.send)
     helper, said = warm_apart(rest) if rest else (None, None)
     while True:
         if said is None or receive in wait([receive, said]):
