@@ -16,6 +16,10 @@ from leapfrog_planner.web import worker
 GATE = "LEAPFROG_TEST_GATE"
 
 
+#: A model whose warm-up fails once its gate opens (a test of a failed warm-up sets it).
+FAIL = "LEAPFROG_TEST_FAIL"
+
+
 def gated(warm_up):
     """``warm_up``, waiting first until the gate of its model is open."""
 
@@ -23,6 +27,8 @@ def gated(warm_up):
         gate = Path(os.environ[GATE]) / model
         while not gate.exists():
             time.sleep(0.02)
+        if os.environ.get(FAIL) == model:
+            raise RuntimeError("a test's failure")
         return warm_up(model, *args, **kwargs)
 
     return wait_then_warm_up

@@ -456,7 +456,10 @@ def preparing_server(tmp_path):
         proc.wait(10)
 
 
-def test_the_page_shows_the_solver_being_prepared_then_plans(preparing_server, browser):
+def test_the_page_shows_the_solver_being_prepared_then_plans(preparing_server, browser, tmp_path):
+    """A fresh machine: the page says which model is being prepared and each model's state,
+    plans paper case 1 (a unicycle) as soon as the unicycle is ready while the others are still
+    being prepared, and plans the car once the car is ready."""
     url, gate = preparing_server
     wait = WebDriverWait(browser, WAIT)
     for _ in range(100):  # the server answers within moments of its start
@@ -470,15 +473,32 @@ def test_the_page_shows_the_solver_being_prepared_then_plans(preparing_server, b
     assert _text(browser, "preparing-text").startswith(
         "Preparing the solver: the unicycle kernels (model 1 of 3)"
     )
+    wait.until(lambda d: _text(d, "preparing-models").startswith("unicycle compiling"))
+    assert _text(browser, "preparing-models") == (
+        "unicycle compiling · diff-drive waiting · car waiting"
+    )
     bar = browser.find_element(By.ID, "preparing-bar")
     assert (bar.get_attribute("value"), bar.get_attribute("max")) == ("0", "3")
+    assert _text(browser, "cost") == "–"  # paper case 1 waits for the unicycle
+    (tmp_path / "preparing.png").write_bytes(browser.get_screenshot_as_png())
+
     (gate / "unicycle").touch()
+    wait.until(lambda d: _text(d, "status").startswith("converged"))  # while the others wait
+    assert banner.is_displayed()
     wait.until(lambda d: "(model 2 of 3)" in _text(d, "preparing-text"))
+    assert "the unicycle is ready: it plans meanwhile." in _text(browser, "preparing-text")
+    ready = "unicycle ready · diff-drive compiling · car waiting"  # its process started
+    wait.until(lambda d: _text(d, "preparing-models") == ready)
     assert bar.get_attribute("value") == "1"
-    assert _text(browser, "cost") == "–"  # paper case 1 waits for the solver
     assert not browser.find_element(By.ID, "error").is_displayed()
+    (tmp_path / "unicycle-ready.png").write_bytes(browser.get_screenshot_as_png())
+
+    Select(browser.find_element(By.ID, "model")).select_by_value("car")
+    wait.until(lambda d: "the plan runs as soon as the car is ready." in _text(d, "preparing-text"))
+    assert _text(browser, "cost") == "–"  # no path of the unicycle left drawn for the car
     for model in ("diff-drive", "car"):
         (gate / model).touch()
     WebDriverWait(browser, 60).until(lambda d: not banner.is_displayed())
-    wait.until(lambda d: _text(d, "status").startswith("converged"))  # planned once it was ready
+    wait.until(lambda d: _text(d, "status").startswith("converged"))  # the car, once ready
+    assert _plotted(browser) == ["v", "sigma", "omega"]
     assert not browser.find_element(By.ID, "error").is_displayed()

@@ -1,9 +1,9 @@
 """``leapfrog serve`` answers from its start, also while its solver processes are being prepared
-(a fresh machine compiles the kernels, about 20 s a model): ``/api/health`` says which model
-they are at and how far; a plan asked before then is refused at once with that progress (503,
-``Retry-After``) and answered as soon as a process is ready. A fresh machine is stood in for by
-solver processes that wait at each model until the test opens its gate
-(:mod:`tests.gated_worker`)."""
+(a fresh machine compiles the kernels, about 20 s a model): ``/api/health`` says each model's
+state and where the warm-up is; a plan of a model not warm yet is refused at once with that
+progress (503, ``Retry-After``), and a plan of a model already warm is answered while the others
+are still being prepared. A fresh machine is stood in for by solver processes that wait at each
+model until the test opens its gate (:mod:`tests.gated_worker`)."""
 
 from __future__ import annotations
 
@@ -30,6 +30,7 @@ from leapfrog_planner.web.app import create_app  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE1 = load_scenario("paper-case-1").to_dict()
+DIFF_DRIVE = {**CASE1, "robot": {"model": "diff-drive"}}
 
 
 @pytest.fixture
@@ -55,25 +56,74 @@ def test_health_and_plans_while_the_solver_is_prepared(gate):
         assert h["ready"] == 0 and len(h["pids"]) == 1
         assert h["preparing"]["model"] == "unicycle"
         assert (h["preparing"]["models_done"], h["preparing"]["models"]) == (0, 2)
+        assert h["models"]["unicycle"] in ("waiting", "compiling")  # the process is starting
+        assert h["models"]["diff-drive"] == "waiting"
 
         r = client.post("/api/plan", json={"scenario": CASE1})
         assert r.status_code == 503 and r.headers["retry-after"] == "2"
         message = r.json()["error"]
         assert message.startswith("the solver is being prepared (the unicycle kernels, model 1")
-        assert message.endswith("try again when /api/health says ready")
+        assert message.endswith("try again when /api/health says the unicycle is ready")
         assert client.get("/").status_code == 200  # the page and the scenarios meanwhile
         assert client.get("/api/scenarios").status_code == 200
 
         (gate / "unicycle").touch()
-        _until(lambda: (client.get("/api/health").json()["preparing"] or {}).get("models_done"))
+        _until(lambda: client.get("/api/health").json()["models"]["unicycle"] == "ready")
+        # the diff-drive is compiled by a process of its own, starting meanwhile
+        _until(lambda: client.get("/api/health").json()["models"]["diff-drive"] == "compiling")
         h = client.get("/api/health").json()
+        assert h["models"] == {"unicycle": "ready", "diff-drive": "compiling"}
         assert h["ready"] == 0 and h["preparing"]["model"] == "diff-drive"
-        assert client.post("/api/plan", json={"scenario": CASE1}).status_code == 503
+        assert h["preparing"]["models_done"] == 1
+        # the unicycle is planned while the diff-drive is still being prepared (its gate shut)
+        r = client.post("/api/plan", json={"scenario": CASE1})
+        assert r.status_code == 200 and r.json()["status"] == "converged"
+        r = client.post("/api/plan", json={"scenario": DIFF_DRIVE})
+        assert r.status_code == 503
+        assert r.json()["error"].startswith(
+            "the solver is being prepared (the diff-drive kernels, model 2 of 2, "
+        )
+        assert client.get("/api/health").json()["models"]["diff-drive"] == "compiling"
 
         (gate / "diff-drive").touch()
         assert app.state.pool.wait_ready()
         h = client.get("/api/health").json()
         assert h["ready"] == 1 and h["preparing"] is None and h["not_ready"] == 2
+        assert h["models"] == {"unicycle": "ready", "diff-drive": "ready"}
+        r = client.post("/api/plan", json={"scenario": DIFF_DRIVE})
+        assert r.status_code == 200 and r.json()["status"] == "converged"
+
+
+def test_a_plan_of_a_model_further_on_waits_for_its_turn(gate):
+    """The models are warmed up in their order: one not reached yet is said to be waiting,
+    and a plan of it says which model comes first."""
+    app = create_app(workers=1, queue=4, time_limit=30.0, models=("unicycle", "car"))
+    with TestClient(app) as client:
+        _until(lambda: client.get("/api/health").json()["models"]["unicycle"] == "compiling")
+        assert client.get("/api/health").json()["models"]["car"] == "waiting"
+        car = {**CASE1, "start": [*CASE1["start"], 0.0], "goal": [*CASE1["goal"], 0.0]}
+        r = client.post("/api/plan", json={"scenario": {**car, "robot": {"model": "car"}}})
+        assert r.status_code == 503
+        assert r.json()["error"].startswith(
+            "the solver is being prepared (the car kernels after the unicycle kernels, model 1 of"
+        )
+
+
+def test_a_model_whose_warm_up_fails_is_said_and_the_others_are_served(gate, monkeypatch):
+    monkeypatch.setenv("LEAPFROG_TEST_FAIL", "diff-drive")
+    app = create_app(workers=1, queue=4, time_limit=30.0, models=("unicycle", "diff-drive"))
+    with TestClient(app) as client:
+        (gate / "unicycle").touch()
+        (gate / "diff-drive").touch()
+        assert not app.state.pool.wait_ready()  # not every model: it does not wait for ever
+        h = client.get("/api/health").json()
+        assert h["preparing"] is None
+        assert h["models"] == {"unicycle": "ready", "diff-drive": "failed"} and h["ready"] == 0
+        r = client.post("/api/plan", json={"scenario": DIFF_DRIVE})
+        assert r.status_code == 500
+        assert r.json()["error"] == (
+            "the solver could not prepare the diff-drive kernels: RuntimeError: a test's failure"
+        )
         r = client.post("/api/plan", json={"scenario": CASE1})
         assert r.status_code == 200 and r.json()["status"] == "converged"
 

@@ -13,14 +13,17 @@
 - ``POST /api/toml``, ``/api/result.json``, ``/api/result.csv``: the downloads (the scenario file
   with the page's options in its ``[solver]`` table; the result as ``leapfrog solve --json`` and
   ``leapfrog export --csv`` write it).
-- ``GET /api/health``: the pool's state and counts: ``ready`` solver processes, and while one
-  warms up (a first start on a machine compiles the kernels, minutes), ``preparing``: its model,
-  how many of the models are done, the seconds so far. The server answers from its start on.
+- ``GET /api/health``: the pool's state and counts: ``models``, each model's state
+  (``"ready"``: plans of it are answered; ``"compiling"``, ``"waiting"`` for its turn,
+  ``"failed"``), ``ready``, the solver processes that have warmed every model up, and while one
+  warms up (a first start on a machine compiles the kernels, about 20 s a model)
+  ``preparing``: its model, how many of the models are done, the seconds so far. The server
+  answers from its start on, and plans of a model as soon as a solver process has warmed it up.
 
 Every error is JSON, ``{"error": "<one line>"}``: 400 for bad input (the command line's message),
 404/405 for a wrong address or method, 409 for a request superseded by a newer one of the same
-session, 413 for a body too large, 503 when the pool is full or no solver process is ready yet
-(with ``Retry-After``), 504 past the time limit.
+session, 413 for a body too large, 503 when the pool is full or no solver process has warmed the
+plan's model up yet (with ``Retry-After``), 504 past the time limit.
 """
 
 from __future__ import annotations
@@ -136,7 +139,7 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
             latest.note(req.session, req.seq)
             stale = latest.stale(req.session, req.seq)
             status, value = await anyio.to_thread.run_sync(
-                pool.run, req.job(kind), stale, limiter=limiter
+                pool.run, req.job(kind), stale, req.scenario.model, limiter=limiter
             )
         if status == "bad":
             raise RequestError(value)

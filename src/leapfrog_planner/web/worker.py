@@ -1,5 +1,11 @@
-"""What a solver process of ``leapfrog serve`` runs: it loads the compiled kernels once, then
-answers jobs from its pipe, one at a time, until the pipe closes.
+"""What a solver process of ``leapfrog serve`` runs: it warms its first model up (loads its
+compiled kernels, or on a fresh machine compiles them, about 20 s a model), then answers jobs
+from its pipe, one at a time, until the pipe closes, and loads the other models meanwhile, one
+after the other, as a process of its own (:func:`warm_apart`) has compiled them into the disk
+cache. The server sends a job only for a model already warm: a plan of the first model is
+answered while the others are still compiling. (The compiling is a process apart, not a thread:
+numba compiling Python-heavy in a thread kept a plan's many short calls of compiled kernels
+waiting for the interpreter lock, measured 10 s and more for a plan of a few milliseconds.)
 
 A job is ``(kind, scenario, options, image)``: what to send back, ``"view"`` (what the page
 draws, as JSON), ``"json"`` (the result file ``leapfrog solve --json`` writes) or ``"csv"``
@@ -7,6 +13,10 @@ draws, as JSON), ``"json"`` (the result file ``leapfrog solve --json`` writes) o
 file; the planner's options; and the image of a map opened on the page (``None`` without one:
 its YAML file may name the image where it lay on the user's machine). The answer is ``("ok",
 bytes)``, ``("bad", message)`` for input the planner refused, or ``("error", message)``.
+
+Between the answers, in the order things happen, the warm-up says where it is: ``("warming",
+model)`` as it starts a model, then ``("warm", model)`` once this process has it loaded, or
+``("warm-failed", model, message)``.
 """
 
 from __future__ import annotations
@@ -15,6 +25,7 @@ import json
 import logging
 import os
 import signal
+import subprocess
 import sys
 import tempfile
 from collections import OrderedDict
@@ -97,48 +108,111 @@ def answer(job, threads: int = 0) -> tuple[str, object]:
         return "error", f"{type(e).__name__}: {' '.join(str(e).splitlines())}"
 
 
+#: The kinds of the warm-up's messages (every other message answers a job).
+WARMING, WARM, WARM_FAILED = "warming", "warm", "warm-failed"
+
+
 def warm(models, send) -> None:
-    """Warm the kernels of ``models`` up, saying ``("warming", index)`` before each model."""
+    """Warm the kernels of ``models`` up here, one after the other, saying where it is through
+    ``send`` (see the module's documentation). A model that fails is said and left: the
+    others are still warmed up."""
+    for model in models:
+        send((WARMING, model))
+        warm_here(model, send)
+
+
+def warm_here(model: str, send) -> None:
+    """Warm ``model`` up in this process and say ``("warm", model)``, or why it failed."""
     from ..planning.warmup import warm_up
 
-    for index, model in enumerate(models):
-        send.send(("warming", index))
+    try:
         warm_up(model)
+    except Exception as e:  # said to the server, which refuses plans of that model
+        log.exception("warm-up of %s failed", model)
+        send((WARM_FAILED, model, f"{type(e).__name__}: {' '.join(str(e).splitlines())}"))
+    else:
+        send((WARM, model))
+
+
+def warm_apart(models):
+    """A process of its own that warms ``models`` up (it compiles their kernels into the disk
+    cache, on a fresh machine), saying where it is, as this one would, on its standard output:
+    the process, and the end of the pipe it says it through. It is this module run with
+    ``--warm-up`` (the module ``-m`` ran: a test's stand-in runs its own)."""
+    from multiprocessing.connection import Connection
+
+    spec = getattr(sys.modules["__main__"], "__spec__", None)
+    module = spec.name if spec is not None else __name__
+    argv = [sys.executable, "-m", module, "--warm-up", *models]
+    proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE)
+    said = Connection(os.dup(proc.stdout.fileno()), writable=False)
+    proc.stdout.close()
+    return proc, said
 
 
 def serve(receive, send, models, threads: int) -> None:
-    """The process's loop: warm up (saying which model it is at), say ``("ready", pid)``, then
-    answer jobs."""
+    """The process's loop: warm the first of ``models`` up, then answer jobs (the server sends
+    only jobs of models already warm) and, between them, load each other model once the process
+    compiling them apart (:func:`warm_apart`) says it is in the disk cache."""
+    from multiprocessing.connection import wait
+
+    _as_a_child()
+    rest = list(models[1:])
+    if models:  # nothing to answer before the first
+        send.send((WARMING, models[0]))
+        warm_here(models[0], send.send)
+    helper, said = warm_apart(rest) if rest else (None, None)
+    while True:
+        if said is None or receive in wait([receive, said]):
+            try:
+                job = receive.recv()
+            except (EOFError, OSError):  # the server closed the pipe: done
+                return
+            send.send(answer(job, threads))
+            continue
+        try:
+            message = said.recv()
+        except (EOFError, OSError):  # the helper ended: what it did not warm up failed
+            code = helper.wait()
+            for model in rest:
+                send.send((WARM_FAILED, model, f"the process compiling it ended (exit {code})"))
+            said.close()
+            helper, said = None, None
+            continue
+        if message[0] == WARM:  # in the disk cache: loaded here, under a second
+            warm_here(message[1], send.send)
+        else:
+            send.send(message)
+        if message[0] != WARMING:
+            rest.remove(message[1])
+
+
+def _as_a_child() -> None:
+    """The process dies with its parent; Ctrl-C at the server reaches its whole process group:
+    the server ends its workers itself (interrupted inside numba, a process can die of a
+    segmentation fault)."""
     from ..batch.orphans import die_with_parent
 
     die_with_parent()
-    # Ctrl-C at the server reaches its whole process group: the server ends its workers itself
-    # (interrupted inside numba, a process can die of a segmentation fault).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        warm(models, send)
-    except Exception as e:
-        send.send(("error", f"warm-up failed: {type(e).__name__}: {e}"))
-        return
-    send.send(("ready", os.getpid()))
-    while True:
-        try:
-            job = receive.recv()
-        except (EOFError, OSError):  # the server closed the pipe: done
-            return
-        send.send(answer(job, threads))
 
 
 def main(argv: list[str]) -> None:
     """``python -m leapfrog_planner.web.worker THREADS MODEL...``: jobs arrive on standard
     input and answers leave on the original standard output; the process's own output goes to
-    standard error, so that nothing else writes into the pipe."""
+    standard error, so that nothing else writes into the pipe. ``... --warm-up MODEL...``: warm
+    the models up, saying so there, and end (:func:`warm_apart`)."""
     from multiprocessing.connection import Connection
 
     out = os.dup(1)
     os.dup2(2, 1)
     sys.stdout = sys.__stdout__ = os.fdopen(1, "w", closefd=False)
-    serve(Connection(0, writable=False), Connection(out, readable=False), argv[1:], int(argv[0]))
+    send = Connection(out, readable=False)
+    if argv[0] == "--warm-up":
+        _as_a_child()
+        warm(argv[1:], send.send)
+        return
+    serve(Connection(0, writable=False), send, argv[1:], int(argv[0]))
 
 
 if __name__ == "__main__":

@@ -164,9 +164,11 @@ async function planNow() {
     const body = await resp.json();
     if (my !== seq) return; // a newer request is on its way
     if (resp.status === 409) return;
-    if (resp.status === 503 && resp.headers.has("Retry-After")) { // no solver process ready yet
-      waitingForSolver = true; // planned again as soon as one is
+    if (resp.status === 503 && resp.headers.has("Retry-After")) { // its model is not ready yet
+      waitingForSolver = true; // planned again as soon as it is
       showError("");
+      state.result = null; // not the path of another model, or of an earlier edit
+      render();
       watchSolver();
       return;
     }
@@ -192,8 +194,10 @@ async function planNow() {
 
 // ------------------------------------------------------------------ the solver's warm-up
 
-// A first start on a machine compiles the kernels (about 20 s a model): until a solver
-// process is ready the server answers a plan with 503, and /api/health says how far it is.
+// A first start on a machine compiles the kernels, about 20 s a model, one model after the
+// other (the unicycle first). /api/health says each model's state ("ready", "compiling",
+// "waiting", "failed") and where the warm-up is; a plan of a model not ready yet is answered
+// with 503 and planned again as soon as its model is ready, while the others still compile.
 let waitingForSolver = false, watching = false;
 
 async function health() {
@@ -204,36 +208,65 @@ async function health() {
   }
 }
 
-function preparingText(p) {
-  const where = p.model ? `the ${p.model} kernels (model ${p.models_done + 1} of ${p.models}), ` : "";
-  return `Preparing the solver: ${where}${p.seconds.toFixed(0)} s so far. A first start on a ` +
-    "machine compiles the kernels, about 20 s a model; the plan runs as soon as it is ready.";
+function planModel() {
+  const s = state.scenario;
+  return (s && s.robot && s.robot.model) || "unicycle";
 }
 
-// Show the warm-up's progress until a solver process is ready, then plan what waited for it.
+function preparingText(p, models, model) {
+  const where = p.model ? `the ${p.model} kernels (model ${p.models_done + 1} of ${p.models}), ` : "";
+  const then = models[model] === "ready" ? `the ${model} is ready: it plans meanwhile.`
+    : `the plan runs as soon as the ${model} is ready.`;
+  return `Preparing the solver: ${where}${p.seconds.toFixed(0)} s so far. A first start on a ` +
+    `machine compiles the kernels, about 20 s a model; ${then}`;
+}
+
+// Each model's state in a line: "unicycle ready · diff-drive compiling · car waiting".
+function modelsText(models) {
+  return Object.entries(models).map(([name, st]) => `${name} ${st}`).join(" · ");
+}
+
+function showPreparing(h) {
+  $("preparing-text").textContent = preparingText(h.preparing, h.models, planModel());
+  $("preparing-models").textContent = modelsText(h.models);
+  $("preparing-bar").max = h.preparing.models;
+  $("preparing-bar").value = h.preparing.models_done;
+  $("preparing").hidden = false;
+}
+
+// What waited for the solver: planned once its model is ready, an error if its model failed.
+function resumeWaiting(h) {
+  if (!waitingForSolver) return;
+  const model = planModel(), st = h.models[model];
+  if (st === "ready" || st === undefined) { // undefined: a model the server does not warm up
+    waitingForSolver = false;
+    schedule(0);
+  } else if (st === "failed") {
+    waitingForSolver = false;
+    showError(`the solver could not prepare the ${model} kernels (see the server's log)`);
+  }
+}
+
+// Show the warm-up's progress while a model is still being prepared, and plan what waited.
 async function watchSolver() {
   if (watching) return;
   watching = true;
   let h = await health();
-  while (h === null || h.ready === 0) {
-    if (h !== null && h.preparing === null) { // nothing is starting: the server says why in its log
-      showError("no solver process is running (see the server's log)");
-      break;
-    }
+  const pending = (x) => Object.values(x.models).some((st) => st !== "ready");
+  while (h === null || (h.preparing !== null && pending(h))) {
     if (h !== null) {
-      $("preparing-text").textContent = preparingText(h.preparing);
-      $("preparing-bar").max = h.preparing.models;
-      $("preparing-bar").value = h.preparing.models_done;
-      $("preparing").hidden = false;
+      showPreparing(h);
+      resumeWaiting(h);
     }
     await new Promise((resolve) => setTimeout(resolve, 1000));
     h = await health();
   }
   watching = false;
   $("preparing").hidden = true;
-  if (waitingForSolver && h !== null && h.ready > 0) {
+  resumeWaiting(h);
+  if (waitingForSolver) { // its model is not ready and nothing is starting: see the server's log
     waitingForSolver = false;
-    schedule(0);
+    showError("no solver process is running (see the server's log)");
   }
 }
 
