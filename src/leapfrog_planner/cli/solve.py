@@ -406,10 +406,10 @@ def with_map(sc, map_file: str):
 
 
 def _plan_with_progress(planner):
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
     if not err.is_terminal:  # no bar (and no stray blank line) when stderr is a file or pipe
         return planner.plan()
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     sc = planner.scenario
     columns = [
         TextColumn("{task.description}"),

@@ -23,6 +23,7 @@ from ..compiled.kernels import model_info
 from ..compiled.linear import dot, newton_correction, transpose_times
 from ..compiled.linear import solve as linear_solve
 from ..integrate.flow import Flow
+from ..roots import RootSettings
 from .planner import Planner, plan
 from .scenario import Scenario
 
@@ -41,7 +42,14 @@ def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
     local ``methods`` (and their multiple-shooting final solve) use. Returns the seconds taken
     (about 20 on a fresh machine, well under one once cached). Missing compiled Newton loops
     are compiled in the background, or, with ``here``, in this process (a minute in all): what
-    a command that times them needs."""
+    a command that times them needs.
+
+    A warm start (:func:`_warm`: the kernels are in the disk cache) only loads them: one small
+    plan per method, the plan's own steps in order. The multiple-shooting final solves and the
+    Python Newton loop's linear algebra are run where something may compile (a fresh cache, or
+    compiling in this process): once loaded, they use no machine code that the plain plans did
+    not load (measured for every built-in model and method), and the Python loop does not run
+    where the compiled loops are ready."""
     t0 = time.perf_counter()
     extra = [0.0] * (model_info(model).nx - 3)  # a model's further states (the car's steering)
     sc = Scenario(
@@ -52,21 +60,41 @@ def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
         obstacles=[[0.5, 0.25, 0.1], [0.6, -0.15, 0.08]],  # two: the tangents between discs too
         model=model,
     )
-    runs = RUNS
-    if methods is not None:
-        runs = [r for m in methods for r in ({"method": m}, {"method": m, "final": MS})]
     with background.here() if here else contextlib.nullcontext():
         flow = Flow(sc.problem())
-        if not loops_ready(flow):  # a fresh cache: the process compiling the loops was started,
-            # and it compiles the planning functions first, while this one compiles the
-            # integrator, so that each loads what the other compiled (two cores at work)
+        ready = loops_ready(flow)
+        if not ready:  # a fresh cache: the process compiling the loops was started, and it
+            # compiles the planning functions first, while this one compiles the integrator,
+            # so that each loads what the other compiled (two cores at work)
             flow(0.0, np.zeros(2 * flow.nx), 1.0, sensitivity="costate")
-        _planning_functions(sc, flow.nx)
-        for options in runs:
+        warm = ready and _warm(flow)
+        if not warm:
+            _planning_functions(sc, flow.nx)
+        for options in runs(methods, warm):
             plan(sc, threads=1, initial_paths=1, **options)
         if not background.in_background():  # the loops were compiled here, if missing
             background.finished(model_info(model).kernels)
     return time.perf_counter() - t0
+
+
+def runs(methods=None, warm: bool = False) -> list[dict]:
+    """The plans of :func:`warm_up`: each of the local ``methods`` (default: all), and, unless
+    ``warm``, their multiple-shooting final solves."""
+    if methods is None:
+        chosen = list(RUNS)
+    else:
+        chosen = [r for m in methods for r in ({"method": m}, {"method": m, "final": MS})]
+    return [r for r in chosen if not (warm and r.get("final") == MS)]
+
+
+def _warm(flow: Flow) -> bool:
+    """Whether the kernels of ``flow``'s model are in the disk cache, given that its compiled
+    Newton loops are ready (:func:`..bvp.shooting.loops_ready`): where they compile in a
+    process of their own (the default), that process compiles them with the kernels of its
+    plans, after those of the integrator and of the planning. Where they compile in this process
+    (``LEAPFROG_COMPILE_IN_BACKGROUND=0``, ``here``) or the model is not a built-in one, they
+    count as ready without a look: nothing tells, not warm."""
+    return background.in_background() and isinstance(flow.problem.model.definition, str)
 
 
 def _planning_functions(scenario: Scenario, nx: int) -> None:
@@ -74,7 +102,7 @@ def _planning_functions(scenario: Scenario, nx: int) -> None:
     initial paths' and the Python Newton loop's linear algebra."""
     Planner(scenario, initial_paths=1).initial_paths()
     J, F = np.eye(nx), np.ones(nx)
-    newton_correction(J, F, 1e13)
+    newton_correction(J, F, RootSettings().max_cond)
     linear_solve(J, F)
     transpose_times(J, F)
     dot(F, F)
