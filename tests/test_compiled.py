@@ -4,14 +4,12 @@ hand-kept list) and computed without SymPy; its kernels called through their ent
 from __future__ import annotations
 
 import ast
-import json
 import os
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from conftest import CASES, EXTREMAL_COSTATE
 from leapfrog_planner import Flow
@@ -81,33 +79,6 @@ def test_a_module_newly_imported_by_a_template_joins_the_key():
     assert new not in generator_sources()
     assert new in generator_sources(read)
     assert cache_key("m", read) != cache_key("m")
-
-
-def test_the_kept_imports_give_the_key_of_files_parsed_afresh(tmp_path, monkeypatch):
-    """A start reads what each file imports from the memo in the cache folder instead of
-    parsing every file: the same digest as parsing them all, whether the memo is new, kept,
-    damaged or of another layout of the package."""
-    from leapfrog_planner.compiled import cache_key as ck
-
-    memo = tmp_path / "imports.json"
-    parsed = ck.package_digest()
-    assert ck.package_digest(memo) == parsed and memo.is_file()  # new: parsed, then kept
-    with monkeypatch.context() as m:
-        m.setattr(ck, "imported_files", lambda *a: pytest.fail("a known file was parsed"))
-        assert ck.package_digest(memo) == parsed  # kept: nothing parsed
-    kept = json.loads(memo.read_text())
-    text = memo.read_text()
-    another = ck._seal("another layout", kept["imports"])
-    for damaged in (
-        "{not json",
-        "[]",
-        "{}",
-        text.replace("errors.py", "checks.py"),  # a wrong entry: its seal does not match
-        json.dumps({**kept, "seal": another}),
-    ):
-        memo.write_text(damaged)
-        assert ck.package_digest(memo) == parsed
-        assert json.loads(memo.read_text()) == kept  # parsed again, and kept again
 
 
 def test_a_warm_start_computes_the_key_and_loads_the_kernels_without_sympy():
