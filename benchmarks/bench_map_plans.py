@@ -2,6 +2,7 @@
 
     python benchmarks/bench_map_plans.py [--n 100] [--maps depot,tb3_sandbox,office,...]
                                          [--weight 1.0] [--seed 0] [--size 1000] [--json out]
+                                         [--cruise-speed V]
 
 Per map: ``--n`` random queries (``leapfrog generate --map``: start and goal at least 0.3 m from
 every blocked cell, more than 3 m apart, headings uniform, connected for the robot), robot
@@ -12,12 +13,15 @@ process after a warm-up plan (numba's kernels loaded), one at a time. Printed pe
 percentile of the plan's wall time; and the time to load the map and build its penalty field.
 The real maps (depot, tb3_sandbox) are read from ``../shared/maps`` (navigation2's); office,
 warehouse and shapes are the synthetic maps of ``world/synthetic.py`` (``--size`` cells a
-side). No assertions.
+side). ``--cruise-speed V``: the same queries with a free final time at a cruise speed of V m/s
+(the planner chooses how long to take; ``horizon`` in the rows is then the time it chose).
+No assertions.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import statistics
 import sys
@@ -27,6 +31,7 @@ from pathlib import Path
 
 from leapfrog_planner.batch.generate import map_scenarios
 from leapfrog_planner.planning.planner import Planner
+from leapfrog_planner.planning.scenario_time import FreeTime
 from leapfrog_planner.world import nonconvex_field, office_maze, save_ros_map, warehouse
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "maps"
@@ -51,12 +56,14 @@ def run(scenarios, verbose: bool) -> list[dict]:
     for sc in scenarios:
         t0 = time.perf_counter()
         r = Planner(sc).plan()
-        row = {"query": sc.name, "status": str(r.status), "cost": r.cost, "horizon": sc.horizon,
+        horizon = sc.horizon if r.free_time is None else r.free_time.horizon
+        row = {"query": sc.name, "status": str(r.status), "cost": r.cost, "horizon": horizon,
                "wall_s": time.perf_counter() - t0, "clearance": r.min_clearance,
-               "message": r.message}  # fmt: skip
+               "message": r.message,
+               "condition": None if r.free_time is None else r.free_time.condition}  # fmt: skip
         rows.append(row)
         if verbose:
-            print(f"  {sc.name} T={sc.horizon:.1f}: {row['status']} {row['cost']:.6g}"
+            print(f"  {sc.name} T={horizon:.1f}: {row['status']} {row['cost']:.6g}"
                   f" in {row['wall_s']:.2f} s", flush=True)  # fmt: skip
     return rows
 
@@ -83,6 +90,8 @@ def main(argv=None) -> int:
     parser.add_argument("--size", type=int, default=1000, help="synthetic maps' cells a side")
     parser.add_argument("--verbose", action="store_true", help="a line per query")
     parser.add_argument("--json", default=None, help="write every plan's row here")
+    parser.add_argument("--cruise-speed", type=float, default=None,
+                        help="a free final time at this cruise speed (m/s)")  # fmt: skip
     args = parser.parse_args(argv)
     out, warm = {}, False
     with tempfile.TemporaryDirectory() as tmp:
@@ -90,6 +99,10 @@ def main(argv=None) -> int:
             path = map_file(name, Path(tmp), args.size)
             t0 = time.perf_counter()
             scenarios = map_scenarios(path, args.n, args.seed, weight=args.weight, prefix=name)
+            if args.cruise_speed is not None:  # the unicycle's price of time: v^2 / 2
+                v = args.cruise_speed
+                free = FreeTime(v * v / 2, v)
+                scenarios = [dataclasses.replace(sc, free_time=free) for sc in scenarios]
             made = time.perf_counter() - t0
             if not warm:  # numba's kernels loaded before anything is timed
                 run(scenarios[:1], False)

@@ -166,6 +166,20 @@ def test_a_bound_on_t_holds_and_is_reported():
     assert "longest bound" in r.message
 
 
+def test_the_time_limit_bounds_the_whole_search_not_each_plan():
+    """A time limit is the free-time search's, not each of its fixed-horizon plans' (each
+    plan had the whole limit: 0.5 s asked, 12 s taken, on a random layout). Past it, nothing
+    more is planned or continued: the first plan (cut short itself) is all the search made,
+    and the answer says so, with the best path it has."""
+    sc = dataclasses.replace(load_scenario("paper-case-4"), free_time=FreeTime(1.0))
+    r = Planner(sc, time_limit=1e-3).plan()
+    assert [s.source for s in r.free_time.steps] == ["plan"]
+    assert "cut the search short" in r.message
+    assert r.trajectory is not None
+    full = plan(sc)
+    assert len(full.free_time.steps) > 1 and "cut the search short" not in full.message
+
+
 def test_a_guess_starts_the_search_and_the_answer_does_not_depend_on_it():
     costs = []
     for guess in (0.5, 20.0):

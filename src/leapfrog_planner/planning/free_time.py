@@ -71,7 +71,7 @@ class FixedHorizonPlans(Protocol):
     """What the free-time search needs of the planner: a plan at a horizon, and the problem
     and final solves' settings of an answer's obstacle weight."""
 
-    def plan_at(self, horizon: float) -> PlanResult: ...
+    def plan_at(self, horizon: float, deadline: float = math.inf) -> PlanResult: ...
 
     def problem_at(self, weight: float) -> OptimalControlProblem: ...
 
@@ -120,9 +120,12 @@ class _Met(Exception):
 class TimeSearch:
     """The root of ``k + H(T)`` along one family of extremals (step 2 of the module's method)."""
 
-    def __init__(self, problem, settings: ShootingSettings, k: float, limits, ends, first: Arcs):
+    def __init__(
+        self, problem, settings: ShootingSettings, k: float, limits, ends, first: Arcs,
+        deadline: float = math.inf,
+    ):  # fmt: skip
         self.problem, self.settings, self.k, self.ends = problem, settings, k, ends
-        self.limits = limits
+        self.limits, self.deadline = limits, deadline
         self.flow = Flow(problem, settings.integrator)
         self.points = [self._point(first)]
         self.solves = 0
@@ -152,6 +155,8 @@ class TimeSearch:
             T1 = targets[-1]
             if self.solves >= MAX_SOLVES:
                 raise _Stuck(f"the continuation in T made {MAX_SOLVES} solves")
+            if time.perf_counter() >= self.deadline:
+                raise _Stuck("the time limit ran out")
             self.solves += 1
             arcs = resolve(self.problem, base.arcs, self.problem, (0, T1), self.ends, self.settings)
             new = None if arcs is None else self._point(arcs)
@@ -241,16 +246,20 @@ class _Root:
         return self.point.V + k * self.point.T
 
 
-def plan_free_time(plans: FixedHorizonPlans, scenario: Scenario, T0: float) -> PlanResult:
-    """The free-time answer of ``scenario`` (the module's method), starting at ``T0``."""
+def plan_free_time(
+    plans: FixedHorizonPlans, scenario: Scenario, T0: float, deadline: float = math.inf
+) -> PlanResult:
+    """The free-time answer of ``scenario`` (the module's method), starting at ``T0``; past
+    ``deadline`` (a ``time.perf_counter()`` reading: the time limit) the search stops with
+    what it has: the first plan is always made (cut short itself)."""
     t_begin = time.perf_counter()
     k = scenario.free_time.time_weight
-    result, steps = _first_plan(plans, scenario, T0)
+    result, steps = _first_plan(plans, scenario, T0, deadline)
     planned, roots = [result], []
     for _ in range(ROUNDS):
         if result.status is not PlanStatus.CONVERGED:
             break
-        roots += _family_roots(plans, scenario, result, steps)
+        roots += _family_roots(plans, scenario, result, steps, deadline)
         best = _cheapest(roots, scenario)
         if best is None:  # no family could be followed: plan where the first step aimed
             T = _aimed(result, scenario)
@@ -260,7 +269,9 @@ def plan_free_time(plans: FixedHorizonPlans, scenario: Scenario, T0: float) -> P
             break  # the plan was made at the root: it has seen every family there
         else:
             T = best.point.T
-        result = plans.plan_at(T)
+        if time.perf_counter() >= deadline:
+            break
+        result = plans.plan_at(T, deadline)
         steps.append(_step(result, k, "plan"))
         planned.append(result)
         if best is not None and not _cheaper(result, best, k):
@@ -270,7 +281,8 @@ def plan_free_time(plans: FixedHorizonPlans, scenario: Scenario, T0: float) -> P
         answer = min(planned, key=lambda r: (r.status is not PlanStatus.CONVERGED, _total(r, k)))
     else:
         answer = _at_root(plans, scenario, best, planned)
-    return _reported(answer, steps, scenario, time.perf_counter() - t_begin)
+    cut = time.perf_counter() >= deadline
+    return _reported(answer, steps, scenario, time.perf_counter() - t_begin, cut)
 
 
 def _aimed(result: PlanResult, scenario: Scenario) -> float | None:
@@ -287,23 +299,29 @@ def _aimed(result: PlanResult, scenario: Scenario) -> float | None:
     return None if T == T0 else T
 
 
-def _first_plan(plans, scenario: Scenario, T0: float) -> tuple[PlanResult, list[TimeStep]]:
+def _first_plan(
+    plans, scenario: Scenario, T0: float, deadline: float
+) -> tuple[PlanResult, list[TimeStep]]:
     """The plan at ``T0``; where it finds no extremal, at longer horizons (gentler on the
-    controls: a bounded turn rate needs time), :data:`RETRIES` of them within the bounds."""
+    controls: a bounded turn rate needs time), :data:`RETRIES` of them within the bounds and
+    the time limit."""
     k, (_, hi) = scenario.free_time.time_weight, scenario.free_time.limits()
     steps = []
     for factor in (1.0, *RETRIES):
         T = min(T0 * factor, hi)
-        result = plans.plan_at(T)
+        result = plans.plan_at(T, deadline)
         steps.append(_step(result, k, "plan"))
-        if result.status is PlanStatus.CONVERGED or T == hi:
+        if result.status is PlanStatus.CONVERGED or T == hi or time.perf_counter() >= deadline:
             break
     return result, steps
 
 
-def _family_roots(plans, scenario: Scenario, result: PlanResult, steps: list) -> list[_Root]:
+def _family_roots(
+    plans, scenario: Scenario, result: PlanResult, steps: list, deadline: float
+) -> list[_Root]:
     """Step 2 for the answer of ``result`` and each of its alternatives that converged at a
-    cost (with the price of time) near it. The horizons solved are added to ``steps``."""
+    cost (with the price of time) near it, until ``deadline``. The horizons solved are added
+    to ``steps``."""
     free, k = scenario.free_time, scenario.free_time.time_weight
     ends = (scenario.start, scenario.goal)
     T0 = result.task.horizon
@@ -320,7 +338,9 @@ def _family_roots(plans, scenario: Scenario, result: PlanResult, steps: list) ->
         seen.append(cost)
         plans.progress_note(f"final time: the extremal of cost {cost:.6g} at T = {T0:.4g}")
         problem = plans.problem_at(weight)
-        search = TimeSearch(problem, plans.shooting, k, free.limits(), ends, arcs_of(trajectory))
+        search = TimeSearch(
+            problem, plans.shooting, k, free.limits(), ends, arcs_of(trajectory), deadline
+        )
         try:
             point, bound = search.solve()
             roots.append(_Root(point, bound, result, problem))
@@ -386,9 +406,10 @@ def _hamiltonian(result: PlanResult) -> float:
     return float(np.mean(tr.hamiltonian[tr.at_step]))
 
 
-def _reported(r: PlanResult, steps, scenario: Scenario, wall: float) -> PlanResult:
+def _reported(r: PlanResult, steps, scenario: Scenario, wall: float, cut: bool) -> PlanResult:
     """``r`` with its cost including the price of time, the report of the search, and failed
-    when converged without meeting the free-time condition (or resting on a bound)."""
+    when converged without meeting the free-time condition (or resting on a bound); ``cut``:
+    the time limit cut the search short (said in the message)."""
     free = scenario.free_time
     k, (lo, hi) = free.time_weight, free.limits()
     T, H = r.task.horizon, _hamiltonian(r)
@@ -404,6 +425,8 @@ def _reported(r: PlanResult, steps, scenario: Scenario, wall: float) -> PlanResu
         message += f"; T = {T:.6g} rests on its {bound} bound"
     elif status is PlanStatus.CONVERGED:
         message += f"; free final time T = {T:.6g} (k + H = {rep.condition:.1e})"
+    if cut and "cut the search short" not in message:  # else said by the plan it cut
+        message += "; the time limit cut the search short"
     alternatives = tuple(replace(a, cost=a.cost + k * T) for a in r.alternatives)
     return replace(
         r, status=status, optimal=optimal, message=message, cost=r.cost + k * T, free_time=rep,

@@ -154,21 +154,24 @@ class Planner:
         with single_threaded_blas():
             if self.scenario.free_time is None:
                 result = self._plan()
-            else:
-                result = plan_free_time(self, self.scenario, self._first_horizon())
+            else:  # the time limit is the whole search's, not each plan's
+                limit = self.settings.time_limit
+                deadline = time.perf_counter() + limit if limit is not None else float("inf")
+                result = plan_free_time(self, self.scenario, self._first_horizon(), deadline)
         return recorded(result, self.settings, "Planner.plan")
 
     # ------------------------------------------------------------ a free final time (.free_time)
 
-    def plan_at(self, horizon: float) -> PlanResult:
+    def plan_at(self, horizon: float, deadline: float = float("inf")) -> PlanResult:
         """The plan of the scenario with its horizon fixed at ``horizon``, with at least
-        :data:`.free_time.FREE_TIME_PATHS` initial paths."""
+        :data:`.free_time.FREE_TIME_PATHS` initial paths, cut short at ``deadline`` (a
+        ``time.perf_counter()`` reading)."""
         fixed = dataclasses.replace(self.scenario, horizon=horizon, free_time=None)
         paths = max(self.settings.initial_paths, FREE_TIME_PATHS)
         settings = dataclasses.replace(self.settings, initial_paths=paths)
         planner = Planner.__new__(Planner)  # not refused: the search may probe any T
         planner._setup(fixed, settings, self.progress)
-        return planner._plan(self.settings.initial_paths)
+        return planner._plan(self.settings.initial_paths, deadline)
 
     def problem_at(self, weight: float) -> OptimalControlProblem:
         """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
@@ -208,12 +211,15 @@ class Planner:
         effort = straight_effort(get_model(s.model), s.model_parameters)
         return first_horizon(s, min(p.length for p in paths), effort, estimate)
 
-    def _plan(self, asked: int | None = None) -> PlanResult:
+    def _plan(self, asked: int | None = None, deadline: float | None = None) -> PlanResult:
         """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for
-        (default: the settings'), a note in the message when fewer ran."""
+        (default: the settings'), a note in the message when fewer ran; ``deadline``: when
+        the search stops (default: the settings' time limit from now)."""
         t_begin = time.perf_counter()
         limit = self.settings.time_limit
-        self.runner.deadline = t_begin + limit if limit is not None else float("inf")
+        if deadline is None:
+            deadline = t_begin + limit if limit is not None else float("inf")
+        self.runner.deadline = deadline
         try:
             paths = self.path_selection()
         except Unreachable as exc:
