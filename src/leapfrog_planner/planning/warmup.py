@@ -20,7 +20,7 @@ import numpy as np
 from ..bvp.shooting import loops_ready
 from ..compiled import background
 from ..compiled.kernels import model_info
-from ..compiled.linear import dot, newton_correction, transpose_times
+from ..compiled.linear import converges_next, dot, newton_correction, transpose_times
 from ..compiled.linear import solve as linear_solve
 from ..integrate.flow import Flow
 from ..roots import RootSettings
@@ -106,3 +106,4 @@ def _planning_functions(scenario: Scenario, nx: int) -> None:
     linear_solve(J, F)
     transpose_times(J, F)
     dot(F, F)
+    converges_next(1.0, 1.0, RootSettings().tol)
