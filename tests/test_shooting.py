@@ -486,7 +486,7 @@ def test_affine_guess_does_not_depend_on_whole_turns_of_the_heading(turns):
         (3, None, "modified-newton", RootSettings(predict=True)),
         (4, "far", "newton", RootSettings(predict=True)),
         (4, "far", "modified-newton", RootSettings(predict=True, tol=1e-12)),
-        (4, None, "modified-newton", RootSettings(predict=True)),
+        (2, None, "modified-newton", RootSettings(predict=True)),
     ],
 )
 def test_compiled_newton_is_the_python_loop_bit_for_bit(case, guess, method, root):
