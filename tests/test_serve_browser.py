@@ -487,6 +487,7 @@ def test_the_page_shows_the_solver_being_prepared_then_plans(preparing_server, b
     assert banner.is_displayed()
     wait.until(lambda d: "(model 2 of 3)" in _text(d, "preparing-text"))
     assert "the unicycle is ready: it plans meanwhile." in _text(browser, "preparing-text")
+    assert " s on them, " in _text(browser, "preparing-text")  # the diff-drive's seconds
     ready = "unicycle ready · diff-drive compiling · car waiting"  # its process started
     wait.until(lambda d: _text(d, "preparing-models") == ready)
     assert bar.get_attribute("value") == "1"

@@ -83,6 +83,7 @@ def test_health_and_plans_while_the_solver_is_prepared(gate):
         assert r.json()["error"].startswith(
             "the solver is being prepared (the diff-drive kernels, model 2 of 2, "
         )
+        assert " s on them, " in r.json()["error"]  # that model's seconds, then all of them
         assert client.get("/api/health").json()["models"]["diff-drive"] == "compiling"
 
         (gate / "diff-drive").touch()

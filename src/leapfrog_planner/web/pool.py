@@ -80,12 +80,15 @@ def preparing_text(progress: dict, model: str | None = None) -> str:
     """What ``progress`` (see :meth:`_Worker.progress`) says, in words, for a plan of ``model``
     (by default the one being warmed up)."""
     done, total, at = progress["models_done"], progress["models"], progress["model"]
+    seconds = f"{progress['seconds']:.0f} s so far"
+    if at:  # the seconds on that model, and in all
+        seconds = f"{progress['model_seconds']:.0f} s on them, {progress['seconds']:.0f} s in all"
     where = f"the {at} kernels, model {done + 1} of {total}, " if at else ""
     if model is not None and at is not None and model != at:
         where = f"the {model} kernels after the {at} kernels, model {done + 1} of {total}, "
     return (
-        f"the solver is being prepared ({where}{progress['seconds']:.0f} s so far; the first"
-        " start on a machine compiles the kernels, about 20 s a model)"
+        f"the solver is being prepared ({where}{seconds}; the first start on a machine"
+        " compiles the kernels, about 20 s a model)"
     )
 
 
@@ -167,13 +170,13 @@ class _Worker:
         """Where its warm-up is: the model (the one being warmed up, else the next), how many
         are done, the seconds so far."""
         now = time.monotonic()
-        at = next((m for m, s in self.state.items() if s == COMPILING), None)
-        at = at or next((m for m, s in self.state.items() if s == WAITING), None)
+        compiling = next((m for m, s in self.state.items() if s == COMPILING), None)
+        at = compiling or next((m for m, s in self.state.items() if s == WAITING), None)
         return {
             "model": at,
             "models_done": sum(s in (READY, FAILED) for s in self.state.values()),
             "models": len(self.models),
-            "model_seconds": round(now - self.since, 1) if at else 0.0,
+            "model_seconds": round(now - self.since, 1) if compiling else 0.0,
             "seconds": round(now - self.started, 1),
         }
 

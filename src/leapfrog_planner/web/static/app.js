@@ -217,7 +217,9 @@ function preparingText(p, models, model) {
   const where = p.model ? `the ${p.model} kernels (model ${p.models_done + 1} of ${p.models}), ` : "";
   const then = models[model] === "ready" ? `the ${model} is ready: it plans meanwhile.`
     : `the plan runs as soon as the ${model} is ready.`;
-  return `Preparing the solver: ${where}${p.seconds.toFixed(0)} s so far. A first start on a ` +
+  const seconds = p.model ? `${p.model_seconds.toFixed(0)} s on them, ${p.seconds.toFixed(0)} s in all`
+    : `${p.seconds.toFixed(0)} s so far`;
+  return `Preparing the solver: ${where}${seconds}. A first start on a ` +
     `machine compiles the kernels, about 20 s a model; ${then}`;
 }
 
