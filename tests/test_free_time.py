@@ -157,6 +157,36 @@ def test_an_answer_is_no_dearer_than_a_fixed_horizon_plan_at_its_t(index):
     assert r.cost <= fixed.cost + 0.5 * T + 1e-9
 
 
+def test_a_first_horizon_shorter_than_the_top_speed_allows_is_not_planned():
+    """The estimate that picks the first horizon does not see a bound on the speed: on general
+    layout 3 with |v| <= 1.5 it chose 0.84 s where the shortest initial path needs 1.11 s, and
+    the plan there failed after 31 s before the retry at 1.6 times it converged. A horizon
+    shorter than the top speed allows is now skipped for the next retry (the last is always
+    planned). 3 m at |v| <= 1.5: 2 s at least."""
+    from types import SimpleNamespace
+
+    from leapfrog_planner.planning.free_time import RETRIES, _first_plan, least_time
+
+    sc = load_scenario_text(line())
+    assert least_time(sc, 3.0) == 0.0  # no bound: nothing is skipped
+    sc = dataclasses.replace(sc, control_bounds={"v": (-1.5, 1.5)})
+    assert least_time(sc, 3.0) == 2.0
+    asked = []
+
+    class Plans:
+        def plan_at(self, T, deadline=math.inf):
+            asked.append(T)
+            task = SimpleNamespace(horizon=T)
+            ok = PlanStatus.CONVERGED
+            return SimpleNamespace(status=ok, task=task, trajectory=None, optimal=False, cost=1.0)
+
+    assert RETRIES == (1.6, 2.5)
+    for T0, planned in ((2.0, 2.0), (1.5, 2.4), (1.0, 2.5), (0.5, 1.25)):
+        asked.clear()
+        _first_plan(Plans(), sc, T0, math.inf, 2.0)
+        assert asked == [pytest.approx(planned)]
+
+
 def test_a_bound_on_t_holds_and_is_reported():
     text = line(price="cruise_speed = 1.0") + "[time]\nbounds = [0.5, 2.0]\n"
     r = plan(load_scenario_text(text))  # the free optimum, 3 s, is beyond the longest

@@ -24,7 +24,7 @@ from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
 from ..model import get_model
 from .answer import Chosen, Context, choose_answer
-from .free_time import FREE_TIME_PATHS, first_horizon, plan_free_time
+from .free_time import FREE_TIME_PATHS, first_horizon, least_time, plan_free_time
 from .initial_path import InitialPath, initial_paths, points_away
 from .initial_path.map_paths import Unreachable, map_initial_paths
 from .leapfrog import Arcs
@@ -157,7 +157,8 @@ class Planner:
             else:  # the time limit is the whole search's, not each plan's
                 limit = self.settings.time_limit
                 deadline = time.perf_counter() + limit if limit is not None else float("inf")
-                result = plan_free_time(self, self.scenario, self._first_horizon(), deadline)
+                T0, least = self._first_horizon()
+                result = plan_free_time(self, self.scenario, T0, deadline, least)
         return recorded(result, self.settings, "Planner.plan")
 
     # ------------------------------------------------------------ a free final time (.free_time)
@@ -195,12 +196,14 @@ class Planner:
         lf = self.settings.leapfrog
         return dataclasses.replace(lf.final_shooting, samples=0, method=lf.method)
 
-    def _first_horizon(self) -> float:
+    def _first_horizon(self) -> tuple[float, float]:
+        """Where the search starts, and the least horizon the top speed allows for the shortest
+        initial path (:func:`.free_time.least_time`)."""
         s = self.scenario
         try:
             paths = self.initial_paths()
         except Unreachable:  # the plan at the provisional horizon says so
-            return s.horizon
+            return s.horizon, 0.0
         ends = (s.start, s.goal)
 
         def estimate(T: float) -> float:
@@ -209,7 +212,8 @@ class Planner:
         from ..model.cruise import straight_effort  # SymPy: only for a free horizon
 
         effort = straight_effort(get_model(s.model), s.model_parameters)
-        return first_horizon(s, min(p.length for p in paths), effort, estimate)
+        shortest = min(p.length for p in paths)
+        return first_horizon(s, shortest, effort, estimate), least_time(s, shortest)
 
     def _plan(self, asked: int | None = None, deadline: float | None = None) -> PlanResult:
         """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for
