@@ -39,6 +39,7 @@ from .bounded import MAX_HALVINGS, arcs_of, resolve
 from .leapfrog import Arcs
 from .results import PlanResult, Validation, piecewise_trajectory
 from .scenario import Scenario
+from .scenario_time import top_speed
 from .status import FreeTimeReport, PlanStatus, TimeStep
 
 #: The initial paths of the plans at a horizon, at least: the extremals they find are the
@@ -236,10 +237,8 @@ def first_horizon(scenario: Scenario, shortest: float, effort: float, estimate) 
 def least_time(scenario: Scenario, shortest: float) -> float:
     """The time the shortest initial path (``shortest`` long) takes at the top speed; 0
     without a bound on ``v``."""
-    bounds = scenario.control_bounds or {}
-    if "v" not in bounds:
-        return 0.0
-    return shortest / max(abs(v) for v in bounds["v"])
+    vmax = top_speed(scenario.control_bounds or {})
+    return 0.0 if vmax is None else shortest / vmax
 
 
 @dataclass(frozen=True)

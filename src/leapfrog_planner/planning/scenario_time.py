@@ -106,13 +106,18 @@ def provisional_horizon(free: FreeTime, start: np.ndarray, goal: np.ndarray, eff
     return float(np.clip(distance / speed, *free.limits()))
 
 
+def top_speed(bounds) -> float | None:
+    """The largest ``|v|`` the control ``bounds`` allow; None without a bound on ``v``."""
+    return max(abs(v) for v in bounds["v"]) if "v" in bounds else None
+
+
 def too_short(start, goal, bounds, longest: float, what: str) -> str | None:
     """Why ``longest`` seconds (``what`` names them) are too short for a bounded speed to cover
     the straight distance from ``start`` to ``goal``; None when they are not, or without a
     bound on ``v``."""
-    if "v" not in bounds:
+    vmax = top_speed(bounds)
+    if vmax is None:
         return None
-    vmax = max(abs(v) for v in bounds["v"])
     distance = float(np.hypot(*(goal[:2] - start[:2])))
     if distance <= vmax * longest:
         return None
