@@ -50,4 +50,5 @@ def serve_command(port: int) -> list[str]:
 
 if __name__ == "__main__":
     warmup.warm_up = gated(warmup.warm_up)
+    warmup.in_disk_cache = lambda model: False  # as on a fresh machine: compiled apart
     worker.main(sys.argv[1:])

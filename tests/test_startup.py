@@ -119,3 +119,24 @@ def test_after_a_warm_starts_warm_up_the_plan_loads_no_machine_code(final):
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["1", "0"]  # one plain warm-up plan; the plan added nothing
+
+
+def test_a_look_into_the_disk_cache_compiles_generates_and_starts_nothing(tmp_path, monkeypatch):
+    """``in_disk_cache`` (what ``leapfrog serve``'s solver asks of its other models): true where
+    a warm-up would only load the model's kernels; in an empty cache false, and the look leaves
+    no generated module behind and starts no compile in the background."""
+    from leapfrog_planner.compiled import background
+    from leapfrog_planner.planning.warmup import in_disk_cache, warm_up
+
+    warm_up("unicycle", here=True)  # the suite compiles here what is missing
+    monkeypatch.setenv(background.ENV, "1")
+    assert in_disk_cache("unicycle")
+    empty = tmp_path / "cache"
+    code = "from leapfrog_planner.planning.warmup import in_disk_cache as c; print(c('car'))"
+    env = {**os.environ, "PYTHONPATH": str(SRC), "LEAPFROG_CACHE_DIR": str(empty)}
+    env[background.ENV] = "1"
+    r = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600
+    )
+    assert (r.returncode, r.stdout) == (0, "False\n"), r.stderr
+    assert [p.name for p in empty.rglob("*") if p.is_file()] == []

@@ -460,7 +460,7 @@ def loops_ready(flow: Flow) -> bool:
     if now < _NEXT_LOOK.get(K.__name__, 0.0):
         return False
     _NEXT_LOOK[K.__name__] = now + LOOK_EVERY_S
-    if all(cached_entry_point(k, a) is not None for k, a in typical_loop_calls(flow)):
+    if loops_cached(flow):
         _READY.add(K.__name__)
         background.finished(K)
         return True
@@ -468,6 +468,12 @@ def loops_ready(flow: Flow) -> bool:
         _STARTED.add(K.__name__)
         background.start(model, K)
     return False
+
+
+def loops_cached(flow: Flow) -> bool:
+    """Whether the compiled Newton loops of ``flow``'s model are loaded or in the disk cache
+    (loaded from it if so): a look that compiles nothing and starts nothing."""
+    return all(cached_entry_point(k, a) is not None for k, a in typical_loop_calls(flow))
 
 
 def typical_loop_calls(flow: Flow) -> list[tuple]:

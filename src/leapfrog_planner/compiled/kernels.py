@@ -43,9 +43,8 @@ def load_kernels(model) -> ModuleType:
     """The compiled kernel module of ``model`` (a built-in name or a ``VehicleModel``)."""
     if isinstance(model, str) and model not in MODELS:
         raise ModelError(f"unknown model {model!r} (known: {', '.join(MODELS)})")
-    key = _key(model)
+    mod_name = _module_name(model)
     name = model if isinstance(model, str) else model.name
-    mod_name = "lfp_" + "".join(ch if ch.isalnum() else "_" for ch in name) + "_" + key
     if mod_name in sys.modules:
         return sys.modules[mod_name]
     path = writable_dir("models") / f"{mod_name}.py"
@@ -62,6 +61,20 @@ def load_kernels(model) -> ModuleType:
         remove_cached(path)
         _generate(model, path)
         return _import(mod_name, path)
+
+
+def _module_name(model) -> str:
+    """The name of ``model``'s generated module: its name made an identifier, and its key."""
+    name = model if isinstance(model, str) else model.name
+    return "lfp_" + "".join(ch if ch.isalnum() else "_" for ch in name) + "_" + _key(model)
+
+
+def generated(model) -> bool:
+    """Whether ``model``'s module is loaded or in the cache directory (or its read-only home):
+    a look that generates nothing."""
+    mod_name = _module_name(model)
+    where = (writable_dir("models"), cache_dir() / "models")
+    return mod_name in sys.modules or any((d / f"{mod_name}.py").is_file() for d in where)
 
 
 def _copy_read_only(path: Path) -> bool:

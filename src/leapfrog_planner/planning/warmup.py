@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
-from ..bvp.shooting import loops_ready
+from ..bvp.shooting import loops_cached, loops_ready
 from ..compiled import background
-from ..compiled.kernels import model_info
+from ..compiled.kernels import generated, model_info
 from ..compiled.linear import converges_next, dot, newton_correction, transpose_times
 from ..compiled.linear import solve as linear_solve
 from ..integrate.flow import Flow
@@ -51,15 +51,7 @@ def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
     not load (measured for every built-in model and method), and the Python loop does not run
     where the compiled loops are ready."""
     t0 = time.perf_counter()
-    extra = [0.0] * (model_info(model).nx - 3)  # a model's further states (the car's steering)
-    sc = Scenario(
-        name="warm-up",
-        horizon=1.0,
-        start=[0.0, 0.0, 0.0, *extra],
-        goal=[1.0, 0.3, 0.5, *extra],
-        obstacles=[[0.5, 0.25, 0.1], [0.6, -0.15, 0.08]],  # two: the tangents between discs too
-        model=model,
-    )
+    sc = _scenario(model)
     with background.here() if here else contextlib.nullcontext():
         flow = Flow(sc.problem())
         ready = loops_ready(flow)
@@ -75,6 +67,28 @@ def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
         if not background.in_background():  # the loops were compiled here, if missing
             background.finished(model_info(model).kernels)
     return time.perf_counter() - t0
+
+
+def in_disk_cache(model: str) -> bool:
+    """Whether :func:`warm_up` of the built-in ``model`` would find its kernels in the disk
+    cache and only load them (under a second): a look that compiles nothing, generates nothing
+    and starts no compile in the background."""
+    if not (background.in_background() and generated(model)):
+        return False
+    return loops_cached(Flow(_scenario(model).problem()))
+
+
+def _scenario(model: str) -> Scenario:
+    """The small plan that warms ``model`` up."""
+    extra = [0.0] * (model_info(model).nx - 3)  # a model's further states (the car's steering)
+    return Scenario(
+        name="warm-up",
+        horizon=1.0,
+        start=[0.0, 0.0, 0.0, *extra],
+        goal=[1.0, 0.3, 0.5, *extra],
+        obstacles=[[0.5, 0.25, 0.1], [0.6, -0.15, 0.08]],  # two: the tangents between discs too
+        model=model,
+    )
 
 
 def runs(methods=None, warm: bool = False) -> list[dict]:

@@ -1,11 +1,12 @@
 """What a solver process of ``leapfrog serve`` runs: it warms its first model up (loads its
 compiled kernels, or on a fresh machine compiles them, about 20 s a model), then answers jobs
 from its pipe, one at a time, until the pipe closes, and loads the other models meanwhile, one
-after the other, as a process of its own (:func:`warm_apart`) has compiled them into the disk
-cache. The server sends a job only for a model already warm: a plan of the first model is
-answered while the others are still compiling. (The compiling is a process apart, not a thread:
-numba compiling Python-heavy in a thread kept a plan's many short calls of compiled kernels
-waiting for the interpreter lock, measured 10 s and more for a plan of a few milliseconds.)
+after the other: those already in the disk cache when no job waits, the others as a process of
+its own (:func:`warm_apart`) has compiled them into the disk cache. The server sends a job
+only for a model already warm: a plan of the first model is answered while the others are
+still compiling. (The compiling is a process apart, not a thread: numba compiling
+Python-heavy in a thread kept a plan's many short calls of compiled kernels waiting for the
+interpreter lock, measured 10 s and more for a plan of a few milliseconds.)
 
 A job is ``(kind, scenario, options, image)``: what to send back, ``"view"`` (what the page
 draws, as JSON), ``"json"`` (the result file ``leapfrog solve --json`` writes) or ``"csv"``
@@ -152,39 +153,63 @@ def warm_apart(models):
 
 def serve(receive, send, models, threads: int) -> None:
     """The process's loop: warm the first of ``models`` up, then answer jobs (the server sends
-    only jobs of models already warm) and, between them, load each other model once the process
-    compiling them apart (:func:`warm_apart`) says it is in the disk cache."""
+    only jobs of models already warm) and, between them, load the other models: those in the
+    disk cache when nothing is asked, the rest once the process compiling them apart
+    (:func:`warm_apart`) says they are there."""
     from multiprocessing.connection import wait
 
     _as_a_child()
-    rest = list(models[1:])
     if models:  # nothing to answer before the first
         send.send((WARMING, models[0]))
         warm_here(models[0], send.send)
+    cached = [m for m in models[1:] if _in_disk_cache(m)]  # loaded here: under a second each
+    rest = [m for m in models[1:] if m not in cached]
     helper, said = warm_apart(rest) if rest else (None, None)
     while True:
-        if said is None or receive in wait([receive, said]):
+        ready = wait([receive] + ([said] if said else []), timeout=0 if cached else None)
+        if receive in ready:
             try:
                 job = receive.recv()
             except (EOFError, OSError):  # the server closed the pipe: done
                 return
             send.send(answer(job, threads))
-            continue
-        try:
-            message = said.recv()
-        except (EOFError, OSError):  # the helper ended: what it did not warm up failed
-            code = helper.wait()
-            for model in rest:
-                send.send((WARM_FAILED, model, f"the process compiling it ended (exit {code})"))
-            said.close()
-            helper, said = None, None
-            continue
-        if message[0] == WARM:  # in the disk cache: loaded here, under a second
-            warm_here(message[1], send.send)
-        else:
-            send.send(message)
-        if message[0] != WARMING:
-            rest.remove(message[1])
+        elif said in ready:
+            helper, said = _heard(helper, said, rest, send)
+        elif cached:  # nothing asked: load the next model in the disk cache
+            send.send((WARMING, cached[0]))
+            warm_here(cached.pop(0), send.send)
+
+
+def _in_disk_cache(model: str) -> bool:
+    """Whether ``model``'s kernels are in the disk cache; where the look fails (a damaged
+    cache), not: the process apart warms it up, and says why if that fails too."""
+    from ..planning.warmup import in_disk_cache
+
+    try:
+        return in_disk_cache(model)
+    except Exception:
+        log.warning("could not look the %s kernels up in the disk cache", model, exc_info=True)
+        return False
+
+
+def _heard(helper, said, rest: list[str], send):
+    """Pass on what the process compiling ``rest`` apart said (a model it compiled is loaded
+    here); returns that process and its pipe, or ``(None, None)`` once it ended."""
+    try:
+        message = said.recv()
+    except (EOFError, OSError):  # the helper ended: what it did not warm up failed
+        code = helper.wait()
+        for model in rest:
+            send.send((WARM_FAILED, model, f"the process compiling it ended (exit {code})"))
+        said.close()
+        return None, None
+    if message[0] == WARM:  # in the disk cache: loaded here, under a second
+        warm_here(message[1], send.send)
+    else:
+        send.send(message)
+    if message[0] != WARMING:
+        rest.remove(message[1])
+    return helper, said
 
 
 def _as_a_child() -> None:
