@@ -291,6 +291,57 @@ def test_a_fixed_horizon_too_short_for_the_bounded_speed_is_refused_before_plann
     assert Planner(free).scenario.free_time is not None  # its T is the planner's to choose
 
 
+def test_the_top_straight_speed_of_bounded_controls():
+    from leapfrog_planner.model.cruise import top_straight_speed
+
+    uni, dd = get_model("unicycle"), get_model("diff-drive")
+    assert top_straight_speed(uni, {}, {"v": (0.0, 0.8)}) == pytest.approx(0.8)
+    assert top_straight_speed(uni, {}, {"v": (-1.5, 0.5)}) == pytest.approx(1.5)  # in reverse
+    assert top_straight_speed(uni, {}, {"omega": (-1.0, 1.0)}) is None  # speed unbounded
+    wheels = {"omega_R": (-8.0, 8.0), "omega_L": (-8.0, 4.0)}  # both wheels at v / r
+    assert top_straight_speed(dd, {"wheel_radius": 0.1}, wheels) == pytest.approx(0.8)
+    wheels["omega_R"] = (-2.0, 8.0)
+    assert top_straight_speed(dd, {"wheel_radius": 0.1}, wheels) == pytest.approx(0.4)
+
+
+@pytest.mark.parametrize(
+    ("robot", "price", "needle"),
+    [
+        ("v = [0.0, 1.0]", "cruise_speed = 1.0", "a cruise speed of 1 is at or above the top"),
+        ("v = [0.0, 0.8]", "cruise_speed = 1.5", "above the top speed 0.8 the control bounds"),
+        ("v = [0.0, 0.8]", "time_weight = 0.5", "a price of time of 0.5 per second (a cruise"),
+        ('model = "diff-drive"\nwheel_radius = 0.1\nomega_R = [-8.0, 8.0]', "cruise_speed = 1",
+         "above the top speed 0.8"),
+    ],
+)  # fmt: skip
+def test_a_price_of_time_that_asks_for_the_top_speed_or_more_is_refused_at_once(
+    robot, price, needle
+):
+    """Where the price of time asks the robot to cruise at or above the top speed its bounds
+    allow, the optimum drives at that top speed, on the bounds, where no T meets the free-time
+    condition: the planner refuses it in one line, at once (it searched for minutes and
+    failed, or converged on a dearer route that does not reach the bounds: 5.54 against
+    IPOPT's 4.29 on a layout of one disc); the scenario itself is a valid description."""
+    text = f'horizon = "free"\nstart = [0, 0, 0]\ngoal = [2, 0, 0]\n[robot]\n{robot}\n'
+    sc = load_scenario_text(f"{text}[cost]\n{price}\n", "fast.toml")
+    with pytest.raises(ScenarioError) as e:
+        Planner(sc)
+    message = str(e.value)
+    assert needle in message and message.startswith("fast.toml: cost.") and "\n" not in message
+    assert "ask for a cruise speed below" in message
+
+
+def test_a_cruise_just_below_the_top_speed_meets_the_closed_form():
+    """2 m in free space, speed at most 1, cruise 0.95: T = 2 / 0.95 and J = 2 * 0.95 (the
+    time term included), with the speed inside its bound all along."""
+    text = 'horizon = "free"\nstart = [0, 0, 0]\ngoal = [2, 0, 0]\n[robot]\nv = [0.0, 1.0]\n'
+    r = plan(load_scenario_text(text + "[cost]\ncruise_speed = 0.95\n"))
+    assert r.status is PlanStatus.CONVERGED and condition_met(r)
+    assert r.free_time.horizon == pytest.approx(2 / 0.95, rel=1e-6)
+    assert r.cost == pytest.approx(2 * 0.95, rel=1e-6)
+    assert np.all(r.trajectory.u[:, 0] <= 1.0 + 1e-9)
+
+
 def test_the_command_line_plans_a_free_time_and_refuses_bad_input(tmp_path):
     from tests.test_cli import run_cli
 

@@ -22,6 +22,32 @@ def straight_effort(model: VehicleModel, parameters: dict[str, float]) -> float:
     speed from the origin with every other state at zero, for the parameter values
     ``parameters`` (by name; defaults for the others). The running cost must be a quadratic
     form of the controls and the dynamics there linear in them."""
+    return _straight(model, parameters)[0]
+
+
+def top_straight_speed(
+    model: VehicleModel, parameters: dict[str, float], bounds: dict[str, tuple[float, float]]
+) -> float | None:
+    """The top speed at which ``model`` can drive straight ahead (or back) with the controls of
+    least effort (:func:`straight_effort`: those of a cruise) inside ``bounds`` (by control
+    name); None where no bound limits them."""
+    _, uc = _straight(model, parameters)
+    limits = [
+        (lo, hi, u)
+        for name, u in zip(model.control_names, uc, strict=True)
+        if name in bounds and abs(u) > 1e-12
+        for lo, hi in [bounds[name]]
+    ]
+    if not limits:
+        return None
+    ahead = min(max((hi if u > 0 else lo) / u, 0.0) for lo, hi, u in limits)
+    back = min(max((lo if u > 0 else hi) / -u, 0.0) for lo, hi, u in limits)
+    return max(ahead, back)
+
+
+def _straight(model: VehicleModel, parameters: dict[str, float]) -> tuple[float, np.ndarray]:
+    """The effort ``c`` of :func:`straight_effort` and the controls that drive at unit speed
+    with it."""
     values = dict(zip(model.parameter_names, model.defaults, strict=True)) | dict(parameters)
     at = {s: 0 for s in model.states}
     at.update({p: values[n] for p, n in zip(model.parameters, model.parameter_names, strict=True)})
@@ -52,4 +78,4 @@ def straight_effort(model: VehicleModel, parameters: dict[str, float]) -> float:
     c = 0.5 * float(uc @ Q @ uc)
     if not np.allclose(A @ uc, b) or not c > 0.0:
         raise ModelError(f"model {model.name!r} cannot drive straight ahead: give a time weight")
-    return c
+    return c, uc

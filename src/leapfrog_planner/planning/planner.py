@@ -55,8 +55,7 @@ class Planner:
         **options,
     ):
         scenario = as_scenario(scenario)
-        if scenario.free_time is None:  # refused at once, not after a plan that cannot succeed
-            refuse_unreachable(scenario)
+        refuse_unreachable(scenario)  # at once, not after a search that cannot succeed
         self._setup(scenario, PlannerSettings.of_scenario(scenario, settings, **options), progress)
 
     def _setup(self, scenario: Scenario, settings: PlannerSettings, progress) -> None:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .. import checks
+from ..errors import ModelError
 from .scenario_checks import ScenarioCheck
 
 COST_KEYS = ("time_weight", "cruise_speed")
@@ -127,10 +128,48 @@ def too_short(start, goal, bounds, longest: float, what: str) -> str | None:
     )
 
 
+def too_fast(free: FreeTime, model: str, parameters: dict, bounds) -> str | None:
+    """Why the price of time ``free`` asks the bounded ``model`` (a built-in name, with its
+    ``parameters``) to cruise at or above the top speed its control ``bounds`` allow: its
+    optimum would then drive at that top speed, on the bounds, where the costates the shooting
+    solves for grow without limit and the condition that fixes ``T`` is never met (a search
+    of minutes that ends in nothing, or at a dearer route that does not reach the bounds);
+    None when it does not."""
+    from ..model import get_model
+    from ..model.cruise import straight_effort, top_straight_speed  # SymPy
+
+    vehicle = get_model(model)
+    try:
+        top = top_straight_speed(vehicle, parameters, bounds)
+        speed = math.sqrt(free.time_weight / straight_effort(vehicle, parameters))
+    except ModelError:  # a model that cannot cruise: its price of time is given as a weight
+        return None
+    if top is None:
+        return None
+    if speed < top:
+        return None
+    asked = (
+        f"a cruise speed of {speed:g}"
+        if free.cruise_speed is not None
+        else f"a price of time of {free.time_weight:g} per second (a cruise speed of {speed:.4g})"
+    )
+    return (
+        f"{asked} is at or above the top speed {top:.4g} the control bounds allow: the optimum"
+        f" would drive at the top speed, which the planner cannot solve for; ask for a cruise"
+        f" speed below {top:.4g}, or plan a fixed horizon"
+    )
+
+
 def refuse_unreachable(scenario) -> None:
-    """Refuse a fixed horizon too short for the scenario's bounded speed (:func:`too_short`)
-    before anything is planned: no plan could succeed."""
-    T = scenario.horizon
-    why = too_short(scenario.start, scenario.goal, scenario.control_bounds, T, f"T = {T:g}")
+    """Refuse, before anything is planned, a fixed horizon too short for the scenario's bounded
+    speed (:func:`too_short`: no plan could succeed), or a free one priced to cruise at or
+    above it (:func:`too_fast`: no plan could settle ``T``)."""
+    free, bounds = scenario.free_time, scenario.control_bounds
+    if free is None:
+        key, T = "horizon", scenario.horizon
+        why = too_short(scenario.start, scenario.goal, bounds, T, f"T = {T:g}")
+    else:
+        key = "cost.cruise_speed" if free.cruise_speed is not None else "cost.time_weight"
+        why = too_fast(free, scenario.model, scenario.model_parameters, bounds) if bounds else None
     if why is not None:
-        ScenarioCheck(scenario.source or scenario.name).fail("horizon", why)
+        ScenarioCheck(scenario.source or scenario.name).fail(key, why)
