@@ -404,6 +404,22 @@ def test_shoot_from_a_good_guess_reaches_case_1_optimum(good_runs):
     assert d["end_state_error"] <= 1e-8
 
 
+def test_shoot_never_calls_an_extremal_through_an_obstacle_converged(tmp_path):
+    """Simple shooting from the affine guess on a straight task converges to the straight line
+    through a disc on it: the command says it collides (exit 1), with its clearance, as a
+    plan's answer would be; the same task beside the disc converges."""
+    args = ["shoot", "--start", "0", "0", "0", "--goal", "2", "0", "0", "--json", "s.json"]
+    run = run_cli([*args, "--obstacle", "1", "0", "0.2"], tmp_path)
+    assert run.returncode == 1, run.stderr
+    d = json.loads((tmp_path / "s.json").read_text())
+    assert d["status"] == "collides" and d["min_clearance"] == pytest.approx(-0.2, abs=1e-6)
+    assert "passes through an obstacle" in d["message"] and "collides" in run.stdout
+    beside = run_cli([*args[:-2], "--json", "b.json", "--obstacle", "1", "0.5", "0.2"], tmp_path)
+    assert beside.returncode == 0, beside.stderr
+    d = json.loads((tmp_path / "b.json").read_text())
+    assert d["status"] == "converged" and d["min_clearance"] == pytest.approx(0.3, abs=1e-3)
+
+
 def test_solve_warms_up_only_the_method_it_plans_with(monkeypatch):
     """A plan with one local method loads that method's kernels and its multiple-shooting final
     solve (0.07 s less for `leapfrog solve` than all three methods); `leapfrog warmup` and the

@@ -107,13 +107,22 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
     )
     if guess is not None:
         guess = checks.vector(guess, 3, "options: --guess", error=ScenarioError)
-    res = solve_shooting(
-        sc.problem(), 0.0, sc.start, sc.horizon, sc.goal, method=method, guess=guess
-    )
+    problem = sc.problem()
+    res = solve_shooting(problem, 0.0, sc.start, sc.horizon, sc.goal, method=method, guess=guess)
+    clearance = _shot_clearance(problem, sc, res)
+    status = str(res.status)
+    if res.success and clearance is not None and clearance < 0.0:  # never a success
+        status = "collides"
     table = Table(title=f"simple shooting ({method})", show_header=False)
     for k, v in [
-        ("status", str(res.status)),
+        (
+            "status",
+            status
+            if status != "collides"
+            else f"collides: the extremal passes through an obstacle (clearance {clearance:.4g})",
+        ),
         ("cost", f"{res.cost:.8g}"),
+        ("clearance", "n/a (no obstacles)" if clearance is None else f"{clearance:.4g}"),
         ("initial costate", np.array2string(res.costate0, precision=6)),
         ("end-state error", f"{res.end_state_error:.2e}"),
         ("max |dH/du|", f"{res.max_dH_du:.2e}"),
@@ -125,9 +134,12 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
     console.print(table)
     if json_out:
         out = {
-            "status": str(res.status),
-            "message": res.message,
+            "status": status,
+            "message": res.message
+            if status != "collides"
+            else f"the extremal passes through an obstacle; {res.message}",
             "cost": res.cost,
+            "min_clearance": clearance,
             "costate0": res.costate0.tolist(),
             "end_state_error": res.end_state_error,
             "newton_iterations": res.root.iterations,
@@ -137,15 +149,29 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
         write_output(
             lambda p: write_atomic(p, lambda tmp: Path(tmp).write_text(text)), json_out, "--json"
         )
-    if not res.success:
+    if status != "converged":
         err.print(
-            "hint: simple shooting converges only from a good initial costate (--guess);"
-            " `leapfrog solve` (Leapfrog) starts from a feasible path instead",
+            "hint: simple shooting converges only from a good initial costate (--guess), to"
+            " the extremal nearest it, through an obstacle or not; `leapfrog solve` (Leapfrog)"
+            " starts from feasible paths round the obstacles instead",
             markup=False,
             highlight=False,
             soft_wrap=True,
         )
-    return EXIT_OK if res.success else EXIT_FAILED
+    return EXIT_OK if status == "converged" else EXIT_FAILED
+
+
+def _shot_clearance(problem, sc, res) -> float | None:
+    """The least clearance of the extremal ``res`` found by shooting ``sc``, re-integrated and
+    sampled as a plan's answer is (None without obstacles, nan where it did not converge)."""
+    from ..planning.results import validate
+
+    if not len(sc.obstacles):
+        return None
+    if not res.success:
+        return float("nan")
+    v = validate(problem, 0.0, sc.start, sc.horizon, sc.goal, res.costate0)
+    return float(v.clearance.min())
 
 
 @click.command()
