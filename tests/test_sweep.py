@@ -161,6 +161,18 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, args, message):
     assert not out.exists()
 
 
+def test_the_random_scenarios_options_without_n_are_refused_not_ignored(tmp_path):
+    """``--horizon free --cruise-speed`` with files only would sweep the files' fixed horizons,
+    the options silently ignored: refused in one line, naming them, nothing written."""
+    out = tmp_path / "r.jsonl"
+    args = ["builtin:paper-case-1", "--horizon", "free", "--cruise-speed", "0.5"]
+    cmd = [sys.executable, "-m", "leapfrog_planner.cli", "sweep", *args, "--out", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--horizon, --cruise-speed: options of the random scenarios" in r.stderr
+    assert 'horizon = "free"' in r.stderr and not out.exists()
+
+
 # --------------------------------------------------------------------------- faulty pairs
 
 

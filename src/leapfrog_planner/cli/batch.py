@@ -113,7 +113,7 @@ def _generator_options(fn):
             default=None,
             callback=_range(float, "cruise-speed"),
             help="with --horizon free: the speed in free space, which sets the price of time"
-            " (v^2 / 2 per second), a value or LO..HI (uniform)",
+            " (v^2 / 2 per second for the unicycle), a value or LO..HI (uniform)",
         ),
         click.option(
             "--pace",
@@ -278,6 +278,7 @@ def sweep(
         chunk_size=chunk_size,
         sort=not no_sort,
     )
+    _generator_options_need_n(gen)
     scenarios = _load_sources(sources)
     out_path = output_path(out, "--out", [s.source for s in scenarios if s.source])
     if gen["n"] is not None:
@@ -295,6 +296,25 @@ def sweep(
     if not quiet:
         _print_summary(summary)
     return EXIT_OK
+
+
+def _generator_options_need_n(gen: dict) -> None:
+    """Refuse the random scenarios' options without ``--n``: they shape only those, and the
+    scenarios of files and built-ins would be swept as they are, the option ignored."""
+    ctx = click.get_current_context()
+    given = [
+        name for name in gen if name != "n"
+        and ctx.get_parameter_source(name) is not click.core.ParameterSource.DEFAULT
+    ]  # fmt: skip
+    if given and gen["n"] is None:
+        flags = ", ".join("--" + name.replace("_", "-") for name in given)
+        hint = ""
+        if {"horizon", "cruise_speed"} & set(given):
+            hint = ' (a free horizon in a file: horizon = "free" and [cost] cruise_speed)'
+        raise click.UsageError(
+            f"{flags}: options of the random scenarios, which --n asks for; the scenarios of"
+            f" files and built-ins are swept as they are{hint}"
+        )
 
 
 def _with_progress(scenarios, out_path, settings):
