@@ -113,7 +113,7 @@ BAD = [
     Bad(
         "wrong-type",
         SOLVE,
-        r"horizon: expected a number, got string 'one'",
+        r"horizon: expected seconds or \"free\", got 'one'",
         'horizon = "one"\n' + NO_HORIZON,
     ),
     Bad(

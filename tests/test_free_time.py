@@ -250,15 +250,28 @@ def test_the_same_input_gives_the_same_answer():
         (line(price="time_weight = nan"), "cost.time_weight"),
         (line(price="time_weight = 1e12"), "outside"),
         (line(price="cruise_speed = 0"), "cost.cruise_speed: must be > 0"),
-        (line(price="cruise_speed = 1\ntime_weight = 1"), "one of time_weight and cruise_speed"),
-        (line(price=""), "one of time_weight and cruise_speed"),
+        (
+            line(price="cruise_speed = 1\ntime_weight = 1"),
+            "cost: give time_weight or cruise_speed, not both",
+        ),
+        (line(price=""), "needs a price of time: time_weight or cruise_speed"),
         (line(price="speed = 1"), "speed"),
         (line() + "[time]\nbounds = [2, 1]\n", "shortest < longest"),
         (line() + "[time]\nbounds = [0, 1]\n", "time.bounds"),
         (line() + "[time]\nbounds = [1, 2]\nguess = 5\n", "outside the bounds"),
         (line() + "[time]\nbest = 5\n", "time"),
-        (line().replace('horizon = "free"', "horizon = 2"), 'needs horizon = "free"'),
-        (line().replace('horizon = "free"', 'horizon = "fre"'), "horizon"),
+        (
+            line().replace('horizon = "free"', "horizon = 2"),
+            'cost: a price of time needs horizon = "free"',
+        ),
+        (
+            "horizon = 2\nstart = [0, 0, 0]\ngoal = [3, 0, 0]\n[time]\nguess = 1\n",
+            'time: a guess or bounds of T needs horizon = "free"',
+        ),
+        (
+            line().replace('horizon = "free"', 'horizon = "Free"'),
+            """horizon: expected seconds or "free", got 'Free'""",
+        ),
     ],
 )
 def test_bad_free_time_input_is_one_line(text, needle):
@@ -352,7 +365,8 @@ def test_the_command_line_plans_a_free_time_and_refuses_bad_input(tmp_path):
     for args, needle in [
         (["--cruise-speed", "1"], "--horizon free"),
         (["--horizon", "soon"], "expected seconds or free"),
-        (["--horizon", "free"], "one of time_weight and cruise_speed"),
+        (["--horizon", "free"], "error: --horizon free needs a price of time: add --cruise"),
+        (["--horizon", "-1"], "--horizon: must be > 0, got -1"),
         (["--horizon", "free", "--time-weight", "-1"], "--time-weight"),
         (["--horizon", "free", "--time-weight", "1", "--cruise-speed", "1"], "not both"),
     ]:

@@ -329,7 +329,7 @@ BAD = [
     ("missing-goal", "horizon = 1\nstart = [1, 0, 0]\n", ["goal: missing"]),
     ("missing-center", BASE + "[[obstacles]]\nradius = 1.0\n", ["obstacles[0].center: missing"]),
     ("missing-radius", BASE + "[[obstacles]]\ncenter = [5, 5]\n", ["obstacles[0].radius: missing"]),
-    ("horizon-string", BASE.replace("1.0", '"1.0"'), ["horizon: expected a number", "'1.0'"]),
+    ("horizon-string", BASE.replace("1.0", '"1.0"'), ["horizon: expected seconds or", "'1.0'"]),
     ("horizon-bool", BASE.replace("1.0", "true"), ["horizon: expected a number", "boolean true"]),
     ("start-string", BASE.replace("start = [0.0,", 'start = ["0",'), ["start[0]: expected a num"]),
     ("start-bool", BASE.replace("start = [0.0,", "start = [false,"), ["start[0]", "boolean false"]),

@@ -297,7 +297,7 @@ def test_bad_robots_and_waypoints_are_a_400_with_the_message(client, scenario, m
         ),
         (
             {"scenario": dict(CASE4, horizon="abc")},
-            "scenario: horizon: expected a number, got string 'abc'",
+            "scenario: horizon: expected seconds or \"free\", got 'abc'",
         ),
         (
             {"scenario": dict(CASE4, start=[0.4, 0.05, 0])},

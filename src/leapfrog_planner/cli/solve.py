@@ -403,9 +403,16 @@ def with_horizon(sc, horizon: str | None, cruise_speed, time_weight):
             raise click.BadParameter(
                 f"expected seconds or free, got {horizon!r}", param_hint="--horizon"
             ) from None
+        if not d["horizon"] > 0:
+            raise click.BadParameter(f"must be > 0, got {horizon}", param_hint="--horizon")
         d.pop("cost", None), d.pop("time", None)
     elif horizon is not None:
         d["horizon"] = "free"
+        if cruise_speed is None and time_weight is None and "cost" not in d:
+            raise click.UsageError(
+                "--horizon free needs a price of time: add --cruise-speed or --time-weight"
+                " (or a [cost] table in the scenario)"
+            )
     if cruise_speed is not None or time_weight is not None:
         if d["horizon"] != "free":
             raise click.UsageError(

@@ -429,7 +429,7 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
     )
     scenario = Scenario(
         name=data.get("name", _default_name(source)),
-        horizon=1.0 if data["horizon"] == FREE else data["horizon"],
+        horizon=1.0 if data["horizon"] == FREE else _seconds(c, data["horizon"]),
         start=data["start"],
         goal=data["goal"],
         obstacles=obstacles,
@@ -448,13 +448,21 @@ def scenario_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Scena
     return _free_time(c, data, scenario)
 
 
+def _seconds(c: ScenarioCheck, horizon):
+    """A fixed ``horizon`` as given, checked by :class:`Scenario`; a string other than
+    ``"free"`` refused here, saying that it may be."""
+    if isinstance(horizon, str):
+        c.fail("horizon", f'expected seconds or "{FREE}", got {horizon!r}')
+    return horizon
+
+
 def _free_time(c: ScenarioCheck, data: Mapping, scenario: Scenario) -> Scenario:
     """``scenario`` with the free time of its file: ``horizon = "free"`` with its ``[cost]``
     and ``[time]`` tables (else as it is, and neither table allowed)."""
     if data["horizon"] != FREE:
-        for key in ("cost", "time"):
+        for key, what in (("cost", "a price of time"), ("time", "a guess or bounds of T")):
             if key in data:
-                c.fail(key, f'a price of time needs horizon = "{FREE}", got {data["horizon"]!r}')
+                c.fail(key, f'{what} needs horizon = "{FREE}", got {data["horizon"]!r}')
         return scenario
     from ..model import get_model
     from ..model.cruise import straight_effort

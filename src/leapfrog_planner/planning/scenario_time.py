@@ -67,8 +67,10 @@ def free_time_from_tables(
     cost = c.table({} if cost is None else cost, "cost")
     c.known_keys(cost, COST_KEYS, "cost")
     given = [k for k in COST_KEYS if k in cost]
-    if len(given) != 1:
-        c.fail("cost", "a free horizon needs one of time_weight and cruise_speed")
+    if not given:
+        c.fail("cost", "a free horizon needs a price of time: time_weight or cruise_speed")
+    if len(given) > 1:
+        c.fail("cost", "give time_weight or cruise_speed, not both")
     speed = None
     if "cruise_speed" in cost:
         speed = c.number(cost["cruise_speed"], "cost.cruise_speed", gt=0)
