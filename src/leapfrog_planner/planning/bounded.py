@@ -15,6 +15,8 @@ most :data:`MAX_HALVINGS` times in all.
 
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -172,11 +174,18 @@ def continue_to_bounds(
     ends: tuple[np.ndarray, np.ndarray],
     steps: int,
     settings: ShootingSettings,
+    deadline: float = math.inf,
 ) -> Continued:
-    """Continue ``run`` (an extremal of ``at(0)``) to ``at(1)`` in ``steps`` equal steps."""
+    """Continue ``run`` (an extremal of ``at(0)``) to ``at(1)`` in ``steps`` equal steps; past
+    ``deadline`` (a ``time.perf_counter()`` reading: a plan's time limit) no step starts, and
+    the run says where it stopped."""
     arcs, s, current, halvings = run.extremal, 0.0, at(0.0), 0
     todo = list(np.linspace(0.0, 1.0, steps + 1)[1:])
+    timed_out = False
     while todo and arcs is not None:
+        if time.perf_counter() >= deadline:
+            timed_out = True
+            break
         trial = at(todo[0])
         new = resolve(current, arcs, trial, t, ends, settings)
         if new is not None:
@@ -191,7 +200,8 @@ def continue_to_bounds(
         note = f"; continued to the problem itself ({_what(current)})"
     else:
         done = np.floor(1000.0 * s) / 10.0  # never rounded up to a 100% that was not reached
-        note = f"; {STOPPED} at {done:g}% ({_what(current)})"
+        why = ", at the time limit" if timed_out else ""
+        note = f"; {STOPPED} at {done:g}% ({_what(current)}){why}"
     one = arcs is not None and arcs.t.size == 2
     run = replace(
         run,

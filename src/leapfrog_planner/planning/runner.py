@@ -168,12 +168,17 @@ class Runner:
             t, X = junctions
             iterate_problem = wide = at(0.0)
             guide = PathGuide(wide, guide.path, s.horizon, guide.t0, guide.ends)
-            run = leapfrog(wide, t, X, guide=guide, settings=lf, flow=self.flow_of(wide))
+            run = leapfrog(
+                wide, t, X, guide=guide, settings=lf, flow=self.flow_of(wide),
+                deadline=self.deadline,
+            )  # fmt: skip
         if not run.success:
             return run, problem, iterate_problem
         steps = 8 if relaxed or aid else len(s.smoothing_widths) - 1
         ends = (s.start, s.goal)
-        done = continue_to_bounds(at, run, (0.0, s.horizon), ends, steps, lf.final_shooting)
+        done = continue_to_bounds(
+            at, run, (0.0, s.horizon), ends, steps, lf.final_shooting, self.deadline
+        )
         return done.run, done.problem, iterate_problem
 
     def emit(self, event: PlanEvent):
