@@ -392,3 +392,16 @@ def test_the_terminal_s_progress_bar_follows_a_plan(monkeypatch):
     r = cli_solve._plan_with_progress(planner)
     assert r.status is PlanStatus.CONVERGED
     assert "paper-case-1" in terminal.file.getvalue()  # the bar was drawn
+
+
+def test_an_extremal_that_misses_the_free_time_condition_is_not_called_an_extremal():
+    """Failed for want of ``k + H = 0``: the motion returned is the fixed horizon's extremal,
+    and its source says so and that it is not optimal (it said "extremal", as an answer's)."""
+    from leapfrog_planner.planning.free_time import _reported
+
+    free = load_scenario_text(line())
+    fixed = plan(dataclasses.replace(free, horizon=1.0, free_time=None))
+    assert fixed.status is PlanStatus.CONVERGED and fixed.trajectory_source == "extremal"
+    r = _reported(fixed, [], free, 0.0, False)  # the free optimum is at T = 3
+    assert r.status is PlanStatus.FAILED and not r.optimal
+    assert r.trajectory_source == "extremal of the fixed horizon T = 1, not optimal"

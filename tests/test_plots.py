@@ -605,3 +605,53 @@ def test_a_result_that_collides_says_so(planned):
     assert "collides" in path.get_label() and "optimal" not in path.get_label()
     assert "collides" in ax.get_title()
     assert "collides" not in plot_path(result, sc).get_title()
+
+
+def test_a_failed_result_is_not_drawn_as_an_optimal_path(planned, tmp_path):
+    """A failed result that returns a motion (a Leapfrog iterate, an initial path) says it is
+    failed and draws that motion as what it is, not optimal: never "optimal path"."""
+    result, sc = planned["paper-case-2"]
+    source = "Leapfrog iterate (q = 2), not optimal"
+    bad = dataclasses.replace(
+        result, status=PlanStatus.FAILED, optimal=False, trajectory_source=source
+    )
+    ax = plot_path(bad, sc)
+    (path,) = gid(ax.lines, "optimal-path")
+    assert "optimal path" not in path.get_label() and source in path.get_label()
+    assert "failed" in ax.get_title() and "not optimal" in ax.get_title()
+    fig = plot_convergence(bad, sc)
+    assert "failed" in fig.get_suptitle() and "not optimal" in fig.get_suptitle()
+    (final,) = gid(fig.axes[0].lines, "optimal-path")
+    assert "optimal path" not in final.get_label() and source in final.get_label()
+    assert "failed" in plot_controls(bad).get_suptitle()
+    # an extremal of a fixed horizon (free final time, the condition not met): not optimal
+    extremal = dataclasses.replace(bad, trajectory_source="extremal")
+    (path,) = gid(plot_path(extremal, sc).lines, "optimal-path")
+    assert path.get_label().startswith("returned extremal, not optimal")
+    assert "optimal path" not in plot_path(result, sc).get_title()  # converged: as before
+    assert gid(plot_path(result, sc).lines, "optimal-path")[0].get_label().startswith("optimal")
+
+
+def test_free_final_time_costs_are_drawn_with_the_time_term(planned):
+    """With a free final time the result's cost includes the price of time k T; the initial
+    path's and the sweeps' costs drawn beside it include it too (each at its own horizon), and
+    the labels say so."""
+    from leapfrog_planner.planning.status import FreeTimeReport
+
+    result, sc = planned["paper-case-2"]
+    k, T = 0.5, float(result.history[-1].t[-1])
+    free = dataclasses.replace(
+        result, cost=result.cost + k * T, free_time=FreeTimeReport(k, None, T, 0.0, "", ())
+    )
+    fig = plot_convergence(free, sc)
+    ax_cost = fig.axes[1]
+    costs = ax_cost.lines[0].get_ydata()
+    np.testing.assert_allclose(costs[1:], [h.cost + k * h.t[-1] for h in result.history])
+    assert costs[0] == pytest.approx(result.initial_cost + k * T)
+    assert costs[-1] == pytest.approx(free.cost, rel=1e-3)  # the last sweep meets the final J
+    assert "incl. time k T" in ax_cost.get_ylabel()
+    labels = [line.get_label() for line in plot_path(free, sc).lines]
+    (initial,) = [s for s in labels if s.startswith("initial path")]
+    assert f"J = {result.initial_cost + k * T:.6g} incl. time k T = {k * T:.3g}" in initial
+    (path,) = [s for s in labels if s.startswith("optimal path")]
+    assert f"J = {free.cost:.6g} incl. time k T = {k * T:.3g}" in path

@@ -119,6 +119,24 @@ def test_a_cheaper_motion_beside_a_converged_extremal_reaches_the_page():
     assert v["status"] == "converged" and v["cheaper_motion"] == 0.5 * r.cost
 
 
+def test_with_a_free_final_time_the_page_s_sweep_costs_include_the_price_of_time():
+    """The page shows the result's cost (with k T) beside each sweep's: they include k T too."""
+    from dataclasses import replace
+
+    from leapfrog_planner import plan
+    from leapfrog_planner.planning.status import FreeTimeReport
+    from leapfrog_planner.web.view import result_view
+
+    r = plan("paper-case-1", initial_paths=1)
+    k, T = 0.5, r.task.horizon
+    v = result_view(
+        replace(r, cost=r.cost + k * T, free_time=FreeTimeReport(k, None, T, 0, "", ()))
+    )
+    assert v["frames"][0]["cost"] == pytest.approx(r.initial_cost + k * T)
+    assert v["frames"][-1]["cost"] == pytest.approx(r.history[-1].cost + k * T)
+    assert v["frames"][-1]["cost"] == pytest.approx(v["cost"], rel=1e-3)
+
+
 def test_options_are_used(client):
     options = {"method": "newton", "initial_paths": 1, "partitions": 4}
     v = client.post("/api/plan", json={"scenario": CASE4, "options": options}).json()

@@ -434,11 +434,12 @@ def _reported(r: PlanResult, steps, scenario: Scenario, wall: float, cut: bool) 
     T, H = r.task.horizon, _hamiltonian(r)
     bound = "shortest" if T <= lo and k + H > 0 else "longest" if T >= hi and k + H < 0 else ""
     rep = FreeTimeReport(k, free.cruise_speed, T, k + H, bound, tuple(steps))
-    message, status, optimal = r.message, r.status, r.optimal
+    message, status, optimal, source = r.message, r.status, r.optimal, r.trajectory_source
     if status is PlanStatus.CONVERGED and not (
         bound or abs(rep.condition) <= CONDITION_TOL * max(1.0, k)
     ):
         status, optimal = PlanStatus.FAILED, False
+        source = f"extremal of the fixed horizon T = {T:.4g}, not optimal"
         message = f"no extremal met the free-time condition (|k + H| = {abs(k + H):.2e}); {message}"
     elif bound:
         message += f"; T = {T:.6g} rests on its {bound} bound"
@@ -448,6 +449,7 @@ def _reported(r: PlanResult, steps, scenario: Scenario, wall: float, cut: bool) 
         message += "; the time limit cut the search short"
     alternatives = tuple(replace(a, cost=a.cost + k * T) for a in r.alternatives)
     return replace(
-        r, status=status, optimal=optimal, message=message, cost=r.cost + k * T, free_time=rep,
-        wall_time_s=wall, task=replace(scenario, horizon=T), alternatives=alternatives,
+        r, status=status, optimal=optimal, trajectory_source=source, message=message,
+        cost=r.cost + k * T, free_time=rep, wall_time_s=wall, task=replace(scenario, horizon=T),
+        alternatives=alternatives,
     )  # fmt: skip

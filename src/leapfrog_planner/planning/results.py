@@ -19,7 +19,9 @@ stable contract for other tools:
   it was raised to clear the obstacles), ``cheaper_motion`` (converged only: the cost of a
   collision-free motion cheaper than the extremal, another path's Leapfrog iterate: a cheaper
   optimum exists that no run converged to; ``null`` when none was found).
-- numbers (of the returned trajectory): ``cost`` (= ``energy`` + ``penalty``),
+- numbers (of the returned trajectory): ``cost`` (= ``energy`` + ``penalty``, + the price of
+  time ``free_time.time_cost`` = k T with a free final time; the trajectory's ``running_cost``,
+  ``initial_cost`` and the costs in ``history`` are without it),
   ``min_clearance`` (smallest distance from the path to an obstacle edge; ``null`` without
   obstacles), ``end_state_error`` (|x(T) - goal| after re-integrating the extremal arc by arc
   from its solver's junctions with DOP853 at rtol 1e-12, and the largest jump where its arcs

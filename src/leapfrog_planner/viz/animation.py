@@ -19,9 +19,9 @@ from .style import (
     OBSTACLE_FACE,
     REVERSE_COLOR,
     REVERSE_LABEL,
+    answer_cost,
     arrow_length,
     as_scenario,
-    cost_text,
     draw_arrows,
     draw_ends,
     draw_obstacles,
@@ -29,6 +29,7 @@ from .style import (
     frame_axes,
     heading_colors,
     heading_proxy,
+    initial_horizon,
     initial_junctions,
     legend_below,
     new_figure,
@@ -36,6 +37,7 @@ from .style import (
     reversing_runs,
     status_text,
     sweep_colors,
+    with_time,
 )
 
 #: The animation's width in pixels (8 inches at 100 dpi).
@@ -52,19 +54,21 @@ def _frames(sc: Scenario, result: PlanResult) -> list[tuple[str, np.ndarray | No
     K = len(result.history)
     X0 = initial_junctions(result)
     if X0 is not None:
-        text = f"initial path (sweep 0 of {K}), cost J = {cost_text(result.initial_cost)}"
+        cost = with_time(result, result.initial_cost, initial_horizon(result))
+        text = f"initial path (sweep 0 of {K}), cost J = {cost}"
         frames.append(("junctions", X0, f"{text} (q = {len(X0) - 1})"))
     for h in result.history:
         frames.append(
             (
                 "junctions",
                 np.asarray(h.X, dtype=float),
-                f"sweep {h.sweep} of {K}, cost J = {cost_text(h.cost)} "
+                f"sweep {h.sweep} of {K}, cost J = {with_time(result, h.cost, h.t[-1])} "
                 f"(q = {h.q}, costate jump {h.max_costate_jump:.2g})",
             )
         )
     if result.trajectory is not None:
-        final = f"final extremal after {K} sweeps, cost J = {cost_text(result.cost)}"
+        what = "final extremal" if result.optimal else f"{status_text(result)}, not optimal:"
+        final = f"{what} after {K} sweeps, cost J = {answer_cost(result)}"
         frames += [("final", None, final)] * 3
     elif not frames:
         frames.append(("junctions", None, f"{status_text(result)}: nothing to animate"))
@@ -88,7 +92,8 @@ def _legend_handles(sc: Scenario, result: PlanResult) -> list:
         Line2D([], [], lw=0.8, color="0.75", label="earlier sweeps"),
     ]
     if result.trajectory is not None:
-        handles.append(Line2D([], [], lw=2.0, color="black", label="final extremal"))
+        final = "final extremal" if result.optimal else "returned motion, not optimal"
+        handles.append(Line2D([], [], lw=2.0, color="black", label=final))
         if reversing_runs(result):
             handles.append(
                 Line2D([], [], lw=2.0, ls=(0, (3.0, 1.2)), color=REVERSE_COLOR, label=REVERSE_LABEL)

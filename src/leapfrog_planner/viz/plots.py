@@ -44,9 +44,9 @@ from .style import (
     PATH_COLOR,
     REVERSE_COLOR,
     REVERSE_LABEL,
+    answer_head,
     arrow_length,
     as_scenario,
-    cost_text,
     draw_arrows,
     draw_ends,
     draw_initial,
@@ -57,8 +57,10 @@ from .style import (
     frame_axes,
     heading_colors,
     heading_proxy,
+    initial_horizon,
     initial_junctions,
     legend_below,
+    motion_label,
     new_figure,
     no_data,
     path_figsize,
@@ -66,6 +68,7 @@ from .style import (
     reversing_runs,
     status_text,
     sweep_colors,
+    time_term,
 )
 
 __all__ = ["animate_sweeps", "plot_controls", "plot_convergence", "plot_path", "save_figure"]
@@ -153,11 +156,8 @@ def _draw_answer(ax: Axes, result: PlanResult, arrows: int, L: float) -> list:
             lw=2.2,
             zorder=3,
             gid=GID_PATH,
-            label=(
-                f"best extremal (J = {cost_text(result.cost)}, collides)"
-                if status_text(result) == "collides"
-                else f"optimal path (J = {cost_text(result.cost)})"
-            ),
+            ls="-" if result.optimal else "--",
+            label=motion_label(result),
         )
         draw_reversing(ax, result)
         if arrows:
@@ -375,7 +375,7 @@ def _draw_sweeps(fig: Figure, ax: Axes, sc: Scenario, result: PlanResult) -> Non
             lw=1.8,
             zorder=3,
             gid=GID_PATH,
-            label=f"final path (J = {cost_text(result.cost)})",
+            label=motion_label(result),
         )
         draw_reversing(ax, result, lw=1.8)
     draw_ends(ax, sc, L, label=False)
@@ -389,17 +389,19 @@ def _draw_progress(ax_cost: Axes, ax_jump: Axes, result: PlanResult) -> None:
     """The cost and the largest costate jump per sweep, the changes of q marked."""
     hist = result.history
     sweeps = np.array([h.sweep for h in hist], dtype=float)
-    costs = np.array([h.cost for h in hist], dtype=float)
+    # With a free final time each cost with its price of time k T, as the final J has it.
+    costs = np.array([h.cost + time_term(result, h.t[-1]) for h in hist], dtype=float)
     jumps = np.array([h.max_costate_jump for h in hist], dtype=float)
+    what = "" if result.free_time is None else " incl. time k T"
     if hist:
         xs, ys = sweeps, costs
         if np.isfinite(result.initial_cost):
-            xs, ys = np.r_[0.0, sweeps], np.r_[result.initial_cost, costs]
-        ax_cost.plot(xs, ys, "o-", color=PATH_COLOR, ms=4, label="piecewise-optimal cost")
+            c0 = result.initial_cost + time_term(result, initial_horizon(result))
+            xs, ys = np.r_[0.0, sweeps], np.r_[c0, costs]
+        ax_cost.plot(xs, ys, "o-", color=PATH_COLOR, ms=4, label=f"piecewise-optimal cost{what}")
         if np.isfinite(result.cost):
-            ax_cost.axhline(
-                result.cost, color="black", ls="--", lw=1.0, label=f"final J = {result.cost:.6g}"
-            )
+            final = f"final J = {result.cost:.6g}{what}"
+            ax_cost.axhline(result.cost, color="black", ls="--", lw=1.0, label=final)
         ok = np.isfinite(jumps) & (jumps > 0)
         ax_jump.plot(sweeps[ok], jumps[ok], "s-", color="tab:purple", ms=4)
         if ok.any():
@@ -429,7 +431,7 @@ def _draw_progress(ax_cost: Axes, ax_jump: Axes, result: PlanResult) -> None:
     else:
         for a in (ax_cost, ax_jump):
             no_data(a, "no sweeps")
-    ax_cost.set_ylabel("cost J")
+    ax_cost.set_ylabel(f"cost J{what}")
     ax_jump.set_ylabel("max costate jump")
     ax_jump.set_xlabel("sweep")
     from matplotlib.ticker import MaxNLocator
@@ -466,12 +468,8 @@ def plot_convergence(
 
     _draw_progress(ax_cost, ax_jump, result)
 
-    if result.trajectory is not None:
-        head = f"cost J = {cost_text(result.cost)}"
-    else:
-        head = status_text(result)
     if title:
-        sweeps = f"{len(hist)} sweeps, {head} ({result.method})"
+        sweeps = f"{len(hist)} sweeps, {answer_head(result)} ({result.method})"
         fig.suptitle(f"{sc.name} — Leapfrog convergence: {sweeps}")
     else:
         drop_titles(fig)
@@ -521,7 +519,7 @@ def plot_controls(result: PlanResult, fig=None, *, title: bool = True) -> Figure
         for a in (ax_u, ax_l):
             a.axhline(0.0, color="0.6", lw=0.6)
             a.legend(fontsize="small", loc="best")
-        head = f"{result.scenario} — controls and costates, cost J = {cost_text(result.cost)}"
+        head = f"{result.scenario} — controls and costates, {answer_head(result)}"
     else:
         for a in (ax_u, ax_l, ax_h):
             no_data(a, f"no trajectory ({status_text(result)})")

@@ -77,12 +77,72 @@ def cost_text(cost: float) -> str:
     return f"{cost:.6g}" if np.isfinite(cost) else "n/a"
 
 
+def time_term(result: PlanResult, horizon) -> float:
+    """The price of time ``k T`` of a motion of ``horizon`` when the final time is free, else 0.
+    A free-time result's cost includes it; its initial path's and sweeps' costs do not."""
+    f = result.free_time
+    return 0.0 if f is None or horizon is None else f.time_weight * float(horizon)
+
+
+def with_time(result: PlanResult, cost: float, horizon) -> str:
+    """``cost`` (without the price of time) of a motion of ``horizon`` as the figures compare it
+    with the result's: the price of time added and said, when the final time is free."""
+    if result.free_time is None or not np.isfinite(cost):
+        return cost_text(cost)
+    term = time_term(result, horizon)
+    return f"{cost_text(cost + term)} incl. time k T = {term:.3g}"
+
+
+def answer_cost(result: PlanResult) -> str:
+    """The result's cost as the legends say it (with a free final time it includes k T)."""
+    if result.free_time is None or not np.isfinite(result.cost):
+        return cost_text(result.cost)
+    return f"{cost_text(result.cost)} incl. time k T = {result.free_time.time_cost:.3g}"
+
+
+def initial_horizon(result: PlanResult):
+    """The horizon of the initial path (its last junction's time), None when not known."""
+    t = result.initial_junctions[0] if result.initial_junctions else None
+    return None if t is None or len(t) == 0 else float(np.asarray(t, dtype=float)[-1])
+
+
+def not_connected(result: PlanResult) -> bool:
+    """Whether the plan found no path at all from start to goal (they are not connected): no
+    initial path, so no motion, no sweep."""
+    return result.trajectory is None and not result.history and result.initial_path == "none"
+
+
+def answer_head(result: PlanResult) -> str:
+    """What a title says of the answer: its cost, and whether it is optimal."""
+    status = status_text(result)
+    if not_connected(result):
+        return f"{status}: no path joins start and goal"
+    if result.trajectory is None or not np.isfinite(result.cost):
+        return f"{status}: no optimal path"
+    if status == "converged":
+        return f"cost J = {result.cost:.6g}"
+    if status == "collides":  # every extremal found passes through an obstacle
+        return f"collides: J = {result.cost:.6g}"
+    return f"{status}: J = {result.cost:.6g}, not optimal"
+
+
 def path_title(result: PlanResult, sc: Scenario) -> str:
-    if result.trajectory is not None and np.isfinite(result.cost):
-        if status_text(result) == "collides":  # every extremal found passes through an obstacle
-            return f"{sc.name} — collides: J = {result.cost:.6g} ({result.method})"
-        return f"{sc.name} — cost J = {result.cost:.6g} ({result.method})"
-    return f"{sc.name} — {status_text(result)}: no optimal path ({result.method})"
+    return f"{sc.name} — {answer_head(result)} ({result.method})"
+
+
+def motion_label(result: PlanResult) -> str:
+    """The legend entry of the returned motion: the optimal path only when the plan converged;
+    else what it is (the best extremal, that collides; or the result's trajectory source, such
+    as a Leapfrog iterate or the initial path), not optimal."""
+    cost, status = answer_cost(result), status_text(result)
+    if status == "converged":
+        return f"optimal path (J = {cost})"
+    if status == "collides":
+        return f"best extremal (J = {cost}, collides)"
+    source = result.trajectory_source
+    if "not optimal" not in source and "not a motion" not in source:
+        source += ", not optimal"
+    return f"returned {source} (J = {cost})"
 
 
 def initial_junctions(result: PlanResult) -> np.ndarray | None:
@@ -318,10 +378,11 @@ def draw_waypoints(ax: Axes, sc: Scenario, label: bool = True) -> None:
 
 def draw_initial(ax: Axes, result: PlanResult, label: bool = True) -> None:
     X = initial_junctions(result)
-    if X is None:
+    if X is None or not_connected(result):  # its ends alone, not a path: none was found
         return
     q = X.shape[0] - 1
-    text = f"initial path junctions (q = {q}, J = {cost_text(result.initial_cost)})"
+    cost = with_time(result, result.initial_cost, initial_horizon(result))
+    text = f"initial path junctions (q = {q}, J = {cost})"
     ax.plot(
         X[:, 0],
         X[:, 1],

@@ -60,10 +60,16 @@ def path_view(tr, state_names, control_names, rows: int = PATH_ROWS) -> dict | N
 
 
 def _sweeps(result) -> list[dict]:
-    """The initial path's junctions (sweep 0), then those after each sweep, with q and cost."""
+    """The initial path's junctions (sweep 0), then those after each sweep, with q and cost
+    (with a free final time, including the price of time k T, as the result's cost does)."""
+    k = 0.0 if result.free_time is None else result.free_time.time_weight
     t0, X0 = result.initial_junctions
-    frames = [{"sweep": 0, "q": int(len(t0) - 1), "cost": _num(result.initial_cost), "X": X0}]
-    frames += [{"sweep": h.sweep, "q": h.q, "cost": _num(h.cost), "X": h.X} for h in result.history]
+    cost0 = _num(result.initial_cost + k * float(t0[-1]))
+    frames = [{"sweep": 0, "q": int(len(t0) - 1), "cost": cost0, "X": X0}]
+    frames += [
+        {"sweep": h.sweep, "q": h.q, "cost": _num(h.cost + k * float(h.t[-1])), "X": h.X}
+        for h in result.history
+    ]
     out = []
     for f in frames:
         X = np.asarray(f.pop("X"), dtype=float).reshape(-1, len(result.state_names))
