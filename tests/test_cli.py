@@ -455,3 +455,42 @@ def test_a_file_named_like_a_builtin_is_used_and_the_note_says_how_to_get_the_bu
     run = run_cli(["solve", "paper-case-1", "--quiet"], tmp_path)
     assert run.returncode == 2 and "Traceback" not in run.stderr
     assert not_compile_notices(run.stderr)[1].startswith("error: paper-case-1: damaged result file")
+
+
+ENCLOSED = """name = "enclosed"
+horizon = 5.0
+start = [0.0, 0.0, 0.0]
+goal  = [3.0, 0.0, 0.0]
+[robot]
+radius = 0.1
+[[walls]]
+points = [[2.5, -0.5], [3.5, -0.5], [3.5, 0.5], [2.5, 0.5], [2.5, -0.5]]
+thickness = 0.1
+"""
+
+
+@pytest.mark.parametrize("horizon", ["5.0", "free"])
+def test_a_goal_walled_off_is_said_plainly_and_planned_once(tmp_path, horizon):
+    """Walls alone (no map) keep start and goal apart: exit 1, a table that says no motion was
+    found (not "the none", no rows of nan), a message that names the walls, not a map; with a
+    free final time one horizon is planned, not three that cannot succeed."""
+    text = ENCLOSED.replace("5.0", '"free"') + "[cost]\ncruise_speed = 1.0\n"
+    text = ENCLOSED if horizon == "5.0" else text
+    (tmp_path / "enclosed.toml").write_text(text)
+    run = run_cli(["solve", "enclosed.toml", "--json", "r.json"], tmp_path)
+    assert run.returncode == 1, run.stderr
+    assert "returned" in run.stdout and "no motion (none was found)" in run.stdout
+    for wrong in ("the none", "nan", "no obstacles", "initial path none"):
+        assert wrong not in run.stdout, run.stdout
+    quiet = run_cli(["solve", "enclosed.toml", "--quiet"], tmp_path)
+    assert quiet.returncode == 1 and "on the map" not in quiet.stdout + quiet.stderr
+    said = quiet.stdout + "\n".join(not_compile_notices(quiet.stderr))
+    assert said.strip() == (
+        "enclosed: failed: start (0, 0) and goal (3, 0) are not connected around the walls"
+        " for a robot of radius 0.1"
+    )
+    from leapfrog_planner.planning.results import PlanResult
+
+    r = PlanResult.load(tmp_path / "r.json")
+    if horizon == "free":
+        assert len(r.free_time.steps) == 1

@@ -655,3 +655,21 @@ def test_free_final_time_costs_are_drawn_with_the_time_term(planned):
     assert f"J = {result.initial_cost + k * T:.6g} incl. time k T = {k * T:.3g}" in initial
     (path,) = [s for s in labels if s.startswith("optimal path")]
     assert f"J = {free.cost:.6g} incl. time k T = {k * T:.3g}" in path
+
+
+def test_start_and_goal_not_connected_draw_the_scene_and_no_path(tmp_path):
+    """Walls keep start and goal apart: no motion, no initial path. The figure draws the walls
+    and the ends, no line from start to goal through the wall, and says why in the title."""
+    from tests.test_cli import ENCLOSED
+
+    from leapfrog_planner.planning.scenario import load_scenario_text
+
+    sc = load_scenario_text(ENCLOSED)
+    result = plan(sc)
+    assert result.status is PlanStatus.FAILED and result.trajectory is None
+    ax = plot_path(result, sc)
+    assert "no path joins start and goal" in ax.get_title()
+    assert gid(ax.lines, "initial-junctions") == [] and gid(ax.lines, "optimal-path") == []
+    assert "walls" in [p.get_label() for p in ax.patches]
+    assert "no path joins start and goal" in plot_convergence(result, sc).get_suptitle()
+    check_png(save_figure(ax.figure, tmp_path / "enclosed.png"))

@@ -488,13 +488,23 @@ def _free_time_rows(f) -> list[tuple[str, str]]:
     return [("final time", f"T = {f.horizon:.8g} chosen at a price of {price}; {rest}")]
 
 
+def _clearance_text(r) -> str:
+    """The least clearance of the returned motion, "n/a (no obstacles)" in free space only."""
+    if r.min_clearance is None:
+        sc = r.task
+        free = sc is None or (sc.obstacles.shape[0] == 0 and sc.map is None)
+        return "n/a (no obstacles)" if free else "n/a"
+    text = f"{r.min_clearance:.4g}"
+    if r.task is not None and r.task.robot_radius:
+        text += f"  (of the footprint, radius {r.task.robot_radius:g})"
+    return text
+
+
 def _summary(r) -> Table:
     from ..planning.status import listed_alternatives
 
     table = Table(title=f"{r.scenario}: Leapfrog ({r.method})", show_header=False)
-    clearance = "n/a (no obstacles)" if r.min_clearance is None else f"{r.min_clearance:.4g}"
-    if r.task is not None and r.task.robot_radius and r.min_clearance is not None:
-        clearance += f"  (of the footprint, radius {r.task.robot_radius:g})"
+    clearance = _clearance_text(r)
     cost = f"{r.cost:.8g}  (energy {r.energy:.6g} + penalty {r.penalty:.6g}"
     f = r.free_time
     cost += ")" if f is None else f" + time {f.time_cost:.6g})"
@@ -512,6 +522,8 @@ def _summary(r) -> Table:
         rows += [("obstacle weight", part) for part in raised]
         if math.isfinite(r.cheaper_motion):
             rows.append(("warning", r.message.split("; but ", 1)[1]))
+    elif r.trajectory is None:  # no cost, no clearance: nothing to measure
+        rows.append(("returned", "no motion (none was found)"))
     else:
         rows += [
             ("returned", f"the {r.trajectory_source} (from initial path {r.initial_path})"),

@@ -37,6 +37,7 @@ from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
 from .bounded import MAX_HALVINGS, arcs_of, resolve
 from .leapfrog import Arcs
+from .outcome import unreachable
 from .results import PlanResult, Validation, piecewise_trajectory
 from .scenario import Scenario
 from .scenario_time import top_speed
@@ -321,7 +322,7 @@ def _first_plan(
     the time limit. A horizon shorter than ``least`` (the shortest initial path at the top
     speed) is not planned but the next one is: a plan there finds no extremal, and only after
     its whole search (general layout 3 with ``|v| <= 1.5``: 0.84 s where 1.11 s is needed,
-    31 s to fail); the last is always planned."""
+    31 s to fail); the last is always planned. Start and goal not connected: no retry."""
     k, (_, hi) = scenario.free_time.time_weight, scenario.free_time.limits()
     steps = []
     for factor in (1.0, *RETRIES):
@@ -331,6 +332,8 @@ def _first_plan(
         result = plans.plan_at(T, deadline)
         steps.append(_step(result, k, "plan"))
         if result.status is PlanStatus.CONVERGED or T == hi or time.perf_counter() >= deadline:
+            break
+        if unreachable(result):  # no horizon joins what the obstacles keep apart
             break
     return result, steps
 

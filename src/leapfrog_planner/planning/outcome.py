@@ -124,3 +124,9 @@ def unreachable_result(
         time_validation_s=0.0, wall_time_s=wall_s, alternatives=(), weight=scenario.weight,
         optimal=False, trajectory_source="none", task=scenario, settings=settings,
     )  # fmt: skip
+
+
+def unreachable(result: PlanResult) -> bool:
+    """Whether ``result`` says that start and goal are not connected (:func:`unreachable_result`:
+    no initial path, so no run and no motion)."""
+    return result.trajectory is None and not result.search and result.initial_path == "none"

@@ -114,8 +114,9 @@ class Planner:
         if s.map is not None:
             world = self.problem.penalty.map
             candidates = map_initial_paths(
-                *ends, world, s.footprint_obstacles, k=k, margin=margin, turns=True
-            )
+                *ends, world, s.footprint_obstacles, k=k, margin=margin, turns=True,
+                where=s.map.where,
+            )  # fmt: skip
         else:
             candidates = initial_paths(
                 *ends, s.footprint_obstacles, k=k, margin=margin, waypoints=s.waypoints, turns=True

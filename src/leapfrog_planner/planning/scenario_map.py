@@ -97,6 +97,17 @@ class ScenarioMap:
             raise ScenarioError("map.unknown: only with a file (beyond the shapes all is free)")
 
     @property
+    def where(self) -> str:
+        """Where start and goal are joined, in words (a message's): "on the map", "on the map
+        with its walls", "around the polygons", "around the walls and polygons"."""
+        shapes = self.shapes
+        kinds = [k for k in ("walls", "polygons") if shapes is not None and getattr(shapes, k)]
+        named = " and ".join(kinds)
+        if self.file is None:
+            return f"around the {named}"
+        return f"on the map with its {named}" if named else "on the map"
+
+    @property
     def placed(self) -> bool:
         """Whether the cells are known (always with a file; see :meth:`around`)."""
         return self.occupancy is not None

@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
+from ..planning.outcome import unreachable
 from ..planning.results import PlanResult
 from ..planning.scenario import Scenario, load_scenario
 
@@ -106,16 +107,10 @@ def initial_horizon(result: PlanResult):
     return None if t is None or len(t) == 0 else float(np.asarray(t, dtype=float)[-1])
 
 
-def not_connected(result: PlanResult) -> bool:
-    """Whether the plan found no path at all from start to goal (they are not connected): no
-    initial path, so no motion, no sweep."""
-    return result.trajectory is None and not result.history and result.initial_path == "none"
-
-
 def answer_head(result: PlanResult) -> str:
     """What a title says of the answer: its cost, and whether it is optimal."""
     status = status_text(result)
-    if not_connected(result):
+    if unreachable(result):
         return f"{status}: no path joins start and goal"
     if result.trajectory is None or not np.isfinite(result.cost):
         return f"{status}: no optimal path"
@@ -240,12 +235,12 @@ def map_grey(data: np.ndarray) -> np.ndarray:
     return grey
 
 
-def draw_map(ax: Axes, sc: Scenario) -> None:
+def draw_map(ax: Axes, sc: Scenario, label: bool = True) -> None:
     """The scenario's map under everything else, in the world frame (its origin's yaw turns
     it about its lower-left corner)."""
     if sc.map is None:
         return
-    draw_shapes(ax, sc.map.shapes)
+    draw_shapes(ax, sc.map.shapes, label)
     if sc.map.file is None:  # polygons and walls alone: their grid is free, not drawn
         return
     from matplotlib.transforms import Affine2D
@@ -261,28 +256,33 @@ def draw_map(ax: Axes, sc: Scenario) -> None:
     )  # fmt: skip
 
 
-def draw_shapes(ax: Axes, shapes) -> None:
+def draw_shapes(ax: Axes, shapes, label: bool = True) -> None:
     """Polygons as they are, walls as their points within half the thickness of the line (a
-    band per segment and a disc at each vertex), in the discs' grey."""
+    band per segment and a disc at each vertex), in the discs' grey; with ``label`` the first
+    of each kind in the legend."""
     if shapes is None:
         return
     from matplotlib.patches import Polygon
 
     style = {"facecolor": OBSTACLE_FACE, "edgecolor": "none", "zorder": 1, "gid": GID_OBSTACLE}
-    for ring in shapes.polygons:
-        ax.add_patch(Polygon(ring, closed=True, **{**style, "edgecolor": OBSTACLE_EDGE}))
-    for line, thickness in zip(shapes.walls, shapes.thickness, strict=True):
+    for i, ring in enumerate(shapes.polygons):
+        text = "polygons" if label and i == 0 else None
+        ax.add_patch(
+            Polygon(ring, closed=True, **{**style, "edgecolor": OBSTACLE_EDGE}, label=text)
+        )
+    for i, (line, thickness) in enumerate(zip(shapes.walls, shapes.thickness, strict=True)):
         half = 0.5 * thickness
-        for a, b in zip(line[:-1], line[1:], strict=True):
+        for j, (a, b) in enumerate(zip(line[:-1], line[1:], strict=True)):
             t = b - a
             n = np.array([-t[1], t[0]]) * (half / max(float(np.hypot(*t)), 1e-300))
-            ax.add_patch(Polygon([a + n, b + n, b - n, a - n], closed=True, **style))
+            text = "walls" if label and i == j == 0 else None
+            ax.add_patch(Polygon([a + n, b + n, b - n, a - n], closed=True, **style, label=text))
         for p in line:
             ax.add_patch(Circle(p, half, **style))
 
 
 def draw_obstacles(ax: Axes, sc: Scenario, label: bool = True) -> None:
-    draw_map(ax, sc)
+    draw_map(ax, sc, label)
     for j, (cx, cy, r) in enumerate(sc.obstacles.tolist()):
         ax.add_patch(
             Circle(
@@ -378,7 +378,7 @@ def draw_waypoints(ax: Axes, sc: Scenario, label: bool = True) -> None:
 
 def draw_initial(ax: Axes, result: PlanResult, label: bool = True) -> None:
     X = initial_junctions(result)
-    if X is None or not_connected(result):  # its ends alone, not a path: none was found
+    if X is None or unreachable(result):  # its ends alone, not a path: none was found
         return
     q = X.shape[0] - 1
     cost = with_time(result, result.initial_cost, initial_horizon(result))

@@ -49,17 +49,18 @@ class Unreachable(ScenarioError):
 
 def map_initial_paths(
     start, goal, world: ObstacleMap, discs=NO_DISCS, *, k: int = 3, margin: float = 0.05,
-    turns: bool = False,
+    turns: bool = False, where: str = "on the map",
 ) -> list[InitialPath]:  # fmt: skip
     """Collision-free initial paths on ``world`` in up to ``k`` homotopy classes, shortest first,
     each with its ways of meeting the end poses, then the three-point turns (with ``turns`` or
     where an end heading points away from the chord). Raises :class:`Unreachable` when start and
-    goal are not connected for the robot's footprint."""
+    goal are not connected for the robot's footprint (``where``: "on the map", "around the
+    walls", ... as its message says it)."""
     S, G = end_state(start, "start"), end_state(goal, "goal")
     routes = map_routes(world.route_cells, S[:2], G[:2], world.radius, margin, k=k)
     if not routes:
         raise Unreachable(
-            f"start {_point(S)} and goal {_point(G)} are not connected on the map for a robot"
+            f"start {_point(S)} and goal {_point(G)} are not connected {where} for a robot"
             f" of radius {world.radius:g}"
         )
     tol = 1e-9 * max(1.0, float(np.abs(np.concatenate([S[:2], G[:2]])).max()))
