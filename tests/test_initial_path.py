@@ -644,3 +644,12 @@ def test_plot_initial_paths():
         assert len(ax.patches) == 2 and len(ax.lines) == 6
     finally:
         plt.close(fig)
+
+
+def test_a_cusp_on_the_axis_is_labelled_without_rounding_noise():
+    """A three-point turn's cusp on the x axis is labelled "(3, 0)", not "(3, -1.22e-16)"."""
+    S, G = np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.0, 0.0])
+    paths = initial_paths(S, G, np.array([[1.0, 0.05, 0.2]]), k=8, margin=0.05, turns=True)
+    turns = [p.label for p in paths if p.label.startswith("three-point turn")]
+    assert "three-point turn at (3, 0), forward, then reverse" in turns
+    assert not any("e-1" in label for label in turns), turns

@@ -673,3 +673,40 @@ def test_start_and_goal_not_connected_draw_the_scene_and_no_path(tmp_path):
     assert "walls" in [p.get_label() for p in ax.patches]
     assert "no path joins start and goal" in plot_convergence(result, sc).get_suptitle()
     check_png(save_figure(ax.figure, tmp_path / "enclosed.png"))
+
+
+def test_the_other_paths_list_each_extremal_once_and_never_the_answer(planned):
+    """Several initial paths can converge to one extremal: the answer's found again from another
+    path is not another path, and one found from two paths is listed once (figure and table).
+    A mirror image of the answer, as cheap but metres away, is another path."""
+    from rich.console import Console
+
+    from leapfrog_planner.cli.solve import _summary
+
+    result, sc = planned["paper-case-2"]
+    tr = result.trajectory
+
+    def outcome(label, trajectory, cost=result.cost):
+        return PathOutcome(
+            label, PlanStatus.CONVERGED, cost, 30.0, 9, "converged", 100.0, trajectory
+        )
+
+    mirror = dataclasses.replace(tr, x=tr.x * np.array([1.0, -1.0, -1.0]))
+    other = dataclasses.replace(tr, x=tr.x + np.array([0.0, 0.3, 0.0]))
+    alts = (
+        outcome("visibility #1, turn in place at goal", tr, result.cost * (1 + 1e-12)),
+        outcome("visibility #3", other, 30.5),
+        outcome("visibility #3, margin 0.1", other, 30.5),
+        outcome("mirror", mirror),
+    )
+    shown = dataclasses.replace(result, alternatives=alts)
+    ax = plot_path(shown, sc)
+    texts = [t.get_text() for t in ax.figure.legends[0].get_texts()]
+    assert not any("turn in place at goal" in t or "margin 0.1" in t for t in texts), texts
+    assert sum("visibility #3" in t for t in texts) == 1 and any("mirror" in t for t in texts)
+    assert len(gid(ax.lines, "alternative")) == 2
+    console = Console(width=200, record=True)
+    console.print(_summary(shown))
+    table = console.export_text()
+    assert "turn in place at goal" not in table and "margin 0.1" not in table
+    assert table.count("other path visibility #3") == 1 and "other path mirror" in table

@@ -542,7 +542,7 @@ def _summary(r) -> Table:
             f"{r.time_validation_s * 1e3:.0f})",
         ),
     ]
-    listed, failed = listed_alternatives(r.alternatives)
+    listed, failed = listed_alternatives(r.alternatives, r)
     for a in listed:
         what = f"{a.status}, cost {a.cost:.8g}" if math.isfinite(a.cost) else f"{a.status}"
         if a.weight != r.weight:

@@ -421,6 +421,13 @@ def _step(result: PlanResult, k: float, source: str) -> TimeStep:
     return TimeStep(result.task.horizon, _hamiltonian(result), _total(result, k), source)
 
 
+def _horizon(outcome, T: float) -> float:
+    """The horizon of an alternative's extremal (a plan at another ``T`` than the answer's, when
+    the answer was continued from it), ``T`` without one."""
+    tr = outcome.trajectory
+    return T if tr is None else float(tr.t[-1] - tr.t[0])
+
+
 def _hamiltonian(result: PlanResult) -> float:
     tr = result.trajectory
     if tr is None or not result.optimal:
@@ -450,7 +457,7 @@ def _reported(r: PlanResult, steps, scenario: Scenario, wall: float, cut: bool) 
         message += f"; free final time T = {T:.6g} (k + H = {rep.condition:.1e})"
     if cut and "cut the search short" not in message:  # else said by the plan it cut
         message += "; the time limit cut the search short"
-    alternatives = tuple(replace(a, cost=a.cost + k * T) for a in r.alternatives)
+    alternatives = tuple(replace(a, cost=a.cost + k * _horizon(a, T)) for a in r.alternatives)
     return replace(
         r, status=status, optimal=optimal, trajectory_source=source, message=message,
         cost=r.cost + k * T, free_time=rep, wall_time_s=wall, task=replace(scenario, horizon=T),

@@ -6,6 +6,8 @@ import math
 from dataclasses import dataclass
 from enum import StrEnum
 
+import numpy as np
+
 from ..integrate.flow import Trajectory
 
 
@@ -51,17 +53,45 @@ class RunRecord:
 #: More runs without an extremal than this are counted, not listed, among a plan's other paths
 #: (in the command line's table and the figure's legend): a car's plan can try 18 paths.
 FAILED_LISTED = 3
+#: Two paths' extremals are one (found from both) when their costs agree to this relative
+#: tolerance and their positions, at the same shares of their horizons, to this share of the
+#: path's extent: mirror-image extremals of a symmetric scene cost the same, but part by metres.
+SAME_COST, SAME_PATH = 1e-6, 1e-4
 
 
-def listed_alternatives(
-    alternatives: tuple[PathOutcome, ...],
-) -> tuple[list[PathOutcome], int]:
+def same_extremal(a, b) -> bool:
+    """Whether ``a`` and ``b`` (a result, a :class:`PathOutcome`) hold the same extremal: both
+    with a path and a cost, the costs and the paths alike (:data:`SAME_COST`, :data:`SAME_PATH`)."""
+    ta, tb = a.trajectory, b.trajectory
+    if ta is None or tb is None or not (math.isfinite(a.cost) and math.isfinite(b.cost)):
+        return False
+    if abs(a.cost - b.cost) > SAME_COST * max(1.0, abs(a.cost), abs(b.cost)):
+        return False
+    share = np.linspace(0.0, 1.0, 101)
+    xy = [
+        np.column_stack(
+            [np.interp(tr.t[0] + share * (tr.t[-1] - tr.t[0]), tr.t, tr.x[:, i]) for i in (0, 1)]
+        )
+        for tr in (ta, tb)
+    ]
+    extent = float(np.ptp(xy[0], axis=0).max())
+    return float(np.abs(xy[0] - xy[1]).max()) <= SAME_PATH * max(extent, 1e-300)
+
+
+def listed_alternatives(alternatives: tuple[PathOutcome, ...], answer=None):
     """The other paths to list one by one, and how many runs without an extremal are only
-    counted (all of them, when there are more than :data:`FAILED_LISTED`; else none)."""
-    failed = [a for a in alternatives if not math.isfinite(a.cost)]
+    counted (all of them, when there are more than :data:`FAILED_LISTED`; else none). An
+    extremal found from several paths is listed once, under the first; the ``answer``'s (a
+    result) never: it is the answer, not another path."""
+    distinct: list[PathOutcome] = []
+    for a in alternatives:
+        again = [*distinct, answer] if answer is not None else distinct
+        if not any(same_extremal(a, b) for b in again):
+            distinct.append(a)
+    failed = [a for a in distinct if not math.isfinite(a.cost)]
     if len(failed) <= FAILED_LISTED:
-        return list(alternatives), 0
-    return [a for a in alternatives if math.isfinite(a.cost)], len(failed)
+        return distinct, 0
+    return [a for a in distinct if math.isfinite(a.cost)], len(failed)
 
 
 @dataclass(frozen=True)

@@ -196,7 +196,7 @@ def _draw_alternatives(ax: Axes, result: PlanResult) -> list:
     there are many: :func:`listed_alternatives`)."""
     extra = []
     drawn = 0
-    alts, failed = listed_alternatives(result.alternatives)
+    alts, failed = listed_alternatives(result.alternatives, result)
     if failed:
         text = f"{failed} other paths failed"
         extra.append(Line2D([], [], color="0.6", lw=1.0, ls=":", alpha=0.7, label=text))

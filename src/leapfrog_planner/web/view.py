@@ -80,7 +80,7 @@ def _sweeps(result) -> list[dict]:
 def result_view(result) -> dict:
     """The page's view of a :class:`~leapfrog_planner.planning.results.PlanResult`."""
     names = (result.state_names, result.control_names)
-    listed, failed = listed_alternatives(result.alternatives)
+    listed, failed = listed_alternatives(result.alternatives, result)
     alternatives = [
         {
             "label": a.label,

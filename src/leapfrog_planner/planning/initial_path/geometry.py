@@ -28,6 +28,13 @@ def tolerance(S: np.ndarray, G: np.ndarray, obs: np.ndarray) -> float:
     return 1e-9 * scale
 
 
+def point_text(point, tol: float) -> str:
+    """``(x, y)`` for a path's label, to three digits, a coordinate within ``tol`` (the length
+    tolerance) of zero as 0: a cusp on the x axis read "(3, -1.22e-16)"."""
+    x, y = (0.0 if abs(float(v)) <= tol else float(v) for v in point[:2])
+    return f"({x:.3g}, {y:.3g})"
+
+
 # --------------------------------------------------------------------------- geometry helpers
 
 

@@ -28,7 +28,7 @@ from .ends import (
     near_branch,
     points_away,
 )
-from .geometry import clean_polyline, end_state, midpoints, smallest_clearance
+from .geometry import clean_polyline, end_state, midpoints, point_text, smallest_clearance
 from .map_routes import MapRoute, map_routes
 from .path import InitialPath, path_from_curve, smooth_path
 
@@ -124,7 +124,7 @@ def _three_point_turns(S, G, world, discs, margin, tol) -> list[InitialPath]:
                 continue
             path = _cusp_path(S, G, C, off0, off1, world, discs, margin, tol, reverse)
             if path is not None:
-                label = f"three-point turn at ({C[0]:.3g}, {C[1]:.3g}), {path.modes.describe()}"
+                label = f"three-point turn at {point_text(C, tol)}, {path.modes.describe()}"
                 out.append(replace(path, label=label))
     return out
 

@@ -27,6 +27,7 @@ from .geometry import (
     clean_polyline,
     end_state,
     midpoints,
+    point_text,
     segment_distance,
     tolerance,
 )
@@ -417,7 +418,7 @@ def _turn_paths(req: _Request, used: float, note: str) -> list[InitialPath]:
     cusp point and modes, plus the margin ``note``."""
     out = []
     for C, path in _cusp_paths(req.S, req.G, req.obs, used, req.tol):
-        label = f"three-point turn at ({C[0]:.3g}, {C[1]:.3g}), {path.modes.describe()}"
+        label = f"three-point turn at {point_text(C, req.tol)}, {path.modes.describe()}"
         out.append(_relabel(path, label + note))
     return out
 
