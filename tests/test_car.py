@@ -234,3 +234,41 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
     r = plan(sc)
     assert math.isnan(r.cheaper_motion) and "cheaper" not in r.message
     assert r.cost == pytest.approx(4.4517245, rel=1e-6)
+
+
+def test_a_stopped_continuation_says_where_it_stopped(monkeypatch):
+    """The failed paths' summary names the first path and where its continuation stopped, its
+    bounds' smoothing and turn assist together: "(first: visibility #1, ))" had lost them
+    (the note's two parts were joined by "; ", where the summary cut the message)."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from leapfrog_planner.planning import bounded
+    from leapfrog_planner.planning.answer import _detail
+    from leapfrog_planner.planning.leapfrog.driver import LeapfrogStatus
+    from leapfrog_planner.planning.planner import Planner
+
+    sc = load_scenario_text(
+        'horizon = 3.2\nstart = [0, 0, 0, 0]\ngoal = [3, 1, 0, 0]\n[robot]\nmodel = "car"\n'
+        "v = [0.0, 1.0]\nsigma = [-1.0, 1.0]\n"
+    )
+    problem = Planner(sc).problem
+    at = bounded.schedule(
+        problem, sc.control_bounds, sc.smoothing_widths, (), ("turn_assist", 1, 0)
+    )
+
+    @dataclasses.dataclass(frozen=True)
+    class Run:  # the fields of a LeapfrogSolution the continuation reads and writes
+        status: LeapfrogStatus = LeapfrogStatus.CONVERGED
+        message: str = "converged by shooting after 9 sweeps"
+        costate0: object = None
+        extremal: object = None
+        final_solver: str = "shooting"
+
+    monkeypatch.setattr(bounded, "resolve", lambda *args: None)  # every step fails
+    run = Run(extremal=SimpleNamespace(t=np.array([0.0, 3.2])))
+    done = bounded.continue_to_bounds(at, run, (0.0, 3.2), (sc.start, sc.goal), 8, None)
+    assert done.run.status is LeapfrogStatus.CONTINUATION_STOPPED
+    assert _detail(done.run) == (
+        ", at 0% (controls saturated sharply at the bounds, smoothing width 0.1, turn assist 1)"
+    )

@@ -242,3 +242,30 @@ def test_repr_is_short_and_the_notebook_view_shows_table_and_path(case4):
     page = case4._repr_html_()
     assert "<table>" in page and "<svg" in page and "<polyline" in page
     assert page.count("<circle") == case4.task.obstacles.shape[0]
+
+
+@pytest.mark.parametrize(
+    "how, says",
+    [
+        ("no x", "trajectory has no column x"),
+        ("x short", "trajectory columns of different lengths: t has {n} rows, x has 10"),
+        ("x words", "trajectory column x is not a list of numbers"),
+        ("no timing", "key 'timing' missing"),
+    ],
+)
+def test_a_damaged_trajectory_is_said_in_words(saved, tmp_path, how, says):
+    """What is wrong, in words: not NumPy's internals ("all the input array dimensions except
+    for the concatenation axis must match exactly...") nor a bare "KeyError: 'x'"."""
+    d = json.loads((saved / "r.json").read_text())
+    tr = d["trajectory"]
+    {
+        "no x": lambda: tr.pop("x"),
+        "x short": lambda: tr.update(x=tr["x"][:10]),
+        "x words": lambda: tr.update(x=["a"] * len(tr["t"])),
+        "no timing": lambda: d.pop("timing"),
+    }[how]()
+    (tmp_path / "bad.json").write_text(json.dumps(d))
+    p = _cli(["plot", "bad.json", "--out", "x.png"], tmp_path)
+    assert p.returncode == 2 and not (tmp_path / "x.png").exists()
+    expected = f"damaged result file ({says.format(n=len(tr['t']))})"
+    assert p.stderr.strip().splitlines()[-1] == f"error: bad.json: {expected}", p.stderr

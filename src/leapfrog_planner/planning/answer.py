@@ -245,9 +245,9 @@ def _detail(run: LeapfrogSolution) -> str:
         return f", segment {run.failed_segment}"
     if run.status is LeapfrogStatus.FINAL_FAILED:
         return f": {run.final_root.status}: {run.final_root.message}"
-    if run.status is LeapfrogStatus.CONTINUATION_STOPPED:
-        last = run.message.rsplit("; ", 1)[-1]
-        return f", {last[len(STOPPED) + 1 :]}"
+    if run.status is LeapfrogStatus.CONTINUATION_STOPPED:  # "at 40% (turn assist 0.6)"
+        where = run.message[run.message.rfind(STOPPED) + len(STOPPED) :].strip()
+        return f", {where}" if where else ""
     return ""
 
 

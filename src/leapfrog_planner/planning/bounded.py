@@ -222,4 +222,4 @@ def _what(problem: OptimalControlProblem) -> str:
     aid = problem.model.aid
     if aid is not None:
         parts.append(f"{aid.parameter.replace('_', ' ')} {problem.parameter(aid.parameter):g}")
-    return "; ".join(parts)
+    return ", ".join(parts)  # within a message's part: "; " separates the parts

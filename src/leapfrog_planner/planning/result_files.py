@@ -75,31 +75,52 @@ def trajectory_columns(tr: Trajectory | None, states, controls) -> dict[str, np.
     return cols
 
 
-def trajectory_from_columns(cols: dict, states, controls) -> Trajectory | None:
+class DamagedColumns(ValueError):
+    """A trajectory's columns that do not make one (a column missing, not numbers, or of
+    another length than the others): the message says which, in words."""
+
+
+def trajectory_from_columns(
+    cols: dict, states, controls, where: str = "trajectory"
+) -> Trajectory | None:
+    """The trajectory of named columns (:func:`trajectory_columns`), None for none; raises
+    :class:`DamagedColumns` (``where``: which trajectory, for its message)."""
     if not cols:
         return None
-    t = _column(cols, "t")
     nx = len(states)
-    x = np.column_stack([_column(cols, n) for n in states])
-    u = np.column_stack([_column(cols, n) for n in controls])
-    lam = np.column_stack([_column(cols, f"lambda_{i + 1}") for i in range(nx)])
-    nan = np.full(t.size, np.nan)
+    names = ["t", *states, *controls, *(f"lambda_{i + 1}" for i in range(nx))]
+    missing = [n for n in names if n not in cols]
+    if missing:
+        raise DamagedColumns(f"{where} has no column {', '.join(missing)}")
+    optional = [n for n in ("running_cost", "hamiltonian", "at_step") if n in cols]
+    c = {n: _column(cols, n, where) for n in (*names, *optional)}
+    rows = {n: a.size for n, a in c.items()}
+    if len(set(rows.values())) > 1:
+        odd = next(n for n in c if rows[n] != rows["t"])
+        raise DamagedColumns(
+            f"{where} columns of different lengths: t has {rows['t']} rows, {odd} has {rows[odd]}"
+        )
+    t, nan = c["t"], np.full(c["t"].size, np.nan)
+    u = np.column_stack([c[n] for n in controls])
     return Trajectory(
         t=t,
-        x=x,
-        lam=lam,
+        x=np.column_stack([c[n] for n in states]),
+        lam=np.column_stack([c[f"lambda_{i + 1}"] for i in range(nx)]),
         u=u,
-        cost=np.asarray(cols.get("running_cost", nan), dtype=float),
-        hamiltonian=np.asarray(cols.get("hamiltonian", nan), dtype=float),
+        cost=c.get("running_cost", nan),
+        hamiltonian=c.get("hamiltonian", nan),
         dH_du=np.full_like(u, np.nan),  # not saved: max_dH_du holds its check
-        at_step=np.asarray(cols.get("at_step", np.zeros(t.size)), dtype=float) == 1.0,
+        at_step=c.get("at_step", np.zeros(t.size)) == 1.0,
     )
 
 
-def _column(cols: dict, name: str) -> np.ndarray:
-    a = np.asarray(cols[name], dtype=float)
-    if a.ndim != 1:
-        raise ValueError(f"trajectory column {name!r} is not a list of numbers")
+def _column(cols: dict, name: str, where: str) -> np.ndarray:
+    try:
+        a = np.asarray(cols[name], dtype=float)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.ndim != 1:
+        raise DamagedColumns(f"{where} column {name} is not a list of numbers")
     return a
 
 
@@ -228,7 +249,9 @@ def _alternative(a: dict, names) -> PathOutcome:
         sweeps=a["sweeps"],
         message=a["message"],
         weight=a["weight"],
-        trajectory=trajectory_from_columns(a["trajectory"], *names),
+        trajectory=trajectory_from_columns(
+            a["trajectory"], *names, f"the trajectory of other path {a['label']}"
+        ),
     )
 
 
@@ -251,11 +274,19 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
     except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
         if isinstance(exc, LeapfrogError):
             raise
-        raise ResultFileError(
-            f"{source}: damaged result file ({type(exc).__name__}: {exc})"
-        ) from None
+        raise ResultFileError(f"{source}: damaged result file ({_damage(exc)})") from None
     _check_fields(out, source, d["schema"])
     return out
+
+
+def _damage(exc: Exception) -> str:
+    """What is wrong with a result file, from the error reading it raised: in words where it is
+    known (a trajectory's columns, a key missing), else the error itself."""
+    if isinstance(exc, DamagedColumns):
+        return str(exc)
+    if isinstance(exc, KeyError):
+        return f"key {exc.args[0]!r} missing"
+    return f"{type(exc).__name__}: {exc}"
 
 
 def _fields(d: dict, source: str) -> dict[str, Any]:
