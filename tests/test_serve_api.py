@@ -137,6 +137,20 @@ def test_with_a_free_final_time_the_page_s_sweep_costs_include_the_price_of_time
     assert v["frames"][-1]["cost"] == pytest.approx(v["cost"], rel=1e-3)
 
 
+def test_start_and_goal_not_connected_give_the_page_no_sweeps_to_draw():
+    """No path was found: the page gets no frames (the initial path's were its two ends, drawn
+    as a line through the wall) and no motion."""
+    from tests.test_cli import ENCLOSED
+
+    from leapfrog_planner import plan
+    from leapfrog_planner.planning.scenario import load_scenario_text
+    from leapfrog_planner.web.view import result_view
+
+    v = json.loads(json.dumps(result_view(plan(load_scenario_text(ENCLOSED)))))
+    assert v["status"] == "failed" and v["path"] is None and v["frames"] == []
+    assert "not connected around the walls" in v["message"]
+
+
 def test_options_are_used(client):
     options = {"method": "newton", "initial_paths": 1, "partitions": 4}
     v = client.post("/api/plan", json={"scenario": CASE4, "options": options}).json()

@@ -116,9 +116,8 @@ def answer_head(result: PlanResult) -> str:
         return f"{status}: no optimal path"
     if status == "converged":
         return f"cost J = {result.cost:.6g}"
-    if status == "collides":  # every extremal found passes through an obstacle
-        return f"collides: J = {result.cost:.6g}"
-    return f"{status}: J = {result.cost:.6g}, not optimal"
+    # collides: every extremal found passes through an obstacle
+    return f"{status}: J = {result.cost:.6g}" + ("" if result.optimal else ", not optimal")
 
 
 def path_title(result: PlanResult, sc: Scenario) -> str:
@@ -127,12 +126,12 @@ def path_title(result: PlanResult, sc: Scenario) -> str:
 
 def motion_label(result: PlanResult) -> str:
     """The legend entry of the returned motion: the optimal path only when the plan converged;
-    else what it is (the best extremal, that collides; or the result's trajectory source, such
-    as a Leapfrog iterate or the initial path), not optimal."""
+    else what it is (an extremal that collides; or the result's trajectory source, such as a
+    Leapfrog iterate or the initial path), not optimal."""
     cost, status = answer_cost(result), status_text(result)
-    if status == "converged":
+    if status == "converged" and result.optimal:
         return f"optimal path (J = {cost})"
-    if status == "collides":
+    if status == "collides" and result.optimal:  # a validated extremal through an obstacle
         return f"best extremal (J = {cost}, collides)"
     source = result.trajectory_source
     if "not optimal" not in source and "not a motion" not in source:

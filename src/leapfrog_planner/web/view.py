@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from ..planning.outcome import unreachable
 from ..planning.status import listed_alternatives
 
 #: Rows of the drawn path and of the control plots (the result keeps about 1,000 and more).
@@ -62,6 +63,8 @@ def path_view(tr, state_names, control_names, rows: int = PATH_ROWS) -> dict | N
 def _sweeps(result) -> list[dict]:
     """The initial path's junctions (sweep 0), then those after each sweep, with q and cost
     (with a free final time, including the price of time k T, as the result's cost does)."""
+    if unreachable(result):  # its ends alone: no path was found, none is drawn
+        return []
     k = 0.0 if result.free_time is None else result.free_time.time_weight
     t0, X0 = result.initial_junctions
     cost0 = _num(result.initial_cost + k * float(t0[-1]))

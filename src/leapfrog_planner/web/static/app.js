@@ -83,12 +83,15 @@ function showResult() {
   $("chosen-row").hidden = !r.free_time;
   if (r.free_time) {
     const f = r.free_time;
-    const where = f.bound ? `on its ${f.bound} bound` : `k + H = ${f.condition.toExponential(1)}`;
+    const where = f.bound ? `on its ${f.bound} bound` : f.condition === null ? "no extremal there"
+      : `k + H = ${f.condition.toExponential(1)}`;
     setText("chosen", `${fmt(f.horizon)} s (${where})`);
   }
   setText("energy", fmt(r.energy));
   setText("penalty", fmt(r.penalty));
-  setText("clearance", r.min_clearance === null ? "no obstacles" : fmt(r.min_clearance, 4));
+  // null: free space, or no motion to measure (start and goal not connected)
+  const none = r.path ? "no obstacles" : "–";
+  setText("clearance", r.min_clearance === null ? none : fmt(r.min_clearance, 4));
   setText("time", `${(r.wall_time_s * 1e3).toFixed(0)} ms`);
   setText("sweeps", `${r.sweeps} (${r.newton_iterations} Newton iterations)`);
   const alts = r.alternatives.map((a) => `${a.label}: ${a.status}${a.cost === null ? "" : ", " + fmt(a.cost)}`);

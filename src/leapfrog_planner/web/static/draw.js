@@ -320,27 +320,42 @@ function placePoseLabel(label, T, X, Y, handle) {
   label.setAttribute("text-anchor", best.anchor);
 }
 
+// What the returned motion is: the optimal path only when converged, else what the result
+// says it is (a Leapfrog iterate, the initial path, an extremal of a fixed horizon), not optimal.
+function motionLabel(r) {
+  if (r.optimal) return r.status === "converged" ? "optimal path" : "extremal, collides";
+  const s = r.trajectory_source;
+  return s.includes("not optimal") || s.includes("not a motion") ? s : `${s}, not optimal`;
+}
+
 function drawLegend(svg, T) {
   const r = state.result;
   const g = el("g", { id: "legend", "font-size": 11, "font-family": "sans-serif" }, svg);
   const rows = [];
   if (r) {
-    rows.push([r.optimal ? COLORS.path : COLORS.notOptimal, r.optimal ? "optimal path"
-      : r.trajectory_source]);
+    if (r.path) rows.push([r.optimal ? COLORS.path : COLORS.notOptimal, motionLabel(r)]);
     if (r.path && r.path.reverse.some((v) => v)) rows.push([COLORS.reverse, "reversing (v < 0)"]);
     if (r.alternatives.some((a) => a.path)) rows.push([COLORS.alternative, "other initial paths"]);
     if (state.frame !== null) rows.push([COLORS.sweep, "Leapfrog junctions"]);
   }
   if ((state.scenario.waypoints || []).length) rows.push([COLORS.waypoint, "waypoints"]);
   if (robotRadius() > 0) rows.push([COLORS.obstacleEdge, `footprint r = ${fmt(robotRadius(), 4)}`]);
-  const w = 150, x = T.w - w - 8;
-  if (rows.length) el("rect", { x, y: 6, width: w, height: 8 + 16 * rows.length, fill: "#fff",
-    "fill-opacity": 0.85, stroke: COLORS.grid }, g);
-  rows.forEach(([c, text], i) => {
-    el("line", { x1: x + 8, y1: 18 + 16 * i, x2: x + 28, y2: 18 + 16 * i, stroke: c,
-      "stroke-width": 3 }, g);
-    el("text", { x: x + 34, y: 22 + 16 * i, fill: "#333" }, g, text);
-  });
+  if (!rows.length) return;
+  const box = el("rect", { y: 6, height: 8 + 16 * rows.length, fill: "#fff", "fill-opacity": 0.85,
+    stroke: COLORS.grid }, g);
+  const items = rows.map(([c, text], i) => [
+    el("line", { y1: 18 + 16 * i, y2: 18 + 16 * i, stroke: c, "stroke-width": 3 }, g),
+    el("text", { y: 22 + 16 * i, fill: "#333" }, g, text)]);
+  // as wide as its longest entry (a motion that is not optimal says what it is), at least 150
+  const w = Math.max(150, 42 + Math.max(...items.map(([, t]) => t.getComputedTextLength())));
+  const x = T.w - w - 8;
+  box.setAttribute("x", x);
+  box.setAttribute("width", w);
+  for (const [line, text] of items) {
+    line.setAttribute("x1", x + 8);
+    line.setAttribute("x2", x + 28);
+    text.setAttribute("x", x + 34);
+  }
 }
 
 function drawRoom() {
