@@ -628,6 +628,11 @@ def test_a_failed_result_is_not_drawn_as_an_optimal_path(planned, tmp_path):
     extremal = dataclasses.replace(bad, trajectory_source="extremal")
     (path,) = gid(plot_path(extremal, sc).lines, "optimal-path")
     assert path.get_label().startswith("returned extremal, not optimal")
+    # every extremal collides: the collision-free motion returned is what its source says
+    collides = dataclasses.replace(bad, status=PlanStatus.COLLIDES)
+    ax = plot_path(collides, sc)
+    (path,) = gid(ax.lines, "optimal-path")
+    assert source in path.get_label() and "not optimal" in ax.get_title()
     assert "optimal path" not in plot_path(result, sc).get_title()  # converged: as before
     assert gid(plot_path(result, sc).lines, "optimal-path")[0].get_label().startswith("optimal")
 
