@@ -77,6 +77,7 @@ def run_one(sc, free: FreeTime, direct: bool) -> dict:
             weight=sc.weight, exponent=sc.exponent, control_bounds=box if any(box) else None,
         )  # fmt: skip
         row.update(direct_cost=d.cost if d.success else math.nan, direct_clearance=d.min_clearance)
+        row.update(direct_T=d.horizon if d.success else math.nan)
     return row
 
 
@@ -94,7 +95,7 @@ def summary(rows: list[dict]) -> None:
         f"free-T plan: median {1e3 * statistics.median(times):.0f} ms, p95 "
         f"{1e3 * times[int(0.95 * (n - 1))]:.0f} ms; time / fixed-T plan at its T: median "
         f"{statistics.median(ratios):.2f}, p90 {sorted(ratios)[int(0.9 * (n - 1))]:.2f}, "
-        f"max {max(ratios):.2f}"
+        f"p95 {sorted(ratios)[int(0.95 * (n - 1))]:.2f}, max {max(ratios):.2f}"
     )
     if "direct_cost" in rows[0]:
         best_n = 0
@@ -106,7 +107,10 @@ def summary(rows: list[dict]) -> None:
             best = min(mine, theirs if math.isfinite(theirs) else math.inf)
             best_n += mine <= best * (1 + REL)
             if mine > best * (1 + REL):
-                print(f"  {r['name']}: planner {mine:.8g}, direct {theirs:.8g}")
+                print(
+                    f"  {r['name']}: planner {mine:.8g} (T {r['T']:.5g}), direct {theirs:.8g}"
+                    f" (T {r.get('direct_T', math.nan):.5g})"
+                )
         print(f"within {REL:g} of the best of planner and direct: {best_n}/{n}")
 
 
