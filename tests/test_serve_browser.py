@@ -249,6 +249,33 @@ def test_a_motion_that_is_not_optimal_is_labelled_so_in_a_legend_that_holds_it(s
     assert _text(browser, "clearance") == "–" and "no extremal there" in _text(browser, "chosen")
 
 
+def test_polygons_and_walls_are_drawn(server, browser):
+    """A scenario's polygons and walls are drawn as its discs are (the page drew neither: a
+    path kept clear of shapes nobody saw), in view, a wall as thick as it is."""
+    from tests.test_cli import ENCLOSED
+
+    from leapfrog_planner import plan
+    from leapfrog_planner.planning.scenario import load_scenario_text
+    from leapfrog_planner.web.view import result_view
+
+    _case4(browser, server)
+    text = ENCLOSED + "[[polygons]]\npoints = [[1.0, -0.5], [1.5, -0.5], [1.2, -0.2]]\n"
+    r = plan(load_scenario_text(text))  # start and goal not connected: planned at once
+    view = json.loads(json.dumps(result_view(r)))
+    inject = "state.scenario = arguments[0]; state.result = arguments[1]; fitBounds(); render();"
+    browser.execute_script(inject, r.task.to_dict(), view)
+    polygons = browser.find_elements(By.CSS_SELECTOR, "#shapes polygon.polygon")
+    walls = browser.find_elements(By.CSS_SELECTOR, "#shapes polyline.wall")
+    assert len(polygons) == 1 and len(walls) == 1
+    room = browser.find_element(By.ID, "view").rect
+    wall = walls[0].rect  # the square of walls about the goal, inside the drawing
+    assert room["x"] <= wall["x"] and wall["x"] + wall["width"] <= room["x"] + room["width"]
+    assert 0 < wall["width"] < room["width"] and wall["height"] > 0
+    scale = browser.execute_script("return transform(document.getElementById('view')).s;")
+    width = float(walls[0].get_attribute("stroke-width"))
+    assert width == pytest.approx(max(0.1 * scale, 1.0), rel=1e-6)
+
+
 def test_ticks_are_round_numbers(server, browser):
     """Paper case 3's view has a grid line at x = 0 reached from -0.6 in steps of 0.2: its
     label reads 0 (it read -5.551e-17), and every tick of the room and the plots is a short

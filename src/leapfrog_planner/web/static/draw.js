@@ -46,6 +46,9 @@ function fitBounds() {
   add(s.goal[0], s.goal[1]);
   for (const ob of s.obstacles || []) add(ob.center[0], ob.center[1], ob.radius);
   for (const w of s.waypoints || []) add(w[0], w[1], robotRadius());
+  for (const shape of [...(s.polygons || []), ...(s.walls || [])]) {
+    for (const q of shape.points || []) add(q[0], q[1], val(shape.thickness) / 2);
+  }
   mapBounds(add);
   const path = state.result && state.result.path;
   if (path) path.x.forEach((x, i) => add(x, path.y[i]));
@@ -223,7 +226,25 @@ function drawSweep(svg, T) {
     stroke: "#fff", "stroke-width": 1 }, g));
 }
 
+// Polygons and walls (thick polylines) of the scenario, in the discs' grey: the planner keeps
+// clear of them as of the discs.
+function drawShapes(svg, T) {
+  const s = state.scenario, g = el("g", { id: "shapes" }, svg);
+  const points = (shape) => (shape.points || [])
+    .map((q) => `${T.X(val(q[0])).toFixed(1)},${T.Y(val(q[1])).toFixed(1)}`).join(" ");
+  for (const shape of s.polygons || []) {
+    el("polygon", { points: points(shape), fill: COLORS.obstacle, "fill-opacity": 0.85,
+      stroke: COLORS.obstacleEdge, "stroke-width": 1, class: "polygon" }, g);
+  }
+  for (const shape of s.walls || []) {
+    el("polyline", { points: points(shape), fill: "none", stroke: COLORS.obstacle,
+      "stroke-width": Math.max(val(shape.thickness) * T.s, 1), "stroke-linecap": "round",
+      "stroke-linejoin": "round", class: "wall" }, g);
+  }
+}
+
 function drawObstacles(svg, T) {
+  drawShapes(svg, T);
   const g = el("g", { id: "obstacles" }, svg);
   (state.scenario.obstacles || []).forEach((ob, i) => {
     const cx = val(ob.center[0]), cy = val(ob.center[1]), r = Math.max(val(ob.radius), 0);
