@@ -304,6 +304,41 @@ def test_a_fixed_horizon_too_short_for_the_bounded_speed_is_refused_before_plann
     assert Planner(free).scenario.free_time is not None  # its T is the planner's to choose
 
 
+def test_the_wheels_of_a_differential_drive_bound_its_speed_as_v_bounds_the_unicycle_s():
+    """Wheels of radius 0.1 at most 8 rad/s: at most 0.8 m/s straight ahead. 2 m in T = 2
+    is out of reach, and so is a free T of at most 2 s: both refused in one line before
+    anything is planned, as a bound on ``v`` is (the wheels were not counted: the fixed plan
+    ran and failed). The first horizon a free search tries is no shorter than 2 m at 0.8 m/s."""
+    wheels = 'model = "diff-drive"\nwheel_radius = 0.1\nomega_R = [-8, 8]\nomega_L = [-8, 8]\n'
+    text = f"horizon = 2.0\nstart = [0, 0, 0]\ngoal = [2, 0, 0]\n[robot]\n{wheels}"
+    with pytest.raises(ScenarioError) as e:
+        Planner(load_scenario_text(text, "dd.toml"))
+    assert str(e.value) == (
+        "dd.toml: horizon: the goal is 2 away and the speed at most 0.8: it takes at least"
+        " 2.5 s, longer than T = 2"
+    )
+    free = text.replace("2.0", '"free"', 1) + "[cost]\ncruise_speed = 0.5\n"
+    with pytest.raises(ScenarioError, match="it takes at least 2.5 s, longer than the longest"):
+        load_scenario_text(free + "[time]\nbounds = [0.5, 2.0]\n", "dd.toml")
+    from leapfrog_planner.planning.free_time import least_time
+
+    assert least_time(load_scenario_text(free), 2.0) == pytest.approx(2.5)
+
+
+def test_a_model_s_cruise_is_derived_once_per_parameters():
+    """The cruise (SymPy, milliseconds) is remembered per model and parameter values: every
+    bounded plan asks for its top speed before it starts."""
+    from leapfrog_planner.model.cruise import _cruise, cruise
+
+    dd = get_model("diff-drive")
+    first = cruise(dd, {"wheel_radius": 0.1})
+    misses = _cruise.cache_info().misses
+    assert cruise(get_model("diff-drive"), {"wheel_radius": 0.1}) is first
+    assert _cruise.cache_info().misses == misses
+    assert cruise(dd, {"wheel_radius": 0.2}).effort == pytest.approx(25.0)  # 1 / r^2
+    assert first.effort == pytest.approx(100.0)
+
+
 def test_the_top_straight_speed_of_bounded_controls():
     from leapfrog_planner.model.cruise import top_straight_speed
 

@@ -10,6 +10,10 @@ drive with wheel radius ``r`` (both wheels at ``v / r``).
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Mapping
+from dataclasses import dataclass
+
 import numpy as np
 import sympy as sp
 
@@ -17,37 +21,57 @@ from ..errors import ModelError
 from .base import VehicleModel
 
 
-def straight_effort(model: VehicleModel, parameters: dict[str, float]) -> float:
-    """``c``: the least running cost of the controls that drive ``model`` straight ahead at unit
-    speed from the origin with every other state at zero, for the parameter values
-    ``parameters`` (by name; defaults for the others). The running cost must be a quadratic
-    form of the controls and the dynamics there linear in them."""
-    return _straight(model, parameters)[0]
+@dataclass(frozen=True)
+class Cruise:
+    """How ``model`` drives straight ahead in free space: the least running cost ``effort``
+    (``c`` above) of the controls that drive it at unit speed, and those ``controls`` (by the
+    model's control order)."""
+
+    effort: float
+    controls: tuple[float, ...]
+
+    def top_speed(self, control_names, bounds: dict[str, tuple[float, float]]) -> float | None:
+        """The top speed at which these controls, scaled, drive straight ahead (or back) inside
+        ``bounds`` (by control name); None where no bound limits them."""
+        limits = [
+            (lo, hi, u)
+            for name, u in zip(control_names, self.controls, strict=True)
+            if name in bounds and abs(u) > 1e-12
+            for lo, hi in [bounds[name]]
+        ]
+        if not limits:
+            return None
+        ahead = min(max((hi if u > 0 else lo) / u, 0.0) for lo, hi, u in limits)
+        back = min(max((lo if u > 0 else hi) / -u, 0.0) for lo, hi, u in limits)
+        return max(ahead, back)
+
+
+def cruise(model: VehicleModel, parameters: Mapping[str, float]) -> Cruise:
+    """The :class:`Cruise` of ``model`` from the origin with every other state at zero, for the
+    parameter values ``parameters`` (by name; defaults for the others). The running cost must be
+    a quadratic form of the controls and the dynamics there linear in them. Derived with SymPy
+    once per model and parameter values (milliseconds), then remembered."""
+    return _cruise(model, tuple(sorted(dict(parameters).items())))
+
+
+def straight_effort(model: VehicleModel, parameters: Mapping[str, float]) -> float:
+    """``c``: the least running cost of driving ``model`` straight ahead at unit speed
+    (:func:`cruise`)."""
+    return cruise(model, parameters).effort
 
 
 def top_straight_speed(
-    model: VehicleModel, parameters: dict[str, float], bounds: dict[str, tuple[float, float]]
+    model: VehicleModel, parameters: Mapping[str, float], bounds: dict[str, tuple[float, float]]
 ) -> float | None:
     """The top speed at which ``model`` can drive straight ahead (or back) with the controls of
-    least effort (:func:`straight_effort`: those of a cruise) inside ``bounds`` (by control
-    name); None where no bound limits them."""
-    _, uc = _straight(model, parameters)
-    limits = [
-        (lo, hi, u)
-        for name, u in zip(model.control_names, uc, strict=True)
-        if name in bounds and abs(u) > 1e-12
-        for lo, hi in [bounds[name]]
-    ]
-    if not limits:
-        return None
-    ahead = min(max((hi if u > 0 else lo) / u, 0.0) for lo, hi, u in limits)
-    back = min(max((lo if u > 0 else hi) / -u, 0.0) for lo, hi, u in limits)
-    return max(ahead, back)
+    least effort (those of a cruise) inside ``bounds`` (by control name); None where no bound
+    limits them: the differential drive's is set by its wheels' bounds."""
+    return cruise(model, parameters).top_speed(model.control_names, bounds)
 
 
-def _straight(model: VehicleModel, parameters: dict[str, float]) -> tuple[float, np.ndarray]:
-    """The effort ``c`` of :func:`straight_effort` and the controls that drive at unit speed
-    with it."""
+@functools.lru_cache(maxsize=64)
+def _cruise(model: VehicleModel, parameters: tuple[tuple[str, float], ...]) -> Cruise:
+    """:func:`cruise`, of parameter values given as sorted pairs."""
     values = dict(zip(model.parameter_names, model.defaults, strict=True)) | dict(parameters)
     at = {s: 0 for s in model.states}
     at.update({p: values[n] for p, n in zip(model.parameters, model.parameter_names, strict=True)})
@@ -78,4 +102,4 @@ def _straight(model: VehicleModel, parameters: dict[str, float]) -> tuple[float,
     c = 0.5 * float(uc @ Q @ uc)
     if not np.allclose(A @ uc, b) or not c > 0.0:
         raise ModelError(f"model {model.name!r} cannot drive straight ahead: give a time weight")
-    return c, uc
+    return Cruise(c, tuple(float(x) for x in uc))

@@ -236,9 +236,9 @@ def first_horizon(scenario: Scenario, shortest: float, effort: float, estimate) 
 
 
 def least_time(scenario: Scenario, shortest: float) -> float:
-    """The time the shortest initial path (``shortest`` long) takes at the top speed; 0
-    without a bound on ``v``."""
-    vmax = top_speed(scenario.control_bounds or {})
+    """The time the shortest initial path (``shortest`` long) takes at the top speed
+    (:func:`.scenario_time.top_speed`); 0 where nothing bounds the speed."""
+    vmax = top_speed(scenario.model, scenario.model_parameters, scenario.control_bounds)
     return 0.0 if vmax is None else shortest / vmax
 
 

@@ -27,7 +27,14 @@ from ..model import MODELS
 from .scenario_checks import ScenarioCheck, key_path
 from .scenario_files import decode_text, not_toml, path_exists, read_scenario_file
 from .scenario_map import ScenarioMap, map_from_tables
-from .scenario_time import FREE, FreeTime, free_time_from_tables, provisional_horizon, too_short
+from .scenario_time import (
+    FREE,
+    FreeTime,
+    free_time_from_tables,
+    provisional_horizon,
+    too_short,
+    top_speed,
+)
 from .scenario_toml import toml_key, toml_state, toml_value
 
 __all__ = [
@@ -190,14 +197,15 @@ class Scenario:
             "margin": margin,
             "control_bounds": bounds,
             "map": self.map,
-            "free_time": self._check_free_time(c, start, goal, bounds),
+            "free_time": self._check_free_time(c, (start, goal), model, parameters, bounds),
         }
         for k, v in values.items():
             object.__setattr__(self, k, v)
 
-    def _check_free_time(self, c: ScenarioCheck, start, goal, bounds) -> FreeTime | None:
-        """The free time, of the right type, and its longest ``T`` long enough for a bounded
-        speed to cover the straight distance."""
+    def _check_free_time(self, c: ScenarioCheck, ends, model, parameters, bounds):
+        """The free time (a :class:`FreeTime` or None), of the right type, and its longest ``T``
+        long enough for the top speed of ``model`` in its ``bounds`` to cover the straight
+        distance between the ``ends``."""
         free = self.free_time
         if free is None:
             return None
@@ -205,7 +213,7 @@ class Scenario:
             c.fail("free_time", f"expected a FreeTime or None, got {describe(free)}")
         if free.bounds is not None:
             longest = f"the longest T allowed, {free.bounds[1]:g}"
-            why = too_short(start, goal, bounds, free.bounds[1], longest)
+            why = too_short(*ends, top_speed(model, parameters, bounds), free.bounds[1], longest)
             if why is not None:
                 c.fail("time.bounds", why)
         return free

@@ -109,45 +109,56 @@ def provisional_horizon(free: FreeTime, start: np.ndarray, goal: np.ndarray, eff
     return float(np.clip(distance / speed, *free.limits()))
 
 
-def top_speed(bounds) -> float | None:
-    """The largest ``|v|`` the control ``bounds`` allow; None without a bound on ``v``."""
-    return max(abs(v) for v in bounds["v"]) if "v" in bounds else None
+def top_speed(model, parameters: Mapping[str, float], bounds) -> float | None:
+    """The top speed at which ``model`` (a built-in name or a model, with its ``parameters``)
+    drives straight ahead inside its control ``bounds`` (:func:`..model.cruise.top_straight_speed`:
+    the differential drive's wheels bound it too); None where no bound limits it, or for a model
+    that cannot cruise."""
+    if not bounds:
+        return None
+    from ..model import get_model
+    from ..model.cruise import top_straight_speed  # SymPy, once per model and parameters
+
+    try:
+        return top_straight_speed(get_model(model), parameters, bounds)
+    except ModelError:
+        return None
 
 
-def too_short(start, goal, bounds, longest: float, what: str) -> str | None:
-    """Why ``longest`` seconds (``what`` names them) are too short for a bounded speed to cover
-    the straight distance from ``start`` to ``goal``; None when they are not, or without a
-    bound on ``v``."""
-    vmax = top_speed(bounds)
-    if vmax is None:
+def too_short(start, goal, top: float | None, longest: float, what: str) -> str | None:
+    """Why ``longest`` seconds (``what`` names them) are too short for the top speed ``top``
+    (:func:`top_speed`) to cover the straight distance from ``start`` to ``goal``; None when
+    they are not, or without a top speed."""
+    if top is None:
         return None
     distance = float(np.hypot(*(goal[:2] - start[:2])))
-    if distance <= vmax * longest:
+    if distance <= top * longest:
         return None
     return (
-        f"the goal is {distance:.6g} away and the speed at most {vmax:g}: it takes at least"
-        f" {distance / vmax:.6g} s, longer than {what}"
+        f"the goal is {distance:.6g} away and the speed at most {top:.6g}: it takes at least"
+        f" {distance / top:.6g} s, longer than {what}"
     )
 
 
-def too_fast(free: FreeTime, model: str, parameters: dict, bounds) -> str | None:
-    """Why the price of time ``free`` asks the bounded ``model`` (a built-in name, with its
-    ``parameters``) to cruise at or above the top speed its control ``bounds`` allow: its
-    optimum would then drive at that top speed, on the bounds, where the costates the shooting
-    solves for grow without limit and the condition that fixes ``T`` is never met (a search
-    of minutes that ends in nothing, or at a dearer route that does not reach the bounds);
-    None when it does not."""
+def too_fast(free: FreeTime, model, parameters: Mapping[str, float], bounds) -> str | None:
+    """Why the price of time ``free`` asks the bounded ``model`` (a built-in name or a model,
+    with its ``parameters``) to cruise at or above the top speed its control ``bounds`` allow:
+    its optimum would then drive at that top speed, on the bounds, where the costates the
+    shooting solves for grow without limit and the condition that fixes ``T`` is never met (a
+    search of minutes that ends in nothing, or at a dearer route that does not reach the
+    bounds); None when it does not."""
     from ..model import get_model
-    from ..model.cruise import straight_effort, top_straight_speed  # SymPy
+    from ..model.cruise import cruise  # SymPy, once per model and parameters
 
     vehicle = get_model(model)
     try:
-        top = top_straight_speed(vehicle, parameters, bounds)
-        speed = math.sqrt(free.time_weight / straight_effort(vehicle, parameters))
+        straight = cruise(vehicle, parameters)
     except ModelError:  # a model that cannot cruise: its price of time is given as a weight
         return None
+    top = straight.top_speed(vehicle.control_names, bounds)
     if top is None:
         return None
+    speed = math.sqrt(free.time_weight / straight.effort)
     if speed < top:
         return None
     asked = (
@@ -169,7 +180,8 @@ def refuse_unreachable(scenario) -> None:
     free, bounds = scenario.free_time, scenario.control_bounds
     if free is None:
         key, T = "horizon", scenario.horizon
-        why = too_short(scenario.start, scenario.goal, bounds, T, f"T = {T:g}")
+        top = top_speed(scenario.model, scenario.model_parameters, bounds)
+        why = too_short(scenario.start, scenario.goal, top, T, f"T = {T:g}")
     else:
         key = "cost.cruise_speed" if free.cruise_speed is not None else "cost.time_weight"
         why = too_fast(free, scenario.model, scenario.model_parameters, bounds) if bounds else None
