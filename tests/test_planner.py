@@ -732,12 +732,12 @@ def test_a_single_candidate_path_is_not_ranked(monkeypatch):
     """Ranking estimates each candidate's cost (0.6 ms on paper case 1); with one candidate (a
     path through waypoints, headings along it) there is nothing to rank. With several, the
     ranking still orders them."""
-    import leapfrog_planner.planning.planner as planner_module
+    import leapfrog_planner.planning.first_paths as first_paths_module
 
     calls = []
-    rank = planner_module.rank_paths
+    rank = first_paths_module.rank_paths
     monkeypatch.setattr(
-        planner_module, "rank_paths", lambda *a: calls.append(len(a[1])) or rank(*a)
+        first_paths_module, "rank_paths", lambda *a: calls.append(len(a[1])) or rank(*a)
     )
     sc = Scenario(
         name="wp", horizon=1.0, start=[0, 0, 0], goal=[2, 0, 0], obstacles=[[1.0, 0.5, 0.2]],

@@ -15,29 +15,27 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .._blas import single_threaded_blas
 from ..bvp.shooting import ShootingSettings
 from ..errors import SettingsError
 from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
-from ..model import get_model
 from .answer import Chosen, Context, choose_answer
-from .free_time import FREE_TIME_PATHS, first_horizon, least_time, plan_free_time
-from .initial_path import InitialPath, initial_paths, points_away
-from .initial_path.map_paths import Unreachable, map_initial_paths
+from .first_paths import first_paths
+from .fixed_horizons import FixedHorizons
+from .free_time import plan_free_time
+from .initial_path import InitialPath
+from .initial_path.map_paths import Unreachable
 from .leapfrog import Arcs
 from .outcome import Timing, plan_result, unreachable_result
-from .path_ranking import drivable, estimated_costs, rank_paths
 from .rerun import recorded, recorded_task, with_call
 from .result_files import plain
 from .results import PlanResult, Validation, validate_arcs
 from .runner import PlanEvent, Runner
-from .runs import PathRun, Round, RunRequest
-from .scenario import Scenario, load_scenario, scenario_from_dict
+from .runs import PathRun, Round, RunRequest, Searched
+from .scenario import Scenario, as_scenario
 from .scenario_time import refuse_unreachable
-from .search import STAGES, Search, fewer_paths_note, next_round, select_paths
+from .search import STAGES, Search, fewer_paths_note, next_round
 from .settings import PlannerSettings
 
 __all__ = ["PlanEvent", "Planner", "PlannerSettings", "plan"]
@@ -57,6 +55,14 @@ class Planner:
         scenario = as_scenario(scenario)
         refuse_unreachable(scenario)  # at once, not after a search that cannot succeed
         self._setup(scenario, PlannerSettings.of_scenario(scenario, settings, **options), progress)
+
+    @classmethod
+    def unrefused(cls, scenario: Scenario, settings: PlannerSettings, progress=None) -> Planner:
+        """A planner of ``scenario`` with ``settings`` as they are, not refused where its
+        horizon is too short for the top speed (the free-time search probes such horizons)."""
+        planner = cls.__new__(cls)
+        planner._setup(scenario, settings, progress)
+        return planner
 
     def _setup(self, scenario: Scenario, settings: PlannerSettings, progress) -> None:
         self.scenario, self.settings = scenario, settings
@@ -95,49 +101,14 @@ class Planner:
         """The paths a plan runs first, keeping ``margin`` (default: the settings') from the
         obstacles: the ``initial_paths`` of least estimated cost, one per family
         (:func:`.search.select_paths`), or fewer where fewer exist (waypoints fix the way round
-        the obstacles; two discs leave four ways): the plan's message then says so.
-
-        Where an end heading points away from the chord, three-point turns are ranked with the
-        paths of the homotopy classes. Elsewhere they are planned too, but the best one runs
-        besides the class paths, and only when it is estimated cheapest of all: backing away
-        from an obstacle next to an end looks cheap, and ranked with the others it took the
-        place of paths that led to the optimum (docs/tuning.md)."""
+        the obstacles; two discs leave four ways): the plan's message then says so. How
+        three-point turns are ranked: :func:`.first_paths.first_paths`."""
         return self.path_selection(margin)[0]
 
     def path_selection(self, margin=None) -> tuple[list[InitialPath], list[InitialPath]]:
         """The paths a plan runs first (:meth:`initial_paths`) and the extra ones it races
-        against them (the ``more paths`` stage of :mod:`.search`)."""
-        s, st = self.scenario, self.settings
-        k = max(st.initial_paths + st.extra_paths, st.candidate_paths)
-        margin = max(st.margin, s.margin) if margin is None else margin
-        ends = (s.start[:3], s.goal[:3])  # poses: a model's further states are filled along
-        if s.map is not None:
-            world = self.problem.penalty.map
-            candidates = map_initial_paths(
-                *ends, world, s.footprint_obstacles, k=k, margin=margin, turns=True,
-                where=s.map.where,
-            )  # fmt: skip
-        else:
-            candidates = initial_paths(
-                *ends, s.footprint_obstacles, k=k, margin=margin, waypoints=s.waypoints, turns=True
-            )
-        ends = (s.start, s.goal)
-        keep = [True] * len(candidates)
-        if s.control_bounds:  # a robot that cannot reverse is given no path that does
-            keep = drivable(self.problem, candidates, s.horizon, s.control_bounds, ends)
-        aid = self.robot.model.aid
-        if aid and aid.turns_in_place and self.robot.parameter(aid.parameter) == 0.0:
-            # nor one that cannot turn in place (the car) one that does so at an end
-            keep = [
-                k and not (p.modes.turn_start or p.modes.turn_goal)
-                for k, p in zip(keep, candidates, strict=True)
-            ]
-        candidates = [p for p, ok in zip(candidates, keep, strict=True) if ok] or candidates
-        if len(candidates) < 2:  # nothing to rank: the estimate took 0.6 ms of paper case 1's 9
-            return candidates, []
-        ranked = rank_paths(self.problem, candidates, s.horizon, ends)
-        turns_ranked = points_away(s.start, s.goal)
-        return select_paths(ranked, st.initial_paths, st.extra_paths, turns_ranked)
+        against them (:func:`.first_paths.first_paths`)."""
+        return first_paths(self.scenario, self.settings, self.problem, self.robot, margin)
 
     def run_path(self, path: InitialPath) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) in the plan's
@@ -153,36 +124,20 @@ class Planner:
     def plan(self) -> PlanResult:
         with single_threaded_blas():
             if self.scenario.free_time is None:
-                result = self._plan()
+                result = self.plan_fixed()
             else:  # the time limit is the whole search's, not each plan's
                 limit = self.settings.time_limit
                 deadline = time.perf_counter() + limit if limit is not None else float("inf")
-                T0, least = self._first_horizon()
-                result = plan_free_time(self, self.scenario, T0, deadline, least)
+                plans = FixedHorizons(self)
+                T0, least = plans.first_horizon()
+                result = plan_free_time(plans, self.scenario, T0, deadline, least)
         return recorded(result, self.settings, "Planner.plan")
-
-    # ------------------------------------------------------------ a free final time (.free_time)
-
-    def plan_at(self, horizon: float, deadline: float = float("inf")) -> PlanResult:
-        """The plan of the scenario with its horizon fixed at ``horizon``, with at least
-        :data:`.free_time.FREE_TIME_PATHS` initial paths, cut short at ``deadline`` (a
-        ``time.perf_counter()`` reading)."""
-        fixed = dataclasses.replace(self.scenario, horizon=horizon, free_time=None)
-        paths = max(self.settings.initial_paths, FREE_TIME_PATHS)
-        settings = dataclasses.replace(self.settings, initial_paths=paths)
-        planner = Planner.__new__(Planner)  # not refused: the search may probe any T
-        planner._setup(fixed, settings, self.progress)
-        return planner._plan(self.settings.initial_paths, deadline)
 
     def problem_at(self, weight: float) -> OptimalControlProblem:
         """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
         s = self.scenario
         problem = s.problem(s.smoothing_widths[-1]) if s.control_bounds else self.robot
         return problem if weight == problem.penalty.weight else problem.with_weight(weight)
-
-    def progress_note(self, note: str) -> None:
-        """Reports ``note`` as a :class:`PlanEvent` of stage ``"time"``."""
-        self.runner.emit(PlanEvent("time", 0, 1, note))
 
     def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation | None:
         """``arcs`` re-integrated and checked as every answer is (``validate_arcs``); None when
@@ -196,26 +151,7 @@ class Planner:
         lf = self.settings.leapfrog
         return dataclasses.replace(lf.final_shooting, samples=0, method=lf.method)
 
-    def _first_horizon(self) -> tuple[float, float]:
-        """Where the search starts, and the least horizon the top speed allows for the shortest
-        initial path (:func:`.free_time.least_time`)."""
-        s = self.scenario
-        try:
-            paths = self.initial_paths()
-        except Unreachable:  # the plan at the provisional horizon says so
-            return s.horizon, 0.0
-        ends = (s.start, s.goal)
-
-        def estimate(T: float) -> float:
-            return float(np.min(estimated_costs(self.problem, paths, T, ends=ends)))
-
-        from ..model.cruise import straight_effort  # SymPy: only for a free horizon
-
-        effort = straight_effort(get_model(s.model), s.model_parameters)
-        shortest = min(p.length for p in paths)
-        return first_horizon(s, shortest, effort, estimate), least_time(s, shortest)
-
-    def _plan(self, asked: int | None = None, deadline: float | None = None) -> PlanResult:
+    def plan_fixed(self, asked: int | None = None, deadline: float | None = None) -> PlanResult:
         """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for
         (default: the settings'), a note in the message when fewer ran; ``deadline``: when
         the search stops (default: the settings' time limit from now)."""
@@ -224,49 +160,48 @@ class Planner:
         if deadline is None:
             deadline = t_begin + limit if limit is not None else float("inf")
         self.runner.deadline = deadline
+        method, settings = self.settings.leapfrog.method, plain(self.settings)
         try:
             paths = self.path_selection()
         except Unreachable as exc:
             wall = time.perf_counter() - t_begin
-            method = self.settings.leapfrog.method
-            settings = plain(self.settings)
             return unreachable_result(self.scenario, settings, method, self.problem, str(exc), wall)
+        searched = self._search(paths)
+        chosen = self.choose(searched.runs)
+        self.runner.emit(PlanEvent("final", len(paths[0]) - 1, len(paths[0]), ""))
+        wall = time.perf_counter() - t_begin
+        problem = self.runner.problem_of(self.first_round, chosen.run.weight)
+        timing = Timing(paths_s=wall - searched.runs_s, runs_s=searched.runs_s, wall_s=wall)
+        result = plan_result(
+            self.scenario, settings, method, searched.runs, chosen, problem, timing
+        )
+        asked = asked or self.settings.initial_paths
+        notes = [fewer_paths_note(self.scenario, asked, len(paths[0]))]
+        if searched.cut:  # said in the message, whatever the answer
+            notes.append(f"the time limit of {limit:g} s cut the search short")
+        message = "; ".join([result.message, *filter(None, notes)])
+        return dataclasses.replace(result, message=message)
+
+    def _search(self, paths: tuple[list[InitialPath], list[InitialPath]]) -> Searched:
+        """The search's loop: each round's stages (:data:`.search.STAGES`) ask for runs until
+        none asks for more, then the next round (:func:`.search.next_round`), if any; the time
+        limit stops it after the runs under way."""
         search = Search(
             self.scenario, self.settings, paths, self.robot.model.aid,
             self.runner.problem_of, self.initial_paths, self.choose,
         )  # fmt: skip
         runs: list[PathRun] = []
-        t_runs = 0.0
-        rnd = self.first_round
-        cut = False  # whether the time limit left work undone
-        while rnd is not None and not cut:
+        runs_s, rnd = 0.0, self.first_round
+        while rnd is not None:
             for stage in STAGES:
                 while requests := stage(search, rnd, [r for r in runs if r.request.round is rnd]):
                     t0 = time.perf_counter()
                     runs += self.runner.run_all(requests)
-                    t_runs += time.perf_counter() - t0
-                    cut = time.perf_counter() >= self.runner.deadline
-                    if cut:
-                        break
-                if cut:
-                    break
-            rnd = None if cut else next_round(search, rnd, runs)
-        chosen = self.choose(runs)
-        self.runner.emit(PlanEvent("final", len(paths[0]) - 1, len(paths[0]), ""))
-        wall = time.perf_counter() - t_begin
-        problem = self.runner.problem_of(self.first_round, chosen.run.weight)
-        timing = Timing(paths_s=wall - t_runs, runs_s=t_runs, wall_s=wall)
-        method = self.settings.leapfrog.method
-        result = plan_result(
-            self.scenario, plain(self.settings), method, runs, chosen, problem, timing
-        )
-        notes = [
-            fewer_paths_note(self.scenario, asked or self.settings.initial_paths, len(paths[0]))
-        ]
-        if cut:  # said in the message, whatever the answer
-            notes.append(f"the time limit of {limit:g} s cut the search short")
-        message = "; ".join([result.message, *filter(None, notes)])
-        return dataclasses.replace(result, message=message)
+                    runs_s += time.perf_counter() - t0
+                    if time.perf_counter() >= self.runner.deadline:
+                        return Searched(runs, runs_s, cut=True)
+            rnd = next_round(search, rnd, runs)
+        return Searched(runs, runs_s, cut=False)
 
     def choose(self, runs: list[PathRun]) -> Chosen:
         """The answer ``runs`` give (:func:`.answer.choose_answer`)."""
@@ -274,16 +209,6 @@ class Planner:
             self.scenario, self.problem, self.settings.samples, self.runner.flow_of, self.robot
         )
         return choose_answer(runs, ctx)
-
-
-def as_scenario(scenario: Scenario | Mapping[str, Any] | str | Path) -> Scenario:
-    """``scenario`` itself, or the scenario of a dict (the tables of a scenario file), of a file
-    or of a built-in name."""
-    if isinstance(scenario, Scenario):
-        return scenario
-    if isinstance(scenario, Mapping):
-        return scenario_from_dict(scenario)
-    return load_scenario(scenario)
 
 
 def plan(

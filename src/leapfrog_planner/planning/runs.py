@@ -160,3 +160,13 @@ def touches(clearance: np.ndarray, margin: float = 0.0) -> bool:
 def valid(v, end_tolerance: float = END_STATE_TOLERANCE) -> bool:
     """A validated extremal: re-integrated without failure, reaching the goal."""
     return v is not None and np.isfinite(v.cost) and v.end_state_error <= end_tolerance
+
+
+@dataclass(frozen=True)
+class Searched:
+    """What a plan's search ran: its runs, the seconds they took, and whether the time limit
+    cut the search short (work was left undone)."""
+
+    runs: list[PathRun]
+    runs_s: float
+    cut: bool

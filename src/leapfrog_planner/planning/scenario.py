@@ -40,6 +40,7 @@ from .scenario_toml import toml_key, toml_state, toml_value
 __all__ = [
     "SOLVER_KEYS",
     "Scenario",
+    "as_scenario",
     "builtin_scenarios",
     "load_scenario",
     "load_scenario_text",
@@ -574,3 +575,13 @@ def load_scenario(path_or_name: str | Path) -> Scenario:
         f"no scenario file or built-in named {short(text_name, 80)}"
         f" (built-ins: {', '.join(names) or 'none'})"
     )
+
+
+def as_scenario(scenario: Scenario | Mapping[str, Any] | str | Path) -> Scenario:
+    """``scenario`` itself, or the scenario of a dict (the tables of a scenario file), of a file
+    or of a built-in name."""
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, Mapping):
+        return scenario_from_dict(scenario)
+    return load_scenario(scenario)

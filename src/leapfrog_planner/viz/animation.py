@@ -12,7 +12,7 @@ from matplotlib.patches import Patch
 
 from .._atomic import write_atomic as _write_atomic
 from ..planning.results import PlanResult
-from ..planning.scenario import Scenario
+from ..planning.scenario import Scenario, as_scenario
 from .style import (
     GID_HEADING,
     OBSTACLE_EDGE,
@@ -21,7 +21,6 @@ from .style import (
     REVERSE_LABEL,
     answer_cost,
     arrow_length,
-    as_scenario,
     draw_arrows,
     draw_ends,
     draw_obstacles,

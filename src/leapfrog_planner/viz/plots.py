@@ -27,7 +27,7 @@ from matplotlib.lines import Line2D
 from .._atomic import write_atomic as _write_atomic
 from ..errors import require_integer
 from ..planning.results import PlanResult
-from ..planning.scenario import Scenario
+from ..planning.scenario import Scenario, as_scenario
 from ..planning.status import listed_alternatives
 from .animation import animate_sweeps
 from .options import DPI, DPI_MAX, DPI_MIN
@@ -46,7 +46,6 @@ from .style import (
     REVERSE_LABEL,
     answer_head,
     arrow_length,
-    as_scenario,
     draw_arrows,
     draw_ends,
     draw_initial,

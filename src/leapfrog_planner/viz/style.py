@@ -12,7 +12,7 @@ from matplotlib.patches import Circle
 
 from ..planning.outcome import unreachable
 from ..planning.results import PlanResult
-from ..planning.scenario import Scenario, load_scenario
+from ..planning.scenario import Scenario
 
 #: File formats :func:`save_figure` writes, by (lower-case) extension.
 FIGURE_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
@@ -64,10 +64,6 @@ def drop_titles(fig: Figure) -> None:
     for ax in fig.axes:
         for loc in ("left", "center", "right"):
             ax.set_title("", loc=loc)
-
-
-def as_scenario(scenario) -> Scenario:
-    return scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
 
 
 def status_text(result: PlanResult) -> str:
