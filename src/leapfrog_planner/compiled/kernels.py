@@ -47,8 +47,8 @@ def load_kernels(model) -> ModuleType:
     name = model if isinstance(model, str) else model.name
     if mod_name in sys.modules:
         return sys.modules[mod_name]
-    path = writable_dir("models") / f"{mod_name}.py"
-    if not path.exists() and not _copy_read_only(path):
+    path, home = _module_paths(mod_name)
+    if not path.exists() and not _copy_read_only(path, home):
         _generate(model, path)
     try:
         _check_integrity(path)
@@ -73,19 +73,24 @@ def generated(model) -> bool:
     """Whether ``model``'s module is loaded or in the cache directory (or its read-only home):
     a look that generates nothing."""
     mod_name = _module_name(model)
-    where = (writable_dir("models"), cache_dir() / "models")
-    return mod_name in sys.modules or any((d / f"{mod_name}.py").is_file() for d in where)
+    return mod_name in sys.modules or any(p.is_file() for p in _module_paths(mod_name))
 
 
-def _copy_read_only(path: Path) -> bool:
+def _module_paths(mod_name: str) -> tuple[Path, Path]:
+    """Where the module ``mod_name`` is loaded from (the cache directory, or the writable
+    fallback where that is read-only) and its home in the cache directory (the same path
+    where the cache directory is writable)."""
+    return writable_dir("models") / f"{mod_name}.py", cache_dir() / "models" / f"{mod_name}.py"
+
+
+def _copy_read_only(path: Path, source: Path) -> bool:
     """Where the cache directory is read-only, copy its entry of ``path`` (the module and
     numba's files of it) to the writable fallback ``path`` is in, so that numba loads it from
     there instead of compiling it again (22.5 s instead of 0.9 s, measured). Numba needs a
     writable cache folder; its index is keyed by the module's content, so a copy is as good
-    as the original."""
-    home = cache_dir() / "models"
-    source = home / path.name
-    if path.parent == home or not source.is_file():
+    as the original. ``source``: its home in the cache directory."""
+    home = source.parent
+    if path == source or not source.is_file():
         return False
     try:
         copy_compiled(home / "__pycache__", numba_cache_of(path.parent), source.stem)
