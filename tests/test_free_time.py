@@ -157,6 +157,59 @@ def test_an_answer_is_no_dearer_than_a_fixed_horizon_plan_at_its_t(index):
     assert r.cost <= fixed.cost + 0.5 * T + 1e-9
 
 
+def test_a_family_still_getting_cheaper_is_followed_to_its_free_time_optimum():
+    """General layout 53 at a cruise speed of 1: the cheapest extremal of the plan at the first
+    horizon (T = 1.6) heads for an optimum (6.25286 at T = 4.443) cheaper than IPOPT's
+    multistart (6.2565 at T = 4.49); the continuation in T used to stop short of it (its solves
+    ran out while it was still getting cheaper) and the search settled on a dearer family's
+    6.6733. The roots found from that plan include one that meets k + H = 0 and is no dearer
+    than IPOPT's."""
+    from leapfrog_planner._blas import single_threaded_blas
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+    from leapfrog_planner.planning.free_time import _family_roots
+
+    sc = generate_one(GeneratorSpec.preset("general", seed=1), 53)
+    sc = dataclasses.replace(sc, free_time=FreeTime(0.5, 1.0))
+    planner = Planner(sc)
+    with single_threaded_blas():  # as in a plan (threads fight over two cores: 10x slower)
+        first = planner.plan_at(1.59659)
+        assert first.status is PlanStatus.CONVERGED
+        roots = _family_roots(planner, sc, first, [], math.inf)
+    met = [r for r in roots if abs(0.5 + r.point.H) <= 1e-8 and r.point.clearance >= 0]
+    assert met and min(r.total(0.5) for r in met) <= 6.2565
+
+
+def test_a_family_cut_off_at_its_solve_cap_is_continued_while_it_heads_below_the_best_root():
+    """A family whose continuation ran out of solves while it still heads below the cheapest
+    root found is given more (as often as it needs, up to EXTENSIONS times), and its root is
+    kept."""
+    from types import SimpleNamespace
+
+    from leapfrog_planner.planning.free_time import _extended
+    from leapfrog_planner.planning.time_family import OutOfSolves
+
+    class Family:
+        def __init__(self, heading: float, solves: int):
+            self.heading, self.needed, self.allowed = heading, solves, 0
+
+        def predicted(self) -> float:
+            return self.heading
+
+        def allow(self, solves: int) -> None:
+            self.allowed += solves
+
+        def solve(self):
+            if self.allowed < self.needed:
+                raise OutOfSolves("out of solves")
+            return SimpleNamespace(total=lambda k: self.heading, clearance=1.0, T=2.0), ""
+
+    sc = load_scenario_text(line())
+    found = SimpleNamespace(point=SimpleNamespace(clearance=1.0), total=lambda k: 5.0)
+    cheaper, dearer = Family(4.0, 45), Family(6.0, 1)
+    roots = _extended([(cheaper, None), (dearer, None)], [found], sc, None)
+    assert [r.point.total(0.5) for r in roots] == [4.0]
+
+
 def test_a_first_horizon_shorter_than_the_top_speed_allows_is_not_planned():
     """The estimate that picks the first horizon does not see a bound on the speed: on general
     layout 3 with |v| <= 1.5 it chose 0.84 s where the shortest initial path needs 1.11 s, and

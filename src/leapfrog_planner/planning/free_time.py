@@ -9,11 +9,11 @@ indirect:
 
 1. plan the fixed-horizon problem at a first horizon ``T0`` (the user's guess, else the
    shortest initial path at the cruise speed): the whole search, which picks the extremal;
-2. find the root of ``g(T) = k + H(T)`` along that extremal's family: each new ``T`` is the
-   extremal of a known ``T`` stretched to it and solved again by shooting (:func:`.bounded.resolve`;
-   a step that fails is halved). ``g`` is close to linear in ``1/T^2`` (in free space
-   ``H = -D^2 / (2 T^2)``): secant steps in ``1/T^2`` until the root is bracketed, then Brent's
-   method (SciPy's ``brentq``);
+2. find the root of ``g(T) = k + H(T)`` along that extremal's family, and those of the plan's
+   alternatives near it in cost (:class:`.time_family.TimeSearch`: continuation in ``T`` by
+   shooting, secant steps in ``1/T^2``, then Brent's method). A family that ran out of its
+   solves while still heading below the cheapest root found is given more (:func:`_extended`);
+
 3. plan again at the root ``T*``: the whole search, so that an extremal of another family,
    cheaper there, is not missed. When it returns the extremal continued (the same cost), that
    plan is the answer; when it finds a cheaper one, step 2 follows that one; at most
@@ -33,15 +33,24 @@ from typing import Protocol
 import numpy as np
 
 from ..bvp.shooting import ShootingSettings
-from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
-from .bounded import MAX_HALVINGS, arcs_of, resolve
+from .bounded import arcs_of
 from .leapfrog import Arcs
 from .outcome import unreachable
-from .results import PlanResult, Validation, piecewise_trajectory
+from .results import PlanResult, Validation
 from .scenario import Scenario
 from .scenario_time import top_speed
 from .status import FreeTimeReport, PlanStatus, TimeStep
+from .time_family import (
+    CONDITION_TOL,
+    MAX_SOLVES,
+    STEP_FACTOR,
+    OutOfSolves,
+    Stuck,
+    TimePoint,
+    TimeSearch,
+    first_step,
+)
 
 #: The initial paths of the plans at a horizon, at least: the extremals they find are the
 #: families followed in T, and with the default three the cheapest family was missed on 3 of
@@ -49,25 +58,17 @@ from .status import FreeTimeReport, PlanStatus, TimeStep
 FREE_TIME_PATHS = 6
 #: Plans at a root before the search gives up on a plan returning the extremal it continued.
 ROUNDS = 3
-#: ``|k + H|`` at most this times ``max(1, k)`` meets the free-time condition.
-CONDITION_TOL = 1e-8
 #: The horizons where the first is sought, as multiples of the shortest path at cruise speed.
 FIRST_GRID = np.geomspace(0.5, 8.0, 9)
-#: A continuation step whose path moves further than this fraction of its length from the path
-#: it started from has jumped to another family (measured: a step of 1.5x in T from a path round
-#: a disc landed on one through it); it is made again in smaller steps.
-MAX_MOVE = 0.15
-SHAPE_SAMPLES = 33
-#: Shooting solves one family's continuation may make (a family that folds is left there).
-MAX_SOLVES = 30
 #: Alternatives are continued when their cost with the price of time is at most this many
 #: times the answer's at the first horizon.
 ALTERNATIVE_FACTOR = 1.5
+#: Times a family that made its solves while heading below the cheapest root found is allowed
+#: :data:`.time_family.MAX_SOLVES` more (:func:`_extended`).
+EXTENSIONS = 3
 #: Where the plan at the first horizon finds no extremal, these multiples of it are planned
 #: (and in its place where it is shorter than the top speed allows: :func:`least_time`).
 RETRIES = (1.6, 2.5)
-#: The largest change of ``T`` in one secant step, as a factor.
-STEP_FACTOR = 8.0
 
 
 class FixedHorizonPlans(Protocol):
@@ -84,140 +85,6 @@ class FixedHorizonPlans(Protocol):
 
     @property
     def shooting(self) -> ShootingSettings: ...
-
-
-@dataclass(frozen=True)
-class _Point:
-    """An extremal of the fixed-horizon problem at ``T``: its arcs, ``H``, cost ``V`` and
-    least clearance (of 401 samples: to rank families, not to validate an answer)."""
-
-    T: float
-    arcs: Arcs
-    H: float
-    V: float
-    clearance: float
-    xy: np.ndarray  # positions at SHAPE_SAMPLES uniform fractions of T: the path's shape
-
-    def moved(self, other: _Point) -> float:
-        """How far the path moved from ``other``'s, relative to the longer path's length."""
-        length = max(_length(self.xy), _length(other.xy), 1e-12)
-        return float(np.linalg.norm(self.xy - other.xy, axis=1).max()) / length
-
-
-def _length(xy: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum())
-
-
-class _Stuck(RuntimeError):
-    """The continuation in ``T`` failed to reach a horizon even in small steps."""
-
-
-class _Met(Exception):
-    """Raised inside Brent's method when a point meets the condition: no need to go on."""
-
-    def __init__(self, point: _Point):
-        super().__init__(point.T)
-        self.point = point
-
-
-class TimeSearch:
-    """The root of ``k + H(T)`` along one family of extremals (step 2 of the module's method)."""
-
-    def __init__(
-        self, problem, settings: ShootingSettings, k: float, limits, ends, first: Arcs,
-        deadline: float = math.inf,
-    ):  # fmt: skip
-        self.problem, self.settings, self.k, self.ends = problem, settings, k, ends
-        self.limits, self.deadline = limits, deadline
-        self.flow = Flow(problem, settings.integrator)
-        self.points = [self._point(first)]
-        self.solves = 0
-
-    def _point(self, arcs: Arcs) -> _Point:
-        tr = piecewise_trajectory(self.flow, arcs, 401)
-        H = float(np.mean(tr.hamiltonian[tr.at_step]))
-        clearance = float(np.min(self.problem.penalty.clearance(tr.x[:, :2]), initial=np.inf))
-        keep = np.append(np.diff(tr.t) > 0, True)
-        s = np.linspace(tr.t[0], tr.t[-1], SHAPE_SAMPLES)
-        xy = np.column_stack([np.interp(s, tr.t[keep], tr.x[keep, i]) for i in (0, 1)])
-        return _Point(float(arcs.t[-1]), arcs, H, float(tr.cost[-1]), clearance, xy)
-
-    def g(self, p: _Point) -> float:
-        return self.k + p.H
-
-    def met(self, p: _Point) -> bool:
-        return abs(self.g(p)) <= CONDITION_TOL * max(1.0, self.k)
-
-    def at(self, T: float) -> _Point:
-        """The extremal at ``T``, continued from the solved horizon nearest to it."""
-        base = min(self.points, key=lambda p: abs(math.log(p.T / T)))
-        if base.T == T:
-            return base
-        targets = [T]
-        while targets:
-            T1 = targets[-1]
-            if self.solves >= MAX_SOLVES:
-                raise _Stuck(f"the continuation in T made {MAX_SOLVES} solves")
-            if time.perf_counter() >= self.deadline:
-                raise _Stuck("the time limit ran out")
-            self.solves += 1
-            arcs = resolve(self.problem, base.arcs, self.problem, (0, T1), self.ends, self.settings)
-            new = None if arcs is None else self._point(arcs)
-            if new is None or new.moved(base) > MAX_MOVE:  # failed, or jumped to another family
-                if len(targets) > MAX_HALVINGS:
-                    raise _Stuck(f"the continuation in T stopped between {base.T:.6g} and {T1:.6g}")
-                targets.append(math.sqrt(base.T * T1))
-                continue
-            base = new
-            self.points.append(base)
-            targets.pop()
-        return base
-
-    def solve(self) -> tuple[_Point, str]:
-        """The point where ``k + H = 0``, or the bound it lies beyond (and which bound)."""
-        a = self.points[0]
-        if self.met(a):
-            return a, ""
-        lo, hi = self.limits
-        T = first_step(a.T, a.H, self.k)
-        while True:
-            T = float(np.clip(T, max(lo, a.T / STEP_FACTOR), min(hi, a.T * STEP_FACTOR)))
-            b = self.at(T)
-            if self.met(b):
-                return b, ""
-            if (self.g(a) > 0) != (self.g(b) > 0):
-                return self._bracketed(a, b), ""
-            if b.T == lo and self.g(b) > 0:  # still too long at the shortest allowed
-                return b, "shortest"
-            if b.T == hi and self.g(b) < 0:
-                return b, "longest"
-            if b.T == a.T or self.g(b) == self.g(a):
-                raise _Stuck(f"the secant in T stalled at {b.T:.6g}")
-            ua, ub = a.T**-2, b.T**-2  # the secant in 1/T^2
-            u = ub - self.g(b) * (ub - ua) / (self.g(b) - self.g(a))
-            T = u**-0.5 if u > 0 else b.T * STEP_FACTOR
-            a = b
-
-    def _bracketed(self, a: _Point, b: _Point) -> _Point:
-        from scipy.optimize import brentq  # only here: SciPy's optimize takes 0.1 s to import
-
-        def g(u):
-            p = self.at(u**-0.5)
-            if self.met(p):
-                raise _Met(p)
-            return self.g(p)
-
-        try:
-            u = brentq(g, a.T**-2, b.T**-2, xtol=1e-300, rtol=4 * np.finfo(float).eps)
-            return self.at(u**-0.5)
-        except _Met as met:
-            return met.point
-
-
-def first_step(T: float, H: float, k: float) -> float:
-    """Where a search aims first from an extremal at ``T`` with Hamiltonian ``H``: the root of
-    ``k + H`` were ``H`` that of free space, ``-c / T^2``; half ``T`` when ``H >= 0``."""
-    return T * math.sqrt(-H / k) if H < 0 else T / 2
 
 
 def first_horizon(scenario: Scenario, shortest: float, effort: float, estimate) -> float:
@@ -247,13 +114,13 @@ class _Root:
     """A family's free-time optimum: the point, the bound it rests on (``""``: none), the plan
     whose answer or alternative the family came from, and the problem it solves."""
 
-    point: _Point
+    point: TimePoint
     bound: str
     source: PlanResult
     problem: OptimalControlProblem
 
     def total(self, k: float) -> float:
-        return self.point.V + k * self.point.T
+        return self.point.total(k)
 
 
 def plan_free_time(
@@ -274,7 +141,7 @@ def plan_free_time(
     for _ in range(ROUNDS):
         if result.status is not PlanStatus.CONVERGED:
             break
-        roots += _family_roots(plans, scenario, result, steps, deadline)
+        roots += _family_roots(plans, scenario, result, steps, deadline, roots)
         best = _cheapest(roots, scenario)
         if best is None:  # no family could be followed: plan where the first step aimed
             T = _aimed(result, scenario)
@@ -339,13 +206,35 @@ def _first_plan(
 
 
 def _family_roots(
-    plans, scenario: Scenario, result: PlanResult, steps: list, deadline: float
+    plans, scenario: Scenario, result: PlanResult, steps: list, deadline: float, known=()
 ) -> list[_Root]:
     """Step 2 for the answer of ``result`` and each of its alternatives that converged at a
-    cost (with the price of time) near it, until ``deadline``. The horizons solved are added
-    to ``steps``."""
+    cost (with the price of time) near it, until ``deadline``; then for those that made their
+    solves while heading below the cheapest root found, with ``known`` (:func:`_extended`).
+    The horizons solved are added to ``steps``."""
     free, k = scenario.free_time, scenario.free_time.time_weight
     ends = (scenario.start, scenario.goal)
+    T0 = result.task.horizon
+    roots, capped, searches = [], [], []
+    for cost, trajectory, weight in _families(result, k):
+        plans.progress_note(f"final time: the extremal of cost {cost:.6g} at T = {T0:.4g}")
+        problem = plans.problem_at(weight)
+        search = TimeSearch(
+            problem, plans.shooting, k, free.limits(), ends, arcs_of(trajectory), deadline
+        )
+        searches.append(search)
+        root, out_of_solves = _followed(search, result, problem)
+        roots += [root] if root is not None else []
+        capped += [(search, problem)] if out_of_solves else []
+    roots += _extended(capped, [*known, *roots], scenario, result)
+    for search in searches:
+        steps += [TimeStep(p.T, p.H, p.total(k), "continued") for p in search.points[1:]]
+    return roots
+
+
+def _families(result: PlanResult, k: float) -> list[tuple]:
+    """The answer of ``result`` and its alternatives that converged at a cost (with the price
+    of time) near it, as (cost, trajectory, weight), each extremal once."""
     T0 = result.task.horizon
     near = ALTERNATIVE_FACTOR * (result.cost + k * T0)
     families = [(result.cost, result.trajectory, result.weight)] + [
@@ -353,23 +242,47 @@ def _family_roots(
         for a in result.alternatives
         if a.status is PlanStatus.CONVERGED and a.trajectory is not None and a.cost + k * T0 <= near
     ]
-    roots, seen = [], []
-    for cost, trajectory, weight in families:
-        if any(abs(cost - c) <= 1e-9 * max(1.0, abs(c)) for c in seen):
-            continue  # the same extremal, found from another path
-        seen.append(cost)
-        plans.progress_note(f"final time: the extremal of cost {cost:.6g} at T = {T0:.4g}")
-        problem = plans.problem_at(weight)
-        search = TimeSearch(
-            problem, plans.shooting, k, free.limits(), ends, arcs_of(trajectory), deadline
-        )
-        try:
-            point, bound = search.solve()
-            roots.append(_Root(point, bound, result, problem))
-        except _Stuck:
-            pass
-        steps += [TimeStep(p.T, p.H, p.V + k * p.T, "continued") for p in search.points[1:]]
-    return roots
+    out = []
+    for family in families:
+        c = family[0]
+        if not any(abs(f[0] - c) <= 1e-9 * max(1.0, abs(c)) for f in out):
+            out.append(family)  # else the same extremal, found from another path
+    return out
+
+
+def _followed(search: TimeSearch, source: PlanResult, problem) -> tuple[_Root | None, bool]:
+    """The root of ``search``'s family (None: it stopped without one), and whether it stopped
+    for want of solves (it may be allowed more)."""
+    try:
+        point, bound = search.solve()
+        return _Root(point, bound, source, problem), False
+    except OutOfSolves:
+        return None, True
+    except Stuck:
+        return None, False
+
+
+def _extended(capped: list, roots: list[_Root], scenario: Scenario, source) -> list[_Root]:
+    """The roots of the families ``capped`` ((search, problem) pairs that made their solves)
+    that head below the cheapest of ``roots`` (:meth:`.TimeSearch.predicted`: a family cut off
+    while still getting cheaper is not dropped for a dearer one): the one heading lowest is
+    allowed :data:`MAX_SOLVES` more and goes on where it stopped, again while it heads below
+    the cheapest root found, at most :data:`EXTENSIONS` times each (the time limit holds)."""
+    k = scenario.free_time.time_weight
+    found, extensions = [], {id(s): 0 for s, _ in capped}
+    while capped:
+        best = _cheapest([*roots, *found], scenario)
+        search, problem = min(capped, key=lambda c: c[0].predicted())
+        if best is not None and search.predicted() >= best.total(k):
+            break
+        capped.remove((search, problem))
+        extensions[id(search)] += 1
+        search.allow(MAX_SOLVES)
+        root, out_of_solves = _followed(search, source, problem)
+        found += [root] if root is not None else []
+        if out_of_solves and extensions[id(search)] < EXTENSIONS:
+            capped.append((search, problem))
+    return found
 
 
 def _cheapest(roots: list[_Root], scenario: Scenario) -> _Root | None:
