@@ -2,7 +2,7 @@
 method's (T a variable, multistart), and what choosing T costs beside a fixed-T plan.
 
     python benchmarks/bench_free_time.py [--paper] [--n 200] [--seed 1] [--cruise-speed 1]
-        [--direct] [--vmax V] [--omega W] [--car] [--out FILE.jsonl]
+        [--direct] [--vmax V] [--omega W] [--car] [--indices 53,168] [--out FILE.jsonl]
 
 ``--paper``: the four paper cases at k = 0.1, 1 and 10 against the Richardson-extrapolated
 direct optima of ``tests/data/free_time_direct.json``. Otherwise the general preset (``--n``
@@ -12,8 +12,9 @@ of the two times is what choosing T costs. With ``--direct``, the direct method 
 (multistart, 100 intervals, from the straight distance at the cruise speed) on each scenario;
 the best known optimum is the cheapest collision-free one of both, and "best" means within 1e-4
 of it. ``--vmax V`` bounds the speed to ``[-V, V]`` (``--omega W`` the turn rate to ``[-W, W]``)
-in both methods; ``--car`` plans the car (steering straight at both ends; the direct method has
-no car). No assertions: run it on a quiet machine and read the figures.
+in both methods; ``--indices 53,168`` plans only those scenarios of the ``--n`` (a subset);
+``--car`` plans the car (steering straight at both ends; the direct method has no car). No
+assertions: run it on a quiet machine and read the figures.
 """
 
 from __future__ import annotations
@@ -142,6 +143,7 @@ def main() -> None:
     ap.add_argument("--vmax", type=float, default=None)
     ap.add_argument("--omega", type=float, default=None)
     ap.add_argument("--car", action="store_true")
+    ap.add_argument("--indices", default=None, help="comma-separated scenario indices")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
     plan("paper-case-1")  # warm-up: kernels loaded
@@ -150,11 +152,13 @@ def main() -> None:
     else:
         free = FreeTime(a.cruise_speed**2 / 2, a.cruise_speed)
         rows = []
-        for sc in generate(GeneratorSpec.preset("general", n=a.n, seed=a.seed)):
+        indices = None if a.indices is None else [int(i) for i in a.indices.split(",")]
+        for sc in generate(GeneratorSpec.preset("general", n=a.n, seed=a.seed), indices):
             sc = vehicle(sc, a.vmax, a.omega, a.car)
             rows.append(run_one(sc, free, a.direct and not a.car))
             print(json.dumps(rows[-1]), flush=True)
-    print(f"\n{'paper cases' if a.paper else f'general preset, {a.n} (seed {a.seed})'}:")
+    subset = f", {len(rows)} of them" if a.indices else ""
+    print(f"\n{'paper cases' if a.paper else f'general preset, {a.n} (seed {a.seed}){subset}'}:")
     summary(rows)
     if a.out:
         Path(a.out).write_text("".join(json.dumps(r) + "\n" for r in rows))

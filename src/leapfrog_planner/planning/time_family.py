@@ -40,8 +40,10 @@ STEP_FACTOR = 8.0
 #: The shortest step of the continuation, as ``|log(T1 / T0)|``: a family that fails even
 #: there has folded (or the shooting cannot follow it).
 MIN_REACH = 1e-4
-#: After a successful step that the step control shortened, the next may be this much longer.
-GROWTH = 2.0
+#: After a successful step that the step control shortened, the next may be this much longer
+#: (measured on the continuations of general 53 and 168: 1.5 made 68 solves, 26 of them failed,
+#: where 2 made 83 (38) and 3 made 75 (37); without the linear prediction, 2 made 180 (94)).
+GROWTH = 1.5
 
 
 @dataclass(frozen=True)
