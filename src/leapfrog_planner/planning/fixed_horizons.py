@@ -27,13 +27,14 @@ class FixedHorizons:
     def __init__(self, planner):
         self.planner = planner
 
-    def plan_at(self, horizon: float, deadline: float = math.inf) -> PlanResult:
+    def plan_at(self, horizon: float, deadline: float = math.inf, wide: bool = True) -> PlanResult:
         """The plan of the scenario with its horizon fixed at ``horizon``, with at least
-        :data:`.free_time.FREE_TIME_PATHS` initial paths, cut short at ``deadline`` (a
-        ``time.perf_counter()`` reading)."""
+        :data:`.free_time.FREE_TIME_PATHS` initial paths when ``wide`` (else the settings'),
+        cut short at ``deadline`` (a ``time.perf_counter()`` reading)."""
         p = self.planner
         fixed = dataclasses.replace(p.scenario, horizon=horizon, free_time=None)
-        paths = max(p.settings.initial_paths, FREE_TIME_PATHS)
+        paths = p.settings.initial_paths
+        paths = max(paths, FREE_TIME_PATHS) if wide else paths
         settings = dataclasses.replace(p.settings, initial_paths=paths)
         at = type(p).unrefused(fixed, settings, p.progress)  # the search may probe any T
         return at.plan_fixed(p.settings.initial_paths, deadline)

@@ -14,10 +14,11 @@ indirect:
    shooting, secant steps in ``1/T^2``, then Brent's method). A family that ran out of its
    solves while still heading below the cheapest root found is given more (:func:`_extended`);
 
-3. plan again at the root ``T*``: the whole search, so that an extremal of another family,
-   cheaper there, is not missed. When it returns the extremal continued (the same cost), that
-   plan is the answer; when it finds a cheaper one, step 2 follows that one; at most
-   :data:`ROUNDS` times.
+3. plan again at the root ``T*``: the whole search (with the scenario's own initial paths, as a
+   fixed-T plan there: the plans at a first horizon have at least :data:`FREE_TIME_PATHS`), so
+   that an extremal of another family, cheaper there, is not missed. When it returns the
+   extremal continued (the same cost), that plan is the answer; when it finds a cheaper one,
+   step 2 follows that one; at most :data:`ROUNDS` times.
 
 When the root lies beyond the bounds of ``T``, the answer is at the bound (``k + H`` then has
 the sign that pushes against it, as the bound's multiplier requires), and the report says so.
@@ -75,7 +76,9 @@ class FixedHorizonPlans(Protocol):
     """What the free-time search needs of the planner: a plan at a horizon, and the problem
     and final solves' settings of an answer's obstacle weight."""
 
-    def plan_at(self, horizon: float, deadline: float = math.inf) -> PlanResult: ...
+    def plan_at(
+        self, horizon: float, deadline: float = math.inf, wide: bool = True
+    ) -> PlanResult: ...
 
     def problem_at(self, weight: float) -> OptimalControlProblem: ...
 
@@ -153,7 +156,7 @@ def plan_free_time(
             T = best.point.T
         if time.perf_counter() >= deadline:
             break
-        result = plans.plan_at(T, deadline)
+        result = plans.plan_at(T, deadline, wide=best is None)  # at a root: as a fixed-T plan
         steps.append(_step(result, k, "plan"))
         planned.append(result)
         if best is not None and not _cheaper(result, best, k):
