@@ -166,15 +166,16 @@ def test_a_family_still_getting_cheaper_is_followed_to_its_free_time_optimum():
     than IPOPT's."""
     from leapfrog_planner._blas import single_threaded_blas
     from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
+    from leapfrog_planner.planning.fixed_horizons import FixedHorizons
     from leapfrog_planner.planning.free_time import _family_roots
 
     sc = generate_one(GeneratorSpec.preset("general", seed=1), 53)
     sc = dataclasses.replace(sc, free_time=FreeTime(0.5, 1.0))
-    planner = Planner(sc)
+    plans = FixedHorizons(Planner(sc))
     with single_threaded_blas():  # as in a plan (threads fight over two cores: 10x slower)
-        first = planner.plan_at(1.59659)
+        first = plans.plan_at(1.59659)
         assert first.status is PlanStatus.CONVERGED
-        roots = _family_roots(planner, sc, first, [], math.inf)
+        roots = _family_roots(plans, sc, first, [], math.inf)
     met = [r for r in roots if abs(0.5 + r.point.H) <= 1e-8 and r.point.clearance >= 0]
     assert met and min(r.total(0.5) for r in met) <= 6.2565
 
