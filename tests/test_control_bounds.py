@@ -240,9 +240,18 @@ def test_a_time_limit_also_stops_the_continuation_to_the_bounds():
     solves per run after Leapfrog (on a real map, most of a plan: 59 s of a plan limited to
     10 s took place there); past the time limit it starts none: each run says it stopped at the
     time limit, and the plan says the limit cut it short, with a motion handed back."""
+    import leapfrog_planner.planning.runner as runner_module
+
     bounds = {"v": (0.0, 6.0), "omega": (-2.5, 2.5)}
     sc = dataclasses.replace(load_scenario("paper-case-4"), control_bounds=bounds)
-    r = plan(sc, threads=1, time_limit=1e-6)
+    unlimited = runner_module.leapfrog  # Leapfrog itself unlimited: the limit passes after it
+
+    def leapfrog(*args, deadline, **kwargs):
+        return unlimited(*args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(runner_module, "leapfrog", leapfrog)
+        r = plan(sc, threads=1, time_limit=1e-6)
     assert "the time limit of 1e-06 s cut the search short" in r.message
     assert not r.success and r.trajectory is not None
     stopped = [x for x in r.search if "stopped at 0% (" in x.message]

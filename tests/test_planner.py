@@ -764,7 +764,7 @@ def test_an_atomic_write_never_replaces_a_special_file_or_a_folder(tmp_path, kin
 
 def test_a_time_limit_ends_the_plan_with_what_was_found_and_says_so():
     """Past the limit no run or sweep starts: the plan ends with the best answer of the runs
-    made (here the first batch, stopped before its first sweep), explicitly."""
+    made, explicitly; here none started, and the initial path is handed back, not optimal."""
     from leapfrog_planner.planning.planner import plan as plan_
 
     full = plan_("paper-case-4")
@@ -775,6 +775,27 @@ def test_a_time_limit_ends_the_plan_with_what_was_found_and_says_so():
     if r.success:  # a converged answer is still a checked extremal, never cheaper than the best
         assert r.min_clearance >= 0.0 and r.cost >= full.cost - 1e-9
     assert "time limit" not in full.message
+    assert all(x.message == "not started: the time limit had passed" for x in r.search)
+    assert "returned: the initial path, not optimal" in r.message
+
+
+def test_a_run_asked_for_past_the_time_limit_does_not_start():
+    """A plan's runs queue for its threads; one whose turn comes past the limit does not start
+    (on a map, 15 of 17 runs started after a limit of 120 s, each fitted its initial path and
+    tried a final solve, and the plan took 261 s); one started before it runs its sweeps."""
+    import time
+
+    from leapfrog_planner.planning.leapfrog import leapfrog
+    from leapfrog_planner.planning.leapfrog.driver import LeapfrogStatus
+
+    planner = Planner("paper-case-1")
+    path = planner.initial_paths()[0]
+    t, X = path.junctions(planner.settings.leapfrog.partitions, planner.scenario.horizon, 0.0)
+    late = leapfrog(planner.problem, t, X, deadline=time.perf_counter())
+    assert late.status is LeapfrogStatus.OUT_OF_TIME and not late.success
+    assert late.history == () and late.newton_iterations == 0
+    run = leapfrog(planner.problem, t, X, deadline=time.perf_counter() + 600.0)
+    assert run.success and run.history
 
 
 @pytest.mark.parametrize("bad", [0, -1.0, float("nan"), "10", True, 1e8])

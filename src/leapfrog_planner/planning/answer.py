@@ -235,6 +235,8 @@ def _how_failed(r: PathRun) -> str:
         return STOPPED
     if run.status is LeapfrogStatus.ABANDONED:
         return "stopped, far dearer than the extremal of another path"
+    if run.status is LeapfrogStatus.OUT_OF_TIME:
+        return "not started: the time limit had passed"
     return "the re-integrated extremal missed the goal"  # one its validation did not confirm
 
 

@@ -37,6 +37,8 @@ class LeapfrogStatus(StrEnum):
     # Stopped after a sweep left it dearer than a bound (``stop_above``): another path's
     # extremal is far cheaper (see :mod:`..search`).
     ABANDONED = "abandoned"
+    # Not started: a plan's time limit had passed (see :func:`leapfrog`'s ``deadline``).
+    OUT_OF_TIME = "out-of-time"
 
 
 @dataclass(frozen=True)
@@ -113,8 +115,12 @@ def leapfrog(
     local problems). ``progress`` is called after each sweep. A sweep that leaves the piecewise
     cost above ``stop_above`` ends the run (``abandoned``). Past ``deadline`` (a
     ``time.perf_counter()`` value) no further sweep starts: the final solves run from the
-    level reached (a plan's time limit).
+    level reached (a plan's time limit); a run asked for past it does not start (a plan's
+    runs queue for its threads: on a map, 15 of 17 runs started after a limit of 120 s, each
+    fitted its initial path and tried a final solve from it, and the plan took 261 s).
     """
+    if time.perf_counter() >= deadline:
+        return _out_of_time()
     settings = settings or LeapfrogSettings()
     t, X = np.asarray(t, dtype=float), np.asarray(X, dtype=float)
     local, final = _solvers(problem, t, X, guide, settings, flow)
@@ -248,23 +254,35 @@ def _message(found: FinalSolution, first_failure, more: int, q: int, state: Stat
 
 def _failed(fit: InitialFit, local: LocalSolver, sweep_time: float) -> LeapfrogSolution:
     """A run whose initial path's segments could not all be solved."""
+    return _without_arcs(
+        LeapfrogStatus.SEGMENT_FAILED, fit.message, local, sweep_time,
+        fit_strategies=dict(local.strategies.counts), failed_segment=fit.failed_segment,
+    )  # fmt: skip
+
+
+def _out_of_time() -> LeapfrogSolution:
+    """A run not started: the plan's time limit had passed."""
+    return _without_arcs(LeapfrogStatus.OUT_OF_TIME, "not started: the time limit had passed")
+
+
+def _without_arcs(status, message: str, local: LocalSolver | None = None, sweep_time=0.0, **more):
+    """A run that ended before its first sweep, with ``local``'s counts (none without it)."""
     return LeapfrogSolution(
-        status=LeapfrogStatus.SEGMENT_FAILED,
-        message=fit.message,
+        status=status,
+        message=message,
         costate0=None,
         extremal=None,
         final_solver=None,
         initial_cost=np.inf,
         max_costate_jump=float("nan"),
         history=(),
-        newton_iterations=local.count.iterations,
-        f_evals=local.count.f_evals,
+        newton_iterations=0 if local is None else local.count.iterations,
+        f_evals=0 if local is None else local.count.f_evals,
         cost_increases=0,
         sweep_time_s=sweep_time,
         final_time_s=0.0,
         final_root=None,
-        fit_strategies=dict(local.strategies.counts),
-        failed_segment=fit.failed_segment,
+        **more,
     )
 
 
