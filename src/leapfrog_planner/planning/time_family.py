@@ -4,11 +4,11 @@ Each new ``T`` is solved by shooting (:func:`.bounded.resolve`) from a guess pre
 family's last two solved horizons (states, and costates times ``T``, at uniform fractions of
 ``T``, extrapolated linearly in ``T``; from a single one, its extremal stretched). The step in
 ``T`` is controlled: a step that fails (or jumps to another family) is halved, and the next
-one starts from that halved length, doubled after each success, rather than from the whole
-distance again. ``g = k + H`` is close to linear in ``1/T^2`` (in free space
-``H = -D^2 / (2 T^2)``): secant steps in ``1/T^2`` until the root is bracketed, then Brent's
-method (SciPy's ``brentq``). A search that runs out of its solves can be given more
-(:meth:`TimeSearch.allow`) and goes on where it stopped.
+one starts from that halved length, 1.5 times longer after each success (:data:`GROWTH`),
+rather than from the whole distance again. ``g = k + H`` is close to linear in ``1/T^2``
+(in free space ``H = -D^2 / (2 T^2)``): secant steps in ``1/T^2`` until the root is
+bracketed, then Brent's method (SciPy's ``brentq``). A search that runs out of its solves
+can be given more (:meth:`TimeSearch.allow`) and goes on where it stopped.
 """
 
 from __future__ import annotations
