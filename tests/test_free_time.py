@@ -264,6 +264,25 @@ def test_the_time_limit_bounds_the_whole_search_not_each_plan():
     assert len(full.free_time.steps) > 1 and "cut the search short" not in full.message
 
 
+def test_the_wall_time_of_a_free_time_answer_is_the_whole_search_s(monkeypatch):
+    """Where the search starts is part of it (on a real map, the paths and their estimates
+    at nine horizons took seconds that the answer's wall time left out)."""
+    import time
+
+    from leapfrog_planner.planning.fixed_horizons import FixedHorizons
+
+    first_horizon = FixedHorizons.first_horizon
+
+    def slow(self):
+        time.sleep(0.5)
+        return first_horizon(self)
+
+    monkeypatch.setattr(FixedHorizons, "first_horizon", slow)
+    t = time.perf_counter()
+    r = plan(load_scenario_text(line()))
+    assert 0.5 <= r.wall_time_s <= time.perf_counter() - t
+
+
 def test_a_guess_starts_the_search_and_the_answer_does_not_depend_on_it():
     costs = []
     for guess in (0.5, 20.0):

@@ -125,12 +125,13 @@ class Planner:
         with single_threaded_blas():
             if self.scenario.free_time is None:
                 result = self.plan_fixed()
-            else:  # the time limit is the whole search's, not each plan's
-                limit = self.settings.time_limit
-                deadline = time.perf_counter() + limit if limit is not None else float("inf")
+            else:  # the time limit and the wall time are the whole search's, not each plan's
+                t_begin, limit = time.perf_counter(), self.settings.time_limit
+                deadline = t_begin + limit if limit is not None else float("inf")
                 plans = FixedHorizons(self)
                 T0, least = plans.first_horizon()
                 result = plan_free_time(plans, self.scenario, T0, deadline, least)
+                result = dataclasses.replace(result, wall_time_s=time.perf_counter() - t_begin)
         return recorded(result, self.settings, "Planner.plan")
 
     def problem_at(self, weight: float) -> OptimalControlProblem:
