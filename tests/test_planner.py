@@ -796,6 +796,9 @@ def test_a_run_asked_for_past_the_time_limit_does_not_start():
     assert late.history == () and late.newton_iterations == 0
     run = leapfrog(planner.problem, t, X, deadline=time.perf_counter() + 600.0)
     assert run.success and run.history
+    limited = Planner("paper-case-1", time_limit=1e-9)
+    assert "time limit" in limited.plan().message
+    assert limited.run_path(path).run.success  # the plan's limit was the plan's own
 
 
 @pytest.mark.parametrize("bad", [0, -1.0, float("nan"), "10", True, 1e8])

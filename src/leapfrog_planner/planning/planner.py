@@ -118,6 +118,7 @@ class Planner:
             path, self.first_round, "paths", "asked for", float(self.scenario.weight),
             label=path.label,
         )  # fmt: skip
+        self.runner.deadline = float("inf")  # a plan's time limit is the plan's own
         with single_threaded_blas():
             return self.runner.run(request)
 
