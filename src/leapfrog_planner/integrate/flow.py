@@ -57,6 +57,14 @@ class Trajectory:
     dH_du: np.ndarray  # (N, nu), zero up to rounding on an extremal
     at_step: np.ndarray  # (N,) bool: rows computed by the integrator itself (not interpolated)
 
+    def at(self, times, values: np.ndarray | None = None) -> np.ndarray:
+        """The columns of ``values`` (rows along :attr:`t`; default: the states) at ``times``,
+        linear between rows; a time repeated (a junction of arcs) counts once."""
+        values = self.x if values is None else values
+        keep = np.append(np.diff(self.t) > 0, True)
+        t, rows = self.t[keep], values[keep]
+        return np.column_stack([np.interp(times, t, rows[:, i]) for i in range(rows.shape[1])])
+
 
 @dataclass(frozen=True)
 class FlowResult:

@@ -88,12 +88,7 @@ def arcs_of(tr: Trajectory, tau: float | None = None, pieces: int = JUNCTIONS) -
     integrates accurately however long the horizon): a guess for :func:`resolve`."""
     start = tr.t[0] if tau is None else tau
     t = np.linspace(start, tr.t[-1], pieces + 1)
-    keep = np.append(np.diff(tr.t) > 0, True)
-
-    def col(a):
-        return np.column_stack([np.interp(t, tr.t[keep], a[keep, i]) for i in range(a.shape[1])])
-
-    X, lam = col(tr.x), col(tr.lam)
+    X, lam = tr.at(t), tr.at(t, tr.lam)
     if tau is None:
         X[0] = tr.x[0]
     X[-1] = tr.x[-1]
@@ -136,10 +131,8 @@ def _multiple(stage: _Stage, previous, arcs: Arcs, problem, scale: float) -> Arc
         return None
     t = np.linspace(t0, t1, JUNCTIONS + 1)
     t[0], t[-1] = t0, t1
-    keep = np.append(np.diff(tr.t) > 0, True)
-    z = np.hstack([tr.x, tr.lam / scale])[keep]
     old = t0 + (t[:-1] - t0) / scale
-    Z = np.column_stack([np.interp(old, tr.t[keep], z[:, i]) for i in range(z.shape[1])])
+    Z = tr.at(old, np.hstack([tr.x, tr.lam / scale]))
     ms = MultipleShootingSystem(Flow(problem, s.integrator), t, start, goal)
     nx = start.size
     root = solve_multiple_shooting(ms, ms.pack(Z[0, nx:], Z), s.method, s.root, s.compiled)

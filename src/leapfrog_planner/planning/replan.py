@@ -138,9 +138,7 @@ def _jumped(v: Validation, guess: Arcs) -> bool:
     """Whether the warm path lies further than :data:`MAX_MOVE` of its length from the guess."""
     tr = v.trajectory
     u = np.linspace(0.0, 1.0, 33)
-    keep = np.append(np.diff(tr.t) > 0, True)
-    t = tr.t[keep]
-    new = np.column_stack([np.interp(u * t[-1], t, tr.x[keep, i]) for i in (0, 1)])
+    new = tr.at(u * tr.t[-1], tr.x[:, :2])
     old = guess.X[:, :2]
     old = np.column_stack([np.interp(u, np.linspace(0, 1, len(old)), old[:, i]) for i in (0, 1)])
     length = float(np.sum(np.linalg.norm(np.diff(new, axis=0), axis=1)))

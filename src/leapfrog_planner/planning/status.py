@@ -68,12 +68,7 @@ def same_extremal(a, b) -> bool:
     if abs(a.cost - b.cost) > SAME_COST * max(1.0, abs(a.cost), abs(b.cost)):
         return False
     share = np.linspace(0.0, 1.0, 101)
-    xy = [
-        np.column_stack(
-            [np.interp(tr.t[0] + share * (tr.t[-1] - tr.t[0]), tr.t, tr.x[:, i]) for i in (0, 1)]
-        )
-        for tr in (ta, tb)
-    ]
+    xy = [tr.at(tr.t[0] + share * (tr.t[-1] - tr.t[0]), tr.x[:, :2]) for tr in (ta, tb)]
     extent = float(np.ptp(xy[0], axis=0).max())
     return float(np.abs(xy[0] - xy[1]).max()) <= SAME_PATH * max(extent, 1e-300)
 

@@ -121,16 +121,8 @@ class TimeSearch:
         T = float(arcs.t[-1])
         H = float(np.mean(tr.hamiltonian[tr.at_step]))
         clearance = float(np.min(self.problem.penalty.clearance(tr.x[:, :2]), initial=np.inf))
-        keep = np.append(np.diff(tr.t) > 0, True)
-
-        def sampled(values: np.ndarray, n: int) -> np.ndarray:
-            s = np.linspace(tr.t[0], tr.t[-1], n)
-            return np.column_stack(
-                [np.interp(s, tr.t[keep], values[keep, i]) for i in range(values.shape[1])]
-            )
-
-        z = sampled(np.hstack([tr.x, T * tr.lam]), JUNCTIONS + 1)
-        xy = sampled(tr.x[:, :2], SHAPE_SAMPLES)
+        z = tr.at(np.linspace(tr.t[0], tr.t[-1], JUNCTIONS + 1), np.hstack([tr.x, T * tr.lam]))
+        xy = tr.at(np.linspace(tr.t[0], tr.t[-1], SHAPE_SAMPLES), tr.x[:, :2])
         return TimePoint(T, arcs, H, float(tr.cost[-1]), clearance, xy, z)
 
     def g(self, p: TimePoint) -> float:
