@@ -216,3 +216,58 @@ def test_a_generated_module_is_imported_only_with_its_seal(tmp_path, damage):
     path.write_text(bad)
     with pytest.raises(DamagedModule):
         _check_integrity(path)
+
+
+PROBE = """
+from leapfrog_planner._jit import njit
+
+
+@njit(cache=True)
+def plus_one(x):
+    return x + 1
+
+
+@njit(cache=True)
+def times(x, y):
+    return x * y
+"""
+
+RUN = "import lfp_probe as p; print(p.plus_one(1.0), p.plus_one(2), p.times(2.0, 3.0))"
+
+
+def _probe(folder: Path) -> subprocess.CompletedProcess:
+    package = Path(leapfrog_planner.__file__).parents[1]
+    env = {**cli_env(), "PYTHONPATH": os.pathsep.join([str(folder), str(package)])}
+    env.pop("NUMBA_CACHE_DIR", None)
+    return subprocess.run([sys.executable, "-c", RUN], env=env, capture_output=True, text=True,
+                          cwd=folder, timeout=300)  # fmt: skip
+
+
+def _swap(a: Path, b: Path) -> None:
+    data = a.read_bytes()
+    a.write_bytes(b.read_bytes())
+    b.write_bytes(data)
+
+
+def test_numba_cache_files_swapped_are_said_compiled_again_and_healed(tmp_path):
+    """numba loads whatever file its index names: two data files swapped (of two functions, or
+    two signatures of one) would run the wrong machine code on every run (a ``TypeError`` deep in
+    numba, or wrong numbers). The load is checked: the run says so, computes the right numbers,
+    and writes the files anew, so the next run is quiet."""
+    (tmp_path / "lfp_probe.py").write_text(PROBE)
+    first = _probe(tmp_path)
+    assert first.returncode == 0, first.stderr
+    assert first.stdout.split() == ["2.0", "3", "6.0"]
+    files = {f.name.split("-")[0]: f for f in (tmp_path / "__pycache__").glob("*.nbc")}
+    plus = sorted((tmp_path / "__pycache__").glob("lfp_probe.plus_one-*.nbc"))
+    assert len(plus) == 2  # plus_one of a float and of an int
+    _swap(files["lfp_probe.times"], plus[0])
+    _swap(plus[0], plus[1])
+    damaged = _probe(tmp_path)
+    assert damaged.returncode == 0, damaged.stderr
+    assert damaged.stdout.split() == ["2.0", "3", "6.0"]
+    said = [ln for ln in damaged.stderr.splitlines() if ln]
+    assert said and all("holds other code (a damaged cache)" in ln for ln in said), said
+    assert any("lfp_probe.times" in ln for ln in said)
+    healed = _probe(tmp_path)
+    assert (healed.returncode, healed.stdout.split(), healed.stderr) == (0, ["2.0", "3", "6.0"], "")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import subprocess
 import time
 import urllib.error
@@ -23,8 +24,10 @@ pytest.importorskip("httpx2")
 from starlette.testclient import TestClient  # noqa: E402
 from tests.gated_worker import GATE, serve_command  # noqa: E402
 from tests.serving import free_port  # noqa: E402
+from tests.test_serve_connections import closed_by_server  # noqa: E402
 
 from leapfrog_planner.planning.scenario import load_scenario  # noqa: E402
+from leapfrog_planner.web import connections  # noqa: E402
 from leapfrog_planner.web import pool as pool_module  # noqa: E402
 from leapfrog_planner.web.app import create_app  # noqa: E402
 
@@ -163,7 +166,8 @@ def _get(url: str):
 
 
 def test_the_command_answers_before_its_solver_is_ready(gate):
-    """``leapfrog serve`` itself: its health answers while the solver waits at its gate."""
+    """``leapfrog serve`` itself: its health answers while the solver waits at its gate; a
+    connection that never sends a request is closed after the head deadline."""
     port = free_port()
     argv = serve_command(port)
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
@@ -179,9 +183,12 @@ def test_the_command_answers_before_its_solver_is_ready(gate):
                 assert time.monotonic() < end, "leapfrog serve never answered"
                 time.sleep(0.05)
         assert status == 200 and h["ready"] == 0 and h["preparing"]["model"] == "unicycle"
+        idle = socket.create_connection(("127.0.0.1", port))
         for model in ("unicycle", "diff-drive", "car"):
             (gate / model).touch()
         _until(lambda: _get(url + "/api/health")[1]["ready"] == 1)
+        with idle:
+            assert closed_by_server(idle, within=connections.HEAD_SECONDS + 10)
     finally:
         proc.terminate()
         proc.wait(10)

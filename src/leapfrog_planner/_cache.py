@@ -28,6 +28,7 @@ PACKAGE = Path(__file__).resolve().parent
 
 __all__ = [
     "cache_dir",
+    "check_numba_cache_loads",
     "copy_atomic",
     "copy_compiled",
     "numba_cache_of",
@@ -143,3 +144,44 @@ def copy_compiled(source: Path, target: Path, stem: str = "") -> None:
     for f in sorted(source.glob(f"{stem or '*'}.*nb[ic]")):
         if not (target / f.name).exists():
             copy_atomic(f, target / f.name)
+
+
+#: The modules whose compiled functions :func:`check_numba_cache_loads` checks: the package's
+#: own and the generated kernel modules (``lfp_<model>_<key>``).
+_CHECKED_MODULES = ("leapfrog_planner.", "lfp_")
+
+
+def check_numba_cache_loads() -> None:
+    """Make numba refuse a file of its disk cache that holds another function's code.
+
+    numba finds a function's compiled code through an index that names a data file per
+    signature, and loads whatever that file holds: a damaged cache (two data files swapped, or
+    one copied over another) makes it run the wrong machine code, a failure on every run that
+    never heals (a ``TypeError`` deep in numba, or wrong numbers). Each load of the package's
+    functions is checked here against the function and the signature asked for; a file that does
+    not match is said and not used, so numba compiles that function again and writes the file
+    anew: the cache heals on that run. Installed once, before any of the package's compiled
+    functions runs (:mod:`._jit`)."""
+    from numba.core.caching import FunctionCache
+
+    if getattr(FunctionCache, "_checked_by_leapfrog", False):
+        return
+    load = FunctionCache._load_overload
+
+    def _load_overload(self, sig, target_context):
+        cres = load(self, sig, target_context)
+        func = self._py_func
+        if cres is None or not f"{func.__module__}.".startswith(_CHECKED_MODULES):
+            return cres
+        if cres.fndesc.qualname != func.__qualname__ or tuple(cres.signature.args) != tuple(sig):
+            log.warning(
+                "warning: numba's cache file of %s.%s holds other code (a damaged cache):"
+                " compiling it again",
+                func.__module__,
+                func.__qualname__,
+            )
+            return None
+        return cres
+
+    FunctionCache._load_overload = _load_overload
+    FunctionCache._checked_by_leapfrog = True

@@ -43,6 +43,7 @@ def serve(host, port, workers, queue, time_limit):
         import uvicorn
 
         from ..web.app import create_app
+        from ..web.connections import HeadTimedH11Protocol
     except ImportError as e:
         raise click.ClickException(
             f"leapfrog serve needs starlette and uvicorn ({e.name} is missing): "
@@ -59,7 +60,9 @@ def serve(host, port, workers, queue, time_limit):
         soft_wrap=True,
     )
     # At most 100 connections at once (more are answered 503 at once, not held), idle ones
-    # closed after 5 s; a body that dribbles in is cut off by the application (408).
+    # closed after 5 s, one whose request head is late after 10 s; a body that dribbles in is
+    # cut off by the application (408).
     uvicorn.run(app, host=host, port=port, log_level="warning", access_log=False,
-                limit_concurrency=100, timeout_keep_alive=5)  # fmt: skip
+                limit_concurrency=100, timeout_keep_alive=5,
+                http=HeadTimedH11Protocol)  # fmt: skip
     return EXIT_OK

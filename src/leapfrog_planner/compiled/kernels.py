@@ -22,7 +22,14 @@ import numba
 from numba.core.dispatcher import Dispatcher
 
 from .._atomic import write_atomic
-from .._cache import cache_dir, copy_atomic, copy_compiled, numba_cache_of, writable_dir
+from .._cache import (
+    cache_dir,
+    check_numba_cache_loads,
+    copy_atomic,
+    copy_compiled,
+    numba_cache_of,
+    writable_dir,
+)
 from ..errors import ModelError
 from ..model import MODELS, builtin_source, get_model
 from ..model.aid import PlanningAid
@@ -136,6 +143,7 @@ def _check_integrity(path: Path) -> None:
 
 
 def _import(mod_name: str, path: Path) -> ModuleType:
+    check_numba_cache_loads()  # the module's compiled code is loaded from numba's cache checked
     spec = importlib.util.spec_from_file_location(mod_name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[mod_name] = module

@@ -9,7 +9,8 @@ and the correction DF^-1 F. numba calls the same LAPACK routines directly, both 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .._jit import njit
 
 
 @njit(cache=True)

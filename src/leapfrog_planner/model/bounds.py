@@ -23,7 +23,7 @@ import math
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from numba import njit
+from .._jit import njit
 
 if TYPE_CHECKING:
     from .base import VehicleModel

@@ -12,7 +12,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from .._jit import njit
 
 #: Cells per disc, at most (a disc much larger than the others covers several).
 CELLS_PER_DISC = 4.0

@@ -8,9 +8,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import overload
 
+from .._jit import njit
 from ..world.field import MapField, field_penalty_terms, no_field
 from .grid import cell_lists, grid_layout
 

@@ -13,7 +13,8 @@ distance to it, inside minus the distance to the free region. O(cells), compiled
 import math
 
 import numpy as np
-from numba import njit
+
+from .._jit import njit
 
 BIG = 1e20  # beyond any parabola intersection
 

@@ -39,8 +39,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from .._jit import njit
 from .distance import signed_distance_squares
 from .shapes import Shapes, grid_distance
 

@@ -17,9 +17,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
 from .. import checks
+from .._jit import njit
 from ..errors import ScenarioError
 
 POLYGON = 0

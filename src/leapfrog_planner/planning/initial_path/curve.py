@@ -7,7 +7,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+
+from ..._jit import njit
 
 TWO_PI = 2.0 * math.pi
 #: Target number of grid intervals of the arclength table (more for long polylines).

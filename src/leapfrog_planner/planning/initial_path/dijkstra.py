@@ -8,8 +8,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from ..._jit import njit
 from .heap import heap_pop, heap_push
 
 

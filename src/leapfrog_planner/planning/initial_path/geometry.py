@@ -7,9 +7,9 @@ import itertools
 import math
 
 import numpy as np
-from numba import njit
 
 from ... import checks
+from ..._jit import njit
 from .curve import TWO_PI
 
 # --------------------------------------------------------------------------- validation

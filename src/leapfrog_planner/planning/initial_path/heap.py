@@ -5,7 +5,8 @@ node, so that the pops are the same on every machine. The caller keeps the heap'
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..._jit import njit
 
 
 @njit(cache=True, inline="always")

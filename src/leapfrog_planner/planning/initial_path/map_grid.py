@@ -23,8 +23,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from ..._jit import njit
 from .heap import heap_pop, heap_push
 
 #: The eight moves of the grid, ``(DI[k], DJ[k])`` (rows, columns); move ``k + 4`` undoes ``k``.

@@ -10,8 +10,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from ..._jit import njit
 from ...model.grid import cell_lists, grid_layout
 
 

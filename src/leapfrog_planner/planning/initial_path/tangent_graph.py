@@ -8,8 +8,8 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from numba import njit
 
+from ..._jit import njit
 from .curve import TWO_PI
 from .dijkstra import shortest_paths
 from .geometry import clean_polyline, close_and_round, cross, rotate
