@@ -127,13 +127,18 @@ class Planner:
             if self.scenario.free_time is None:
                 result = self.plan_fixed()
             else:  # the time limit and the wall time are the whole search's, not each plan's
-                t_begin, limit = time.perf_counter(), self.settings.time_limit
-                deadline = t_begin + limit if limit is not None else float("inf")
+                t_begin = time.perf_counter()
+                deadline = self._deadline(t_begin)
                 plans = FixedHorizons(self)
                 T0, least = plans.first_horizon()
                 result = plan_free_time(plans, self.scenario, T0, deadline, least)
                 result = dataclasses.replace(result, wall_time_s=time.perf_counter() - t_begin)
         return recorded(result, self.settings, "Planner.plan")
+
+    def _deadline(self, t_begin: float) -> float:
+        """When a plan begun at ``t_begin`` must stop: the settings' time limit after it."""
+        limit = self.settings.time_limit
+        return t_begin + limit if limit is not None else float("inf")
 
     def problem_at(self, weight: float) -> OptimalControlProblem:
         """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
@@ -158,10 +163,7 @@ class Planner:
         (default: the settings'), a note in the message when fewer ran; ``deadline``: when
         the search stops (default: the settings' time limit from now)."""
         t_begin = time.perf_counter()
-        limit = self.settings.time_limit
-        if deadline is None:
-            deadline = t_begin + limit if limit is not None else float("inf")
-        self.runner.deadline = deadline
+        self.runner.deadline = self._deadline(t_begin) if deadline is None else deadline
         method, settings = self.settings.leapfrog.method, plain(self.settings)
         try:
             paths = self.path_selection()
@@ -180,7 +182,7 @@ class Planner:
         asked = asked or self.settings.initial_paths
         notes = [fewer_paths_note(self.scenario, asked, len(paths[0]))]
         if searched.cut:  # said in the message, whatever the answer
-            notes.append(f"the time limit of {limit:g} s cut the search short")
+            notes.append(f"the time limit of {self.settings.time_limit:g} s cut the search short")
         message = "; ".join([result.message, *filter(None, notes)])
         return dataclasses.replace(result, message=message)
 

@@ -32,16 +32,13 @@ from .results import PlanResult, Validation
 from .runs import touches
 from .scenario import Scenario
 from .settings import PlannerSettings
-from .status import PlanStatus
+from .status import MAX_MOVE, PlanStatus, path_moved
 
 #: A start further from the previous path, or a goal moved further, than this fraction of the
 #: path's length is a new task: planned in full.
 LARGE = 0.25
 #: Where the change in one jump fails, the ends move to the new ones in this many steps.
 STEPS = 4
-#: A warm extremal whose path lies further than this fraction of its length from the guess
-#: has jumped to another family (a cold plan might find a cheaper one): planned in full.
-MAX_MOVE = 0.15
 
 
 def replan(
@@ -135,15 +132,14 @@ def _solved(planner: Planner, problem, guess: Arcs) -> Arcs | None:
 
 
 def _jumped(v: Validation, guess: Arcs) -> bool:
-    """Whether the warm path lies further than :data:`MAX_MOVE` of its length from the guess."""
+    """Whether the warm path left the guess's family (:func:`.status.path_moved` beyond
+    :data:`.status.MAX_MOVE`, the start's own move aside): a cold plan might find a cheaper one."""
     tr = v.trajectory
     u = np.linspace(0.0, 1.0, 33)
     new = tr.at(u * tr.t[-1], tr.x[:, :2])
     old = guess.X[:, :2]
     old = np.column_stack([np.interp(u, np.linspace(0, 1, len(old)), old[:, i]) for i in (0, 1)])
-    length = float(np.sum(np.linalg.norm(np.diff(new, axis=0), axis=1)))
-    moved = np.linalg.norm(new - old, axis=1) - np.linalg.norm(new[0] - old[0])
-    return float(moved.max()) > MAX_MOVE * max(length, 1e-9)
+    return path_moved(new, old, less_start=True) > MAX_MOVE
 
 
 def _warm(planner: Planner, previous: PlanResult, tau: float) -> tuple[PlanResult | None, str]:

@@ -57,6 +57,10 @@ FAILED_LISTED = 3
 #: tolerance and their positions, at the same shares of their horizons, to this share of the
 #: path's extent: mirror-image extremals of a symmetric scene cost the same, but part by metres.
 SAME_COST, SAME_PATH = 1e-6, 1e-4
+#: A path followed from another (a step of the continuation in ``T``, a warm re-plan) that
+#: moves further than this share of its length has jumped to another family (measured: a step
+#: of 1.5x in ``T`` from a path round a disc landed on one through it).
+MAX_MOVE = 0.15
 
 
 def same_extremal(a, b) -> bool:
@@ -71,6 +75,21 @@ def same_extremal(a, b) -> bool:
     xy = [tr.at(tr.t[0] + share * (tr.t[-1] - tr.t[0]), tr.x[:, :2]) for tr in (ta, tb)]
     extent = float(np.ptp(xy[0], axis=0).max())
     return float(np.abs(xy[0] - xy[1]).max()) <= SAME_PATH * max(extent, 1e-300)
+
+
+def path_moved(new_xy: np.ndarray, old_xy: np.ndarray, *, less_start: bool = False) -> float:
+    """How far the path ``new_xy`` lies from ``old_xy`` (positions at the same shares of their
+    horizons), relative to the longer path's length; ``less_start``: less the start's own
+    move (a re-plan from a moved start). Above :data:`MAX_MOVE`, another family."""
+    moved = np.linalg.norm(new_xy - old_xy, axis=1)
+    if less_start:
+        moved = moved - moved[0]
+    length = max(_length(new_xy), _length(old_xy), 1e-12)
+    return float(moved.max()) / length
+
+
+def _length(xy: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum())
 
 
 def listed_alternatives(alternatives: tuple[PathOutcome, ...], answer=None):

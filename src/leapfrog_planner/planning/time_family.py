@@ -24,13 +24,10 @@ from ..integrate.flow import Flow
 from .bounded import JUNCTIONS, resolve
 from .leapfrog import Arcs
 from .results import piecewise_trajectory
+from .status import MAX_MOVE, path_moved
 
 #: ``|k + H|`` at most this times ``max(1, k)`` meets the free-time condition.
 CONDITION_TOL = 1e-8
-#: A continuation step whose path moves further than this fraction of its length from the path
-#: it started from has jumped to another family (measured: a step of 1.5x in T from a path round
-#: a disc landed on one through it); it is made again in smaller steps.
-MAX_MOVE = 0.15
 SHAPE_SAMPLES = 33
 #: Shooting solves one family's continuation may make before it stops (it may be allowed more:
 #: :meth:`TimeSearch.allow`).
@@ -62,17 +59,12 @@ class TimePoint:
     z: np.ndarray  # [x, T lambda] at JUNCTIONS + 1 uniform fractions of T
 
     def moved(self, other: TimePoint) -> float:
-        """How far the path moved from ``other``'s, relative to the longer path's length."""
-        length = max(_length(self.xy), _length(other.xy), 1e-12)
-        return float(np.linalg.norm(self.xy - other.xy, axis=1).max()) / length
+        """How far the path moved from ``other``'s (:func:`.status.path_moved`)."""
+        return path_moved(self.xy, other.xy)
 
     def total(self, k: float) -> float:
         """The cost with the price of time."""
         return self.V + k * self.T
-
-
-def _length(xy: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum())
 
 
 class Stuck(RuntimeError):
