@@ -3,7 +3,7 @@
     python benchmarks/bench_map_routes.py [--n 100] [--k 3] [--radius 0.2] [--margin 0.1]
 
 Maps: navigation2's depot (604 x 307 cells) and TurtleBot3 sandbox (384 x 384) from
-``/work/shared/maps`` (the copies shipped with the tests when that folder is missing), and a
+``../shared/maps`` beside the repository (the copies shipped with the tests when that folder is missing), and a
 synthetic map of 2000 x 2000 cells at 5 cm (:func:`synthetic_map`: rooms of 12.5 m with doors,
 rows of shelves, 300 round pillars, an unknown corner; the origin turned by 0.3 rad).
 
@@ -33,7 +33,7 @@ import numpy as np
 from leapfrog_planner.planning.initial_path.map_routes import map_routes, prepare_map
 from leapfrog_planner.world import FREE, OCCUPIED, UNKNOWN, MapClearance, OccupancyMap, load_ros_map
 
-SHARED = Path("/work/shared/maps")
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "maps"
 SHIPPED = Path(__file__).resolve().parents[1] / "tests" / "data" / "maps"
 
 
