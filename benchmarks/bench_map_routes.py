@@ -3,9 +3,10 @@
     python benchmarks/bench_map_routes.py [--n 100] [--k 3] [--radius 0.2] [--margin 0.1]
 
 Maps: navigation2's depot (604 x 307 cells) and TurtleBot3 sandbox (384 x 384) from
-``../shared/maps`` beside the repository (the copies shipped with the tests when that folder is missing), and a
-synthetic map of 2000 x 2000 cells at 5 cm (:func:`synthetic_map`: rooms of 12.5 m with doors,
-rows of shelves, 300 round pillars, an unknown corner; the origin turned by 0.3 rad).
+``../shared/maps`` beside the repository (the copies shipped with the tests when that folder is
+missing), and a synthetic map of 2000 x 2000 cells at 5 cm (:func:`synthetic_map`: rooms of
+12.5 m with doors, rows of shelves, 300 round pillars, an unknown corner; the origin turned by
+0.3 rad).
 
 Per map: the clearance's build (:class:`MapClearance`), the per-map preparation of the routes
 (:func:`prepare_map`: the exact clearance field and the obstacles), the preparation for the
