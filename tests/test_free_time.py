@@ -207,8 +207,28 @@ def test_a_family_cut_off_at_its_solve_cap_is_continued_while_it_heads_below_the
     sc = load_scenario_text(line())
     found = SimpleNamespace(point=SimpleNamespace(clearance=1.0), total=lambda k: 5.0)
     cheaper, dearer = Family(4.0, 45), Family(6.0, 1)
-    roots = _extended([(cheaper, None), (dearer, None)], [found], sc, None)
+    roots = _extended([(cheaper, None, None), (dearer, None, None)], [found], sc, None)
     assert [r.point.total(0.5) for r in roots] == [4.0]
+
+
+def test_an_answer_continued_from_an_alternative_is_told_as_that_path_s_run():
+    """A family continued in ``T`` may come from one of the plan's alternatives, not its answer
+    (general layout 14 of seed 1 at a cruise of 1: its answer continues a reversing path round
+    a disc, where the plan's answer was a three-point turn). The result then names that path
+    and its initial cost, shows no sweeps or junctions of another path, and lists the plan's
+    answer among the alternatives in its place."""
+    from leapfrog_planner.planning.free_time import _from_path
+
+    r = plan("paper-case-4")
+    assert len(r.alternatives) >= 2 and r.history
+    path = r.alternatives[1]
+    told = _from_path(r, path)
+    assert (told.initial_path, told.initial_cost) == (path.label, path.initial_cost)
+    assert told.history == () and len(told.initial_junctions[0]) == 0
+    assert path not in told.alternatives and len(told.alternatives) == len(r.alternatives)
+    answer = told.alternatives[0]
+    assert (answer.label, answer.cost, answer.trajectory) == (r.initial_path, r.cost, r.trajectory)
+    assert _from_path(r, None) is r  # continued from the answer: as it was
 
 
 def test_a_first_horizon_shorter_than_the_top_speed_allows_is_not_planned():

@@ -41,7 +41,7 @@ from .outcome import unreachable
 from .results import PlanResult, Validation
 from .scenario import Scenario
 from .scenario_time import top_speed
-from .status import FreeTimeReport, PlanStatus, TimeStep
+from .status import FreeTimeReport, PathOutcome, PlanStatus, TimeStep
 from .time_family import (
     CONDITION_TOL,
     MAX_SOLVES,
@@ -115,12 +115,14 @@ def least_time(scenario: Scenario, shortest: float) -> float:
 @dataclass(frozen=True)
 class _Root:
     """A family's free-time optimum: the point, the bound it rests on (``""``: none), the plan
-    whose answer or alternative the family came from, and the problem it solves."""
+    whose answer or alternative the family came from (``path``: that alternative; None: the
+    answer), and the problem it solves."""
 
     point: TimePoint
     bound: str
     source: PlanResult
     problem: OptimalControlProblem
+    path: PathOutcome | None = None
 
     def total(self, k: float) -> float:
         return self.point.total(k)
@@ -219,16 +221,16 @@ def _family_roots(
     ends = (scenario.start, scenario.goal)
     T0 = result.task.horizon
     roots, capped, searches = [], [], []
-    for cost, trajectory, weight in _families(result, k):
+    for cost, trajectory, weight, path in _families(result, k):
         plans.progress_note(f"final time: the extremal of cost {cost:.6g} at T = {T0:.4g}")
         problem = plans.problem_at(weight)
         search = TimeSearch(
             problem, plans.shooting, k, free.limits(), ends, arcs_of(trajectory), deadline
         )
         searches.append(search)
-        root, out_of_solves = _followed(search, result, problem)
+        root, out_of_solves = _followed(search, result, problem, path)
         roots += [root] if root is not None else []
-        capped += [(search, problem)] if out_of_solves else []
+        capped += [(search, problem, path)] if out_of_solves else []
     roots += _extended(capped, [*known, *roots], scenario, result)
     for search in searches:
         steps += [TimeStep(p.T, p.H, p.total(k), "continued") for p in search.points[1:]]
@@ -237,11 +239,12 @@ def _family_roots(
 
 def _families(result: PlanResult, k: float) -> list[tuple]:
     """The answer of ``result`` and its alternatives that converged at a cost (with the price
-    of time) near it, as (cost, trajectory, weight), each extremal once."""
+    of time) near it, as (cost, trajectory, weight, the alternative or None for the answer),
+    each extremal once."""
     T0 = result.task.horizon
     near = ALTERNATIVE_FACTOR * (result.cost + k * T0)
-    families = [(result.cost, result.trajectory, result.weight)] + [
-        (a.cost, a.trajectory, a.weight)
+    families = [(result.cost, result.trajectory, result.weight, None)] + [
+        (a.cost, a.trajectory, a.weight, a)
         for a in result.alternatives
         if a.status is PlanStatus.CONVERGED and a.trajectory is not None and a.cost + k * T0 <= near
     ]
@@ -253,12 +256,12 @@ def _families(result: PlanResult, k: float) -> list[tuple]:
     return out
 
 
-def _followed(search: TimeSearch, source: PlanResult, problem) -> tuple[_Root | None, bool]:
+def _followed(search: TimeSearch, source: PlanResult, problem, path) -> tuple[_Root | None, bool]:
     """The root of ``search``'s family (None: it stopped without one), and whether it stopped
     for want of solves (it may be allowed more)."""
     try:
         point, bound = search.solve()
-        return _Root(point, bound, source, problem), False
+        return _Root(point, bound, source, problem, path), False
     except OutOfSolves:
         return None, True
     except Stuck:
@@ -266,25 +269,26 @@ def _followed(search: TimeSearch, source: PlanResult, problem) -> tuple[_Root | 
 
 
 def _extended(capped: list, roots: list[_Root], scenario: Scenario, source) -> list[_Root]:
-    """The roots of the families ``capped`` ((search, problem) pairs that made their solves)
+    """The roots of the families ``capped`` ((search, problem, path) that made their solves)
     that head below the cheapest of ``roots`` (:meth:`.TimeSearch.predicted`: a family cut off
     while still getting cheaper is not dropped for a dearer one): the one heading lowest is
     allowed :data:`MAX_SOLVES` more and goes on where it stopped, again while it heads below
     the cheapest root found, at most :data:`EXTENSIONS` times each (the time limit holds)."""
     k = scenario.free_time.time_weight
-    found, extensions = [], {id(s): 0 for s, _ in capped}
+    found, extensions = [], {id(c[0]): 0 for c in capped}
     while capped:
         best = _cheapest([*roots, *found], scenario)
-        search, problem = min(capped, key=lambda c: c[0].predicted())
+        family = min(capped, key=lambda c: c[0].predicted())
+        search, problem, path = family
         if best is not None and search.predicted() >= best.total(k):
             break
-        capped.remove((search, problem))
+        capped.remove(family)
         extensions[id(search)] += 1
         search.allow(MAX_SOLVES)
-        root, out_of_solves = _followed(search, source, problem)
+        root, out_of_solves = _followed(search, source, problem, path)
         found += [root] if root is not None else []
         if out_of_solves and extensions[id(search)] < EXTENSIONS:
-            capped.append((search, problem))
+            capped.append(family)
     return found
 
 
@@ -315,7 +319,7 @@ def _at_root(plans, scenario: Scenario, root: _Root, planned: list[PlanResult]) 
         return root.source
     clear = v.clearance.size == 0 or float(v.clearance.min()) >= scenario.margin
     return replace(
-        root.source,
+        _from_path(root.source, root.path),
         status=PlanStatus.CONVERGED if clear else PlanStatus.COLLIDES,
         message="converged by continuation in T" if clear else "the extremal collides",
         final_solver="shooting" if p.arcs.t.size == 2 else "multiple-shooting",
@@ -327,6 +331,24 @@ def _at_root(plans, scenario: Scenario, root: _Root, planned: list[PlanResult]) 
         optimal=True,
         trajectory_source="extremal",
     )
+
+
+def _from_path(plan: PlanResult, path: PathOutcome | None) -> PlanResult:
+    """``plan`` told as the run from ``path`` (one of its alternatives; None: its answer): its
+    label and initial cost, no sweeps or junctions (those of the plan's answer are another
+    path's), and the plan's answer among the alternatives in its place."""
+    if path is None:
+        return plan
+    answer = PathOutcome(
+        plan.initial_path, plan.status, plan.cost, plan.initial_cost, len(plan.history),
+        plan.message, plan.weight, plan.trajectory,
+    )  # fmt: skip
+    nx = len(plan.state_names)
+    return replace(
+        plan, initial_path=path.label, initial_cost=path.initial_cost, history=(),
+        initial_junctions=(np.zeros(0), np.zeros((0, nx))),
+        alternatives=(answer, *(a for a in plan.alternatives if a is not path)),
+    )  # fmt: skip
 
 
 def _total(r: PlanResult, k: float) -> float:
