@@ -95,6 +95,12 @@ class ScenarioMap:
             raise ScenarioError("map.file: missing required key (or give polygons or walls)")
         if self.unknown != "occupied":
             raise ScenarioError("map.unknown: only with a file (beyond the shapes all is free)")
+        h, length = self.resolution, self.length
+        if h is not None and length is not None and length < 2.0 * h:  # both given: name both
+            raise ScenarioError(
+                f"map.resolution: cells of {h:g} m are too coarse for map.length {length:g} m"
+                " (the length spans at least two cells)"
+            )
 
     @property
     def where(self) -> str:

@@ -79,8 +79,9 @@ def free_time_from_tables(
     else:
         weight = c.number(cost["time_weight"], "cost.time_weight", gt=0)
     lo, hi = TIME_WEIGHT_RANGE
-    if not lo <= weight <= hi:
-        c.fail("cost", f"the price of time {weight:.3g} per second is outside [{lo:g}, {hi:g}]")
+    if not lo <= weight <= hi:  # the key given, named: a cruise speed's weight is the model's
+        key = "cost.time_weight" if speed is None else "cost.cruise_speed"
+        c.fail(key, f"the price of time {weight:.3g} per second is outside [{lo:g}, {hi:g}]")
     time = c.table({} if time is None else time, "time")
     c.known_keys(time, TIME_KEYS, "time")
     guess = bounds = None
