@@ -249,7 +249,7 @@ def test_repr_is_short_and_the_notebook_view_shows_table_and_path(case4):
     [
         ("no x", "trajectory has no column x"),
         ("x short", "trajectory columns of different lengths: t has {n} rows, x has 10"),
-        ("x words", "trajectory column x is not a list of numbers"),
+        ("x words", "trajectory.x[0]: expected number or null, got a string"),
         ("no timing", "key 'timing' missing"),
     ],
 )

@@ -48,6 +48,9 @@ def interpolate_columns(
     tq = np.clip(tq, times[0], times[-1])
     out = {"t": tq}
     for k, v in rest.items():
+        if not np.isfinite(v).all():  # a column not known throughout (a file's nulls): unknown
+            out[k] = np.full(tq.shape, np.nan)
+            continue
         out[k] = (CubicSpline(times, v) if smooth else PchipInterpolator(times, v))(tq)
     return out
 

@@ -269,6 +269,9 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
             f"{source}: result schema {d['schema']!r}; this version reads schemas "
             f"{', '.join(map(str, READS))} (plan the scenario again to get a file it can read)"
         )
+    fault = _schema_fault(d) if d["schema"] == SCHEMA else None
+    if fault is not None:
+        raise ResultFileError(f"{source}: damaged result file ({fault})")
     try:
         out = _fields(upgraded(d), source)
     except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
@@ -277,6 +280,17 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
         raise ResultFileError(f"{source}: damaged result file ({_damage(exc)})") from None
     _check_fields(out, source, d["schema"])
     return out
+
+
+def _schema_fault(d: dict) -> str | None:
+    """Where a file of the current schema breaks its JSON Schema (``leapfrog schema``), or
+    None. An NPZ file's trajectory, arrays, is checked as columns by :func:`_check_fields`."""
+    from .result_schema import result_schema, schema_fault
+
+    tr = d.get("trajectory")
+    if isinstance(tr, dict) and any(isinstance(v, np.ndarray) for v in tr.values()):
+        d = {**d, "trajectory": {}}
+    return schema_fault(d, result_schema())
 
 
 def _damage(exc: Exception) -> str:
@@ -342,8 +356,8 @@ def upgraded(d: dict) -> dict:
 
 
 def _names(value) -> list[str]:
-    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-        raise TypeError(f"expected a list of names, got {type(value).__name__}")
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
+        raise TypeError(f"expected a list of names, got {json.dumps(value)[:40]}")
     return value
 
 
