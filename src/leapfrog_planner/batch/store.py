@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import fcntl
 import json
+import math
 import os
 from collections.abc import Iterable
 from pathlib import Path
@@ -38,19 +39,88 @@ def strip_timings(rec: dict) -> dict:
     return {k: v for k, v in rec.items() if not k.endswith("_s") and k not in ("worker",)}
 
 
+#: What a sweep records of a pair that failed (batch/tasks.py), and a record's statuses.
+FAILURES = ("solver", "collides", "timeout", "crash", "error")
+STATUSES = ("converged", "failed")
+#: A record's fields by what they hold (batch/tasks.py writes them); a field not named here
+#: is free. Each may be null or absent, but the names and the status.
+_NAMES = ("scenario", "method")  # text on one line, not empty
+_NUMBERS = ("cost", "min_clearance", "end_state_error", "cheaper_motion")  # finite
+_TIMES = ("wall_time_s", "task_time_s", "warmup_s")  # finite, >= 0
+_COUNTS = ("newton_iterations", "f_evals", "sweeps", "obstacles")  # integers >= 0
+_TEXT = ("message", "final_solver", "scenario_hash", "settings_hash", "worker")
+
+
+def record_fault(rec) -> str | None:
+    """What is wrong with a sweep record (a line of the results file), or None: the report and
+    a resumed sweep read these fields as what :func:`..batch.tasks` writes there."""
+    if not isinstance(rec, dict):
+        return "not a sweep record (a JSON object)"
+    for key in (*_NAMES, "status"):
+        if key not in rec:
+            return f"not a sweep record (no {key})"
+    for key in _NAMES:
+        v = rec[key]
+        if not isinstance(v, str) or not v or any(ord(c) < 32 or ord(c) == 127 for c in v):
+            return f"{key}: expected a name on one line, got {_kind(v)}"
+    if rec["status"] not in STATUSES:
+        return f"status: expected converged or failed, got {_kind(rec['status'])}"
+    if rec.get("failure") is not None and rec["failure"] not in FAILURES:
+        return (
+            f"failure: expected one of {', '.join(FAILURES)} or null, got {_kind(rec['failure'])}"
+        )
+    for key in (*_NUMBERS, *_TIMES, *_COUNTS):
+        v = rec.get(key)
+        if v is None:
+            continue
+        number = isinstance(v, int | float) and not isinstance(v, bool) and _finite(v)
+        if key in _COUNTS and not (isinstance(v, int) and number and v >= 0):
+            return f"{key}: expected a count, got {_kind(v)}"
+        if not number or (key in _TIMES and v < 0):
+            return (
+                f"{key}: expected a finite number{' >= 0' if key in _TIMES else ''}, got {_kind(v)}"
+            )
+    for key in _TEXT:
+        if rec.get(key) is not None and not isinstance(rec[key], str):
+            return f"{key}: expected text, got {_kind(rec[key])}"
+    return None
+
+
+def _finite(v) -> bool:
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an integer beyond a double
+        return False
+
+
+def _kind(v) -> str:
+    text = json.dumps(v) if not isinstance(v, float) or math.isfinite(v) else repr(v)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def _parse(data: bytes, source: str) -> tuple[list[dict], int]:
-    """Records of the complete lines and the byte length they take (a torn tail excluded)."""
+    """Records of the complete lines and the byte length they take (a torn tail excluded);
+    a line that is no record (:func:`record_fault`) or a pair recorded twice is a
+    :class:`StoreError`."""
     end = data.rfind(b"\n") + 1
-    records = []
+    records, seen = [], set()
     for n, line in enumerate(data[:end].split(b"\n")[:-1], start=1):
         if not line.strip():
             continue
         try:
             rec = json.loads(line)
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise StoreError(f"{source}: line {n} is not JSON ({exc.msg})") from None
-        if not isinstance(rec, dict) or "scenario" not in rec or "method" not in rec:
-            raise StoreError(f"{source}: line {n} is not a sweep record")
+        except (ValueError, UnicodeDecodeError) as exc:  # JSONDecodeError, 5000 digits
+            raise StoreError(
+                f"{source}: line {n} is not JSON ({getattr(exc, 'msg', exc)})"
+            ) from None
+        except RecursionError:
+            raise StoreError(f"{source}: line {n} is not JSON (nested too deeply)") from None
+        fault = record_fault(rec)
+        if fault is not None:
+            raise StoreError(f"{source}: line {n}: {fault}")
+        if record_key(rec) in seen:
+            raise StoreError(f"{source}: line {n}: pair {record_key(rec)} appears twice")
+        seen.add(record_key(rec))
         records.append(rec)
     return records, end
 
@@ -94,9 +164,6 @@ class ResultStore:
             if end < len(data):  # a torn last line: cut it so that appends start on a new line
                 os.ftruncate(fd, end)
                 os.fsync(fd)
-            dup = _first_duplicate(records)
-            if dup is not None:
-                raise StoreError(f"{path}: pair {dup} appears twice")
         except BaseException:
             os.close(fd)
             raise
@@ -146,13 +213,3 @@ class ResultStore:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-def _first_duplicate(records: list[dict]):
-    seen = set()
-    for r in records:
-        k = record_key(r)
-        if k in seen:
-            return k
-        seen.add(k)
-    return None

@@ -30,6 +30,7 @@ from ..planning.results import VALIDATION, validate
 from ..planning.runs import END_STATE_TOLERANCE
 from ..planning.scenario import Scenario
 from .orphans import die_with_parent, expected_parent
+from .store import FAILURES
 
 PLANNER_METHODS = ("newton", "modified-newton", "nleq-err")
 BUILTIN_METHODS = (*PLANNER_METHODS, "shooting", "direct")
@@ -38,7 +39,6 @@ DIRECT_INTERVALS = 100
 #: The sweep's planner defaults (see the module docstring); overridden by ``SweepSettings.planner``.
 # threads=1: the sweep already runs one pair per core; path threads would only oversubscribe.
 DEFAULT_PLANNER_OPTIONS = {"initial_paths": 1, "threads": 1}
-FAILURES = ("solver", "collides", "timeout", "crash", "error")
 
 
 class SweepError(LeapfrogError, ValueError):

@@ -22,10 +22,10 @@ from .._atomic import write_atomic
 from ..errors import LeapfrogError
 from ..integrate.flow import Trajectory
 from .leapfrog import SweepRecord
+from .result_schema import SCHEMA, result_schema, schema_fault
 from .scenario import scenario_from_dict
 from .status import FreeTimeReport, PathOutcome, PlanStatus, RunRecord, TimeStep
 
-SCHEMA = 3
 #: The schemas this version reads: 1 (no scenario, settings or junctions: it cannot be re-run),
 #: 2 (no provenance) and 3. A key an older schema lacks is read as its default (see
 #: :func:`upgraded`).
@@ -285,8 +285,6 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
 def _schema_fault(d: dict) -> str | None:
     """Where a file of the current schema breaks its JSON Schema (``leapfrog schema``), or
     None. An NPZ file's trajectory, arrays, is checked as columns by :func:`_check_fields`."""
-    from .result_schema import result_schema, schema_fault
-
     tr = d.get("trajectory")
     if isinstance(tr, dict) and any(isinstance(v, np.ndarray) for v in tr.values()):
         d = {**d, "trajectory": {}}

@@ -9,8 +9,10 @@ import math
 from dataclasses import fields, is_dataclass
 from typing import Any
 
-from .result_files import SCHEMA
 from .settings import PlannerSettings
+
+#: The schema a result file of this version is written in (``"schema"`` in the file).
+SCHEMA = 3
 
 _NUMBER = {"type": ["number", "null"]}  # a number, null where it is not finite
 _FINITE = {"type": "number"}
