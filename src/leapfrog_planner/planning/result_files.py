@@ -22,7 +22,7 @@ from .._atomic import write_atomic
 from ..errors import LeapfrogError
 from ..integrate.flow import Trajectory
 from .leapfrog import SweepRecord
-from .result_schema import SCHEMA, result_schema, schema_fault
+from .result_schema import SCHEMA, schema_fault
 from .scenario import scenario_from_dict
 from .status import FreeTimeReport, PathOutcome, PlanStatus, RunRecord, TimeStep
 
@@ -288,7 +288,7 @@ def _schema_fault(d: dict) -> str | None:
     tr = d.get("trajectory")
     if isinstance(tr, dict) and any(isinstance(v, np.ndarray) for v in tr.values()):
         d = {**d, "trajectory": {}}
-    return schema_fault(d, result_schema())
+    return schema_fault(d)
 
 
 def _damage(exc: Exception) -> str:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import fields, is_dataclass
+from functools import cache
 from typing import Any
 
 from .settings import PlannerSettings
@@ -165,101 +166,54 @@ def result_schema() -> dict[str, Any]:
     }
 
 
-_TYPES = {
-    "object": lambda v: isinstance(v, dict),
-    "array": lambda v: isinstance(v, list),
-    "string": lambda v: isinstance(v, str),
-    "boolean": lambda v: isinstance(v, bool),
-    "null": lambda v: v is None,
-    "integer": lambda v: isinstance(v, int) and _finite(v),
-    "number": lambda v: _finite(v),
-}
+@cache
+def _validator():
+    from jsonschema import Draft202012Validator  # only when a result file is read
+
+    return Draft202012Validator(result_schema())
 
 
-def _finite(v) -> bool:
-    """A number a double holds, finite (JSON's NaN, Infinity, 1e999 or 10**400 are not)."""
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        return False
-    try:
-        return math.isfinite(float(v))
-    except OverflowError:
-        return False
-
-
-def schema_fault(value, schema: dict, where: str = "") -> str | None:
-    """The first place where ``value`` breaks ``schema`` (the part of JSON Schema that
-    :func:`result_schema` uses: type, enum, const, oneOf, properties, required,
-    additionalProperties, items, minimum), in words, or None. A number must be finite."""
-    at = where or "the file"
-    if isinstance(value, int | float) and not isinstance(value, bool) and not _finite(value):
-        return f"{at}: {_json_kind(value)}"  # wherever it is: the writer writes null
-    if "oneOf" in schema:
-        if sum(schema_fault(value, s, where) is None for s in schema["oneOf"]) != 1:
-            return f"{at}: not {' or '.join(_kind(s) for s in schema['oneOf'])}"
-        return None
-    kinds = schema.get("type")
-    if kinds is not None:
+def schema_fault(data) -> str | None:
+    """Where a result file's JSON ``data`` first breaks :func:`result_schema` (as jsonschema
+    reads it), in one short line, or None. A number must also be finite wherever it is (the
+    writer writes null for NaN; JSON's 1e999 or 10**400 are beyond a double), which a JSON
+    Schema cannot say."""
+    error = next(iter(_validator().iter_errors(data)), None)
+    if error is None:
+        return _not_finite(data, "")
+    where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path)
+    if error.validator == "required":
+        key = next(k for k in error.validator_value if k not in error.instance)
+        return f"key {(where + '.' + key).lstrip('.')!r} missing"
+    if error.validator == "type":
+        kinds = error.validator_value
         kinds = [kinds] if isinstance(kinds, str) else kinds
-        if not any(_TYPES[k](value) for k in kinds):
-            return f"{at}: expected {' or '.join(kinds)}, got {_json_kind(value)}"
-    if "enum" in schema and not any(_same(value, e) for e in schema["enum"]):
-        return f"{at}: expected one of {', '.join(map(json_text, schema['enum']))}"
-    if "const" in schema and not _same(value, schema["const"]):
-        return f"{at}: expected {json_text(schema['const'])}"
-    if "minimum" in schema and _finite(value) and not value >= schema["minimum"]:
-        return f"{at}: below {schema['minimum']}"
-    if isinstance(value, list) and "items" in schema:
-        for i, item in enumerate(value):
-            fault = schema_fault(item, schema["items"], f"{where}[{i}]")
-            if fault:
-                return fault
-    if isinstance(value, dict):
-        return _object_fault(value, schema, where)
-    return None
-
-
-def _object_fault(value: dict, schema: dict, where: str) -> str | None:
-    props = schema.get("properties", {})
-    for key in schema.get("required", ()):
-        if key not in value:
-            return f"key {_key(where, key)!r} missing"
-    more = schema.get("additionalProperties", True)
-    for key, item in value.items():
-        sub = props.get(key, more)
-        if sub is False:
-            return f"{_key(where, key)}: unknown key"
-        fault = schema_fault(item, {} if sub is True else sub, _key(where, key))
-        if fault:
-            return fault
-    return None
-
-
-def _key(where: str, key: str) -> str:
-    return f"{where}.{key}" if where else str(key)
-
-
-def _same(a, b) -> bool:
-    return type(a) is type(b) and a == b  # true is not 1, 1.0 is not 1
-
-
-def _kind(schema: dict) -> str:
-    if "const" in schema:
-        return json_text(schema["const"])
-    kinds = schema.get("type", "a value")
-    return kinds if isinstance(kinds, str) else " or ".join(kinds)
+        message = f"expected {' or '.join(kinds)}, got {_json_kind(error.instance)}"
+    else:
+        message = " ".join(error.message.split())
+        message = message if len(message) <= 120 else message[:117] + "..."
+    return f"{where.lstrip('.') or 'the file'}: {message}"
 
 
 def _json_kind(value) -> str:
     if isinstance(value, bool):
         return "a boolean"
-    if isinstance(value, int | float):
-        return "a number" if _finite(value) else "a number that is not finite, or beyond a double"
-    return {dict: "an object", list: "an array", str: "a string", type(None): "null"}.get(
-        type(value), type(value).__name__
-    )
+    kinds = {dict: "an object", list: "an array", str: "a string", type(None): "null"}
+    return kinds.get(type(value), "a number")
 
 
-def json_text(v) -> str:
-    import json
-
-    return json.dumps(v)
+def _not_finite(value, where: str) -> str | None:
+    """The first number of ``value`` that is not finite, or beyond a double: where it is."""
+    if isinstance(value, dict):
+        items = ((f"{where}.{k}" if where else str(k), v) for k, v in value.items())
+    elif isinstance(value, list):
+        items = ((f"{where}[{i}]", v) for i, v in enumerate(value))
+    elif isinstance(value, int | float) and not isinstance(value, bool):
+        try:
+            ok = math.isfinite(float(value))
+        except OverflowError:
+            ok = False
+        return None if ok else f"{where or 'the file'}: a number that is not finite"
+    else:
+        return None
+    return next(filter(None, (_not_finite(v, at) for at, v in items)), None)
