@@ -10,10 +10,8 @@ module fixture; each test reads its result.
 # ruff: noqa: E501  (one case per line: the table reads as a list)
 from __future__ import annotations
 
-import hashlib
 import os
 import socket
-import stat
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
@@ -21,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+from tests.hostile_harness import state
 from tests.test_cli import cli_env
 
 WORKERS = 4
@@ -208,16 +207,6 @@ def _make(folder: Path, name: str, content) -> None:
         path.write_text(content, encoding="utf-8")
 
 
-def _state(folder: Path) -> dict[str, tuple]:
-    """Every entry of ``folder``: its kind and, for a file, its bytes' hash and mode."""
-    out = {}
-    for p in sorted(folder.rglob("*")):
-        st = p.lstat()
-        digest = hashlib.sha256(p.read_bytes()).hexdigest() if stat.S_ISREG(st.st_mode) else ""
-        out[str(p.relative_to(folder))] = (stat.S_IFMT(st.st_mode), digest, st.st_mode)
-    return out
-
-
 @dataclass(frozen=True)
 class Outcome:
     returncode: int | None  # None: timed out
@@ -230,7 +219,7 @@ def _run(case: Case, folder: Path) -> Outcome:
     folder.mkdir()
     for name, content in case.files.items():
         _make(folder, name, content)
-    before = _state(folder)
+    before = state(folder)
     try:
         p = subprocess.run(
             [sys.executable, "-m", "leapfrog_planner.cli", *case.args],
@@ -245,7 +234,7 @@ def _run(case: Case, folder: Path) -> Outcome:
         code, stderr = p.returncode, p.stderr
     except subprocess.TimeoutExpired:
         code, stderr = None, ""
-    return Outcome(code, stderr, before, _state(folder))
+    return Outcome(code, stderr, before, state(folder))
 
 
 @pytest.fixture(scope="module")
