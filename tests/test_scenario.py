@@ -621,3 +621,15 @@ def test_one_integer_rule_for_every_count():
         assert str(info.value) == said
     with pytest.raises(ScenarioError, match="^k: "):
         require_integer("k", 2.0, error=ScenarioError)
+
+
+def test_a_parameter_the_model_declares_nonnegative_is_refused_below_zero():
+    """The car's ``turn_assist`` is declared nonnegative (0: the car itself): a negative one was
+    accepted and planned until the time limit; 0 and positive values are the car's to plan."""
+    car = "horizon = 2.0\nstart = [0.0, 0.0, 0.0, 0.0]\ngoal = [2.0, 0.0, 0.0, 0.0]\n"
+    car += '[robot]\nmodel = "car"\n'
+    with pytest.raises(ScenarioError, match=r"robot\.turn_assist: must be >= 0"):
+        load_scenario_text(car + "turn_assist = -0.5\n")
+    for value in ("0.0", "0.25"):
+        sc = load_scenario_text(car + f"turn_assist = {value}\n")
+        assert sc.model_parameters["turn_assist"] == float(value)

@@ -167,6 +167,7 @@ def _header(model: VehicleModel) -> str:
             f"PARAMETER_NAMES = {tuple(model.parameter_names)!r}",
             f"PARAMETER_DEFAULTS = {tuple(float(d) for d in model.defaults)!r}",
             f"PARAMETER_POSITIVE = {tuple(bool(p.is_positive) for p in model.parameters)!r}",
+            f"PARAMETER_NONNEGATIVE = {tuple(bool(p.is_nonnegative) for p in model.parameters)!r}",
             f"DESCRIPTION = {model.description!r}",
             f"PLANNING_AID = {model.aid.as_tuple() if model.aid else None!r}",
             "# No fast math: it measured no faster here, and without it the flow gives the same",

@@ -214,6 +214,7 @@ class ModelInfo:
     parameters: tuple[str, ...]
     defaults: tuple[float, ...]
     positive: tuple[bool, ...]
+    nonnegative: tuple[bool, ...]  # declared so in the model (positive ones too)
     description: str
     aid: PlanningAid | None
     definition: Any = field(repr=False, compare=False)  # a built-in name or a VehicleModel
@@ -263,6 +264,7 @@ def model_info(model) -> ModelInfo:
         parameters=K.PARAMETER_NAMES,
         defaults=K.PARAMETER_DEFAULTS,
         positive=K.PARAMETER_POSITIVE,
+        nonnegative=K.PARAMETER_NONNEGATIVE,
         description=K.DESCRIPTION,
         aid=PlanningAid(*K.PLANNING_AID) if K.PLANNING_AID else None,
         definition=model,

@@ -252,13 +252,15 @@ class Scenario:
         info = model_info(model)
         given = {} if self.model_parameters is None else c.table(self.model_parameters, "robot")
         positive = dict(zip(info.parameters, info.positive, strict=True))
+        nonnegative = dict(zip(info.parameters, info.nonnegative, strict=True))
         allowed = (*ROBOT_KEYS, *info.robot_parameters, *info.controls)
         c.known_keys(given, allowed, "robot", f" for model {model!r}")
         checked = {}
         for k, v in given.items():
             if k in ROBOT_KEYS or k in info.controls:  # only by direct construction
                 c.fail(f"robot.{k}", "give it as a Scenario field, not a model parameter")
-            checked[k] = c.number(v, key_path("robot", k), gt=0 if positive[k] else None)
+            ge = 0 if nonnegative[k] and not positive[k] else None  # the car's turn_assist
+            checked[k] = c.number(v, key_path("robot", k), gt=0 if positive[k] else None, ge=ge)
             if positive[k]:
                 c.in_range(checked[k], key_path("robot", k), checks.PARAMETER_RANGE)
         values = dict(zip(info.parameters, info.parameter_values(checked), strict=True))
