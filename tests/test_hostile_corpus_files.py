@@ -39,6 +39,10 @@ DAMAGES = {
 #: same way as ``export``, which tries them all).
 PLOT_DAMAGES = ("string", "deleted")
 SOLVE_DAMAGES = ("string", "deleted")
+#: ... on the paths at most this deep; deeper ones (``alternatives[0].trajectory.x`` is 3 deep)
+#: get export alone, with these damages (the suite's time is bounded).
+NESTED = 2
+DEEP_DAMAGES = ("null", "string", "true", "nan", "deleted", "reversed")
 _REQUIRED_COLUMNS = ("t", "x", "y", "theta", "v", "omega", "lambda_1", "lambda_2", "lambda_3")
 _OPTIONAL_COLUMNS = ("running_cost", "hamiltonian", "at_step")  # null: not known there
 #: Schema-valid damage that is still damage, refused by every command: the schema leaves a
@@ -153,6 +157,8 @@ def _result_case_ids() -> dict[str, tuple]:
                     and damage not in PLOT_DAMAGES
                     or command == "solve"
                     and damage not in SOLVE_DAMAGES
+                    or len(path) > NESTED
+                    and (command != "export" or damage not in DEEP_DAMAGES)
                 ):
                     continue
                 cases[f"{command} {key_name(path)}={damage}"] = (path, damage, command)
@@ -374,4 +380,4 @@ def test_the_corpus_is_large_enough():
         "result": len(RESULT_CASES),
         "store": len(STORE_CASES),
     }
-    assert counts == {"scenario": 898, "options": 642, "result": 1939, "store": 284}, counts
+    assert counts == {"scenario": 898, "options": 642, "result": 1491, "store": 284}, counts
