@@ -164,9 +164,9 @@ def check_numba_cache_loads() -> None:
     functions runs (:mod:`._jit`)."""
     from numba.core.caching import FunctionCache
 
-    if getattr(FunctionCache, "_checked_by_leapfrog", False):
-        return
-    load = FunctionCache._load_overload
+    load = getattr(FunctionCache, "_load_overload", None)
+    if load is None or getattr(FunctionCache, "_checked_by_leapfrog", False):
+        return  # checked already, or another numba: its own loading, unchecked
 
     def _load_overload(self, sig, target_context):
         cres = load(self, sig, target_context)

@@ -34,6 +34,17 @@ def fmt_point(p) -> str:
     return "(" + ", ".join(repr(float(v)) for v in p) + ")"
 
 
+def finite_number(v: Any) -> bool:
+    """Whether ``v`` is a JSON number a double holds, finite (not a bool; NaN, infinities and
+    integers beyond a double, as 10**400, are not)."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an integer beyond a double
+        return False
+
+
 def real(value: Any, key: str, *, gt=None, ge=None, error=ScenarioError) -> float:
     """A finite real number (integers accepted, booleans not), ``> gt`` / ``>= ge`` if given."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):

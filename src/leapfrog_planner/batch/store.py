@@ -20,6 +20,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from .._atomic import write_atomic
+from ..checks import finite_number
 from ..errors import LeapfrogError
 
 __all__ = ["ResultStore", "StoreError", "read_records", "record_key", "strip_timings"]
@@ -73,7 +74,7 @@ def record_fault(rec) -> str | None:
         v = rec.get(key)
         if v is None:
             continue
-        number = isinstance(v, int | float) and not isinstance(v, bool) and _finite(v)
+        number = finite_number(v)
         if key in _COUNTS and not (isinstance(v, int) and number and v >= 0):
             return f"{key}: expected a count, got {_kind(v)}"
         if not number or (key in _TIMES and v < 0):
@@ -84,13 +85,6 @@ def record_fault(rec) -> str | None:
         if rec.get(key) is not None and not isinstance(rec[key], str):
             return f"{key}: expected text, got {_kind(rec[key])}"
     return None
-
-
-def _finite(v) -> bool:
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # an integer beyond a double
-        return False
 
 
 def _kind(v) -> str:

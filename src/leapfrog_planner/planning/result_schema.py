@@ -5,11 +5,11 @@ documentation (the loader checks them)."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import fields, is_dataclass
 from functools import cache
 from typing import Any
 
+from ..checks import finite_number
 from .settings import PlannerSettings
 
 #: The schema a result file of this version is written in (``"schema"`` in the file).
@@ -226,20 +226,13 @@ def _numbers_apart(columns: dict, where: str) -> tuple[dict, str | None]:
     out, fault = {}, None
     for name, col in columns.items():
         if isinstance(col, list) and all(type(v) is float or type(v) is int for v in col):
-            bad = next((i for i, v in enumerate(col) if not _finite(v)), None)
+            bad = next((i for i, v in enumerate(col) if not finite_number(v)), None)
             if bad is not None and fault is None:
                 fault = f"{where}.{name}[{bad}]: a number that is not finite"
             out[name] = []
         else:
             out[name] = col
     return out, fault
-
-
-def _finite(v: float | int) -> bool:
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # an integer beyond a double
-        return False
 
 
 def _json_kind(value) -> str:
@@ -256,7 +249,8 @@ def _not_finite(value, where: str) -> str | None:
     elif isinstance(value, list):
         items = ((f"{where}[{i}]", v) for i, v in enumerate(value))
     elif isinstance(value, int | float) and not isinstance(value, bool):
-        return None if _finite(value) else f"{where or 'the file'}: a number that is not finite"
+        ok = finite_number(value)
+        return None if ok else f"{where or 'the file'}: a number that is not finite"
     else:
         return None
     return next(filter(None, (_not_finite(v, at) for at, v in items)), None)
