@@ -5,13 +5,18 @@ temporary directory."""
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import pytest
 from tests.test_cli import cli_env
+
+from leapfrog_planner.batch.engines import forkserver_fits
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="signals and prctl: Linux")
 
@@ -23,9 +28,12 @@ def _default_signals():
         signal.signal(sig, signal.SIG_DFL)
 
 
-def _start(args, tmp_path):
-    env = {**cli_env(), "TMPDIR": str(tmp_path / "tmp")}
-    (tmp_path / "tmp").mkdir(exist_ok=True)
+def _start(args, tmp_path, tmpdir=None):
+    """``leapfrog ARGS`` in ``tmp_path``, with ``tmpdir`` (default ``tmp_path/tmp``) its
+    temporary directory."""
+    tmpdir = tmpdir or tmp_path / "tmp"
+    tmpdir.mkdir(exist_ok=True)
+    env = {**cli_env(), "TMPDIR": str(tmpdir)}
     return subprocess.Popen(
         [sys.executable, "-m", "leapfrog_planner.cli", *args],
         cwd=tmp_path,
@@ -100,16 +108,25 @@ def _ended(p, seconds: float = 30.0) -> None:
         raise AssertionError(f"the sweep's pipes stayed open {seconds} s:\n{left}") from None
 
 
+@pytest.fixture
+def short_tmp():
+    """A temporary directory of a short path, room for the forkserver's socket whatever the
+    test run's own temporary directory (a test's ``tmp_path`` may be too long for it)."""
+    folder = Path(tempfile.mkdtemp(prefix="lfp-", dir="/tmp"))
+    yield folder
+    shutil.rmtree(folder, ignore_errors=True)
+
+
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM, signal.SIGHUP])
-def test_a_killed_sweep_leaves_no_process_and_no_temporary_folder(tmp_path, sig):
+def test_a_killed_sweep_leaves_no_process_and_no_temporary_folder(tmp_path, short_tmp, sig):
     """Its forkserver, resource tracker and workers die with it (they used to stay, 400 MB)."""
-    p = _start(["sweep", "--n", "5000", "--out", "r.jsonl", "--quiet"], tmp_path)
+    p = _start(["sweep", "--n", "5000", "--out", "r.jsonl", "--quiet"], tmp_path, short_tmp)
     _first_result(p, tmp_path / "r.jsonl")
     os.kill(p.pid, sig)
     _ended(p)
     assert p.returncode == -sig
     assert _wait_gone(p.pid), "processes of the sweep's group outlived it"
-    leftovers = [n for n in os.listdir(tmp_path / "tmp") if not n.startswith("pymp-")]
+    leftovers = [n for n in os.listdir(short_tmp) if not n.startswith("pymp-")]
     assert leftovers == []
 
 
@@ -132,11 +149,17 @@ def test_a_process_whose_parent_died_while_it_started_exits():
     assert kept.returncode == 0 and kept.stdout == "alive\n"
 
 
-def test_a_finished_sweep_leaves_nothing_in_the_temporary_directory(tmp_path):
-    p = _start(["sweep", "--n", "2", "--out", "r.jsonl", "--quiet"], tmp_path)
-    p.communicate(timeout=300)
-    assert p.returncode == 0
-    assert os.listdir(tmp_path / "tmp") == []
+@pytest.mark.parametrize("length", ["short", "long"])
+def test_a_finished_sweep_leaves_nothing_in_the_temporary_directory(tmp_path, short_tmp, length):
+    """In a temporary directory of a short path the workers come from the forkserver; under one
+    too long for its socket they are spawned (the forkserver failed: "AF_UNIX path too long")."""
+    tmpdir = short_tmp if length == "short" else short_tmp / ("t" * 100)
+    assert forkserver_fits(str(tmpdir)) == (length == "short")
+    p = _start(["sweep", "--n", "2", "--out", "r.jsonl", "--quiet"], tmp_path, tmpdir)
+    _, err = p.communicate(timeout=300)
+    assert p.returncode == 0, err[-3000:]
+    assert '"status":"converged"' in (tmp_path / "r.jsonl").read_text()
+    assert os.listdir(tmpdir) == []
 
 
 def _run_python(code: str, cwd) -> subprocess.CompletedProcess:

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import math
 import multiprocessing as mp
+import os
+import tempfile
 import threading
 import time
 from collections import deque
@@ -40,13 +42,26 @@ from .tasks import (
     run_task,
 )
 
+#: The longest path of a Unix socket (``sun_path`` less its final NUL on Linux).
+UNIX_SOCKET_PATH = 107
+#: What multiprocessing adds to the temporary directory for the forkserver's socket:
+#: ``/pymp-XXXXXXXX/listener-XXXXXXXX``.
+_FORKSERVER_SOCKET = len("/pymp-xxxxxxxx/listener-xxxxxxxx")
+
+
+def forkserver_fits(tempdir: str) -> bool:
+    """Whether the forkserver's socket can be made in ``tempdir``: under a long ``TMPDIR``
+    starting it fails with "AF_UNIX path too long"."""
+    return len(os.fsencode(tempdir)) + _FORKSERVER_SOCKET <= UNIX_SOCKET_PATH
+
 
 def _context():
     # forkserver: workers are forked from a clean, thread-free server (the sweep's own process
-    # runs the progress display's thread; forking it would be unsafe).
+    # runs the progress display's thread; forking it would be unsafe). Spawned workers where
+    # there is no forkserver, or no room for its socket's path.
     mark_parent()  # the pool's processes check that they start while the sweep lives
     methods = mp.get_all_start_methods()
-    if "forkserver" not in methods:
+    if "forkserver" not in methods or not forkserver_fits(tempfile.gettempdir()):
         return mp.get_context("spawn")
     ctx = mp.get_context("forkserver")
     ctx.set_forkserver_preload(["leapfrog_planner.batch._forkserver_preload"])  # see .orphans
