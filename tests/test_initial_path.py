@@ -618,6 +618,20 @@ def test_three_point_turns_are_offered_whatever_the_headings():
         assert p.min_clearance >= 0.0
 
 
+def test_no_three_point_turn_is_begun_past_a_plan_s_time():
+    """A plan gives building its paths half its time limit: three-point turns (two shortest
+    paths each: 2.4 s among 10,000 discs) are begun only until then, the class paths always."""
+    import time
+
+    start, goal, obstacles = PAPER_CASES["paper-case-2"]
+    every = initial_paths(start, goal, obstacles, k=3, turns=True)
+    some = initial_paths(start, goal, obstacles, k=3, turns=True, turns_until=time.perf_counter())
+    assert any(p.modes.cusp for p in every) and not any(p.modes.cusp for p in some)
+    assert [p.label for p in some] == [p.label for p in every if not p.modes.cusp]
+    later = initial_paths(start, goal, obstacles, k=3, turns=True, turns_until=math.inf)
+    assert [p.label for p in later] == [p.label for p in every]
+
+
 def test_junction_errors():
     p = initial_paths([0, 0, 0], [1, 0, 0], [])[0]
     for q in (0, 1.5, True):

@@ -21,7 +21,7 @@ from ..errors import SettingsError
 from ..integrate.flow import Flow
 from ..integrate.problem import OptimalControlProblem
 from .answer import Chosen, Context, choose_answer
-from .first_paths import first_paths
+from .first_paths import PATHS_SHARE, first_paths
 from .fixed_horizons import FixedHorizons
 from .free_time import plan_free_time
 from .initial_path import InitialPath
@@ -72,6 +72,7 @@ class Planner:
         first = None if aid is None else aid.values[0]
         self.first_round = Round(self.settings.leapfrog.partitions, first, "the initial paths")
         self.problem = self.runner.problem_of(self.first_round)  # what Leapfrog solves first
+        self.paths_deadline = float("inf")  # when building three-point turns stops
 
     @classmethod
     def from_result(
@@ -108,7 +109,9 @@ class Planner:
     def path_selection(self, margin=None) -> tuple[list[InitialPath], list[InitialPath]]:
         """The paths a plan runs first (:meth:`initial_paths`) and the extra ones it races
         against them (:func:`.first_paths.first_paths`)."""
-        return first_paths(self.scenario, self.settings, self.problem, self.robot, margin)
+        return first_paths(
+            self.scenario, self.settings, self.problem, self.robot, margin, self.paths_deadline
+        )
 
     def run_path(self, path: InitialPath) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) in the plan's
@@ -118,7 +121,7 @@ class Planner:
             path, self.first_round, "paths", "asked for", float(self.scenario.weight),
             label=path.label,
         )  # fmt: skip
-        self.runner.deadline = float("inf")  # a plan's time limit is the plan's own
+        self.runner.deadline = self.paths_deadline = float("inf")  # a plan's limit is its own
         with single_threaded_blas():
             return self.runner.run(request)
 
@@ -164,12 +167,14 @@ class Planner:
         the search stops (default: the settings' time limit from now)."""
         t_begin = time.perf_counter()
         self.runner.deadline = self._deadline(t_begin) if deadline is None else deadline
+        self.paths_deadline = t_begin + PATHS_SHARE * (self.runner.deadline - t_begin)
         method, settings = self.settings.leapfrog.method, plain(self.settings)
         try:
             paths = self.path_selection()
         except Unreachable as exc:
             wall = time.perf_counter() - t_begin
             return unreachable_result(self.scenario, settings, method, self.problem, str(exc), wall)
+        paths_cut = time.perf_counter() >= self.paths_deadline
         searched = self._search(paths)
         chosen = self.choose(searched.runs)
         self.runner.emit(PlanEvent("final", len(paths[0]) - 1, len(paths[0]), ""))
@@ -181,7 +186,7 @@ class Planner:
         )
         asked = asked or self.settings.initial_paths
         notes = [fewer_paths_note(self.scenario, asked, len(paths[0]))]
-        if searched.cut:  # said in the message, whatever the answer
+        if searched.cut or paths_cut:  # said in the message, whatever the answer
             notes.append(f"the time limit of {self.settings.time_limit:g} s cut the search short")
         message = "; ".join([result.message, *filter(None, notes)])
         return dataclasses.replace(result, message=message)

@@ -4,6 +4,7 @@ ways of meeting the end poses, three-point turns and waypoint paths."""
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -74,12 +75,13 @@ def _cusp_points(S, G, e0: np.ndarray, m1: np.ndarray, chord: float) -> list[np.
     return points
 
 
-def _cusp_paths(S, G, obs, margin, tol) -> list[tuple[np.ndarray, InitialPath]]:
+def _cusp_paths(S, G, obs, margin, tol, until=math.inf) -> list[tuple[np.ndarray, InitialPath]]:
     """Three-point turns: drive from the start along its heading (forwards, and also
     backwards) to a cusp point (:func:`_cusp_points`), turn there in place as far as needed,
     and drive the other way into the goal, arriving along its heading. Each leg goes round the
-    obstacles by its shortest way; cusp points inside an inflated obstacle are skipped.
-    Returns ``(cusp point, path)`` pairs."""
+    obstacles by its shortest way; cusp points inside an inflated obstacle are skipped, and
+    none is begun after ``until`` (a time of ``time.perf_counter``). Returns ``(cusp point,
+    path)`` pairs."""
     chord = math.hypot(*(G[:2] - S[:2]))
     out = []
     for reverse in (False, True):
@@ -91,6 +93,8 @@ def _cusp_paths(S, G, obs, margin, tol) -> list[tuple[np.ndarray, InitialPath]]:
                 obs.shape[0] and np.any(np.hypot(*(C - obs[:, :2]).T) <= obs[:, 2] + margin)
             ):
                 continue
+            if time.perf_counter() >= until:
+                return out
             out.append((C, _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse)))
     return out
 
@@ -286,7 +290,15 @@ def _smooth_best(poly: np.ndarray, S, G, obs, tol, signature=None, modes=FORWARD
 
 
 def initial_paths(
-    start, goal, obstacles, *, k: int = 3, margin: float = 0.05, waypoints=None, turns=False
+    start,
+    goal,
+    obstacles,
+    *,
+    k: int = 3,
+    margin: float = 0.05,
+    waypoints=None,
+    turns=False,
+    turns_until: float = math.inf,
 ) -> list[InitialPath]:
     """Collision-free initial paths in up to ``k`` homotopy classes, shortest class first.
 
@@ -307,7 +319,8 @@ def initial_paths(
     ``waypoints`` (rows ``[x, y]``), the only path (with its end modes) passes through them in
     order, each leg the shortest path round the obstacles (label ``"waypoints"``). Raises
     :class:`ScenarioError` for invalid input, an end (or waypoint) inside an obstacle, or when
-    no collision-free path exists (even with margin 0).
+    no collision-free path exists (even with margin 0). No three-point turn is begun after
+    ``turns_until`` (a time of ``time.perf_counter``: a plan's time limit).
     """
     req = _request(start, goal, obstacles, k, margin, waypoints)
     if req.waypoints is not None and req.waypoints.shape[0]:
@@ -316,7 +329,7 @@ def initial_paths(
     note = "" if used == req.margin else f" (margin {used:g})"
     out = _class_paths(req, cands, used, note)
     if turns or points_away(req.S, req.G):
-        out += _turn_paths(req, used, note)
+        out += _turn_paths(req, used, note, turns_until)
     return out
 
 
@@ -413,11 +426,11 @@ def _class_paths(req: _Request, cands, used: float, note: str) -> list[InitialPa
     return out
 
 
-def _turn_paths(req: _Request, used: float, note: str) -> list[InitialPath]:
-    """The three-point turns (:func:`_cusp_paths`) with margin ``used``, labelled by their
-    cusp point and modes, plus the margin ``note``."""
+def _turn_paths(req: _Request, used: float, note: str, until: float) -> list[InitialPath]:
+    """The three-point turns (:func:`_cusp_paths`, none begun after ``until``) with margin
+    ``used``, labelled by their cusp point and modes, plus the margin ``note``."""
     out = []
-    for C, path in _cusp_paths(req.S, req.G, req.obs, used, req.tol):
+    for C, path in _cusp_paths(req.S, req.G, req.obs, used, req.tol, until):
         label = f"three-point turn at {point_text(C, req.tol)}, {path.modes.describe()}"
         out.append(_relabel(path, label + note))
     return out
