@@ -236,6 +236,21 @@ def test_an_older_file_with_a_stale_solver_table_reruns_with_its_settings(result
     assert Planner.from_result(old).settings.leapfrog.partitions == 16
 
 
+def test_a_rerun_of_bad_recorded_settings_names_the_file_and_the_scenario(results, tmp_path):
+    """``solve RESULT`` whose settings are not settings: one line that names the file (the
+    scenario's name alone did not say which file), as replan and the API name the scenario."""
+    r, path = results["converged"]
+    d = json.loads(path.read_text())
+    d["settings"]["leapfrog"]["partitions"] = 1
+    (tmp_path / "bad.json").write_text(json.dumps(d))
+    p = _cli(["solve", "bad.json", "--quiet"], tmp_path)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
+    said = f"error: bad.json: {r.scenario}: the recorded settings: leapfrog.partitions: must be"
+    assert p.stderr.startswith(said), p.stderr
+    with pytest.raises(SettingsError, match=f"^{r.scenario}: the recorded settings: leapfrog"):
+        Planner.from_result(PlanResult.load(tmp_path / "bad.json"))
+
+
 # --------------------------------------------------------------------------- provenance
 
 

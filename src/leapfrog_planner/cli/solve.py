@@ -374,12 +374,16 @@ def _write_outputs(result, sc, outputs, figure: dict) -> None:
 
 def _rerun(path: str, outputs, quiet: bool, figure: dict) -> int:
     """Re-plan the task the result file ``path`` records and compare the answers."""
+    from ..errors import SettingsError
     from ..planning.planner import Planner
     from ..planning.rerun import reproduction
     from ..planning.results import PlanResult
 
     old = PlanResult.load(path)
-    planner = Planner.from_result(old)
+    try:
+        planner = Planner.from_result(old)
+    except SettingsError as e:  # the settings the file records: said with the file's name
+        raise SettingsError(f"{path}: {e}") from None
     result = _planned(planner, outputs, quiet, figure)
     check = reproduction(old, result)
     console.print(f"{planner.scenario.name}: {check.summary()}", soft_wrap=True)

@@ -27,7 +27,7 @@ from ..errors import SettingsError
 from .bounded import arcs_of, resolve
 from .leapfrog import Arcs
 from .planner import Planner
-from .rerun import recorded, recorded_task, with_call
+from .rerun import recorded, recorded_settings, recorded_task, with_call
 from .results import PlanResult, Validation
 from .runs import touches
 from .scenario import Scenario
@@ -81,11 +81,7 @@ def _recorded(previous: PlanResult) -> tuple[Scenario, PlannerSettings]:
     saves reading the scenario again from its tables (0.3 ms of a warm re-plan's 5)."""
     if previous.task is None or previous.settings is None or previous.task.free_time is not None:
         return recorded_task(previous)
-    try:
-        settings = PlannerSettings.from_dict(previous.settings)
-    except SettingsError as e:
-        raise SettingsError(f"{previous.scenario}: the recorded settings: {e}") from None
-    return dataclasses.replace(previous.task, solver={}), settings
+    return dataclasses.replace(previous.task, solver={}), recorded_settings(previous)
 
 
 def _warm_start(previous: PlanResult, moved: Scenario, planner: Planner) -> tuple[float, str]:

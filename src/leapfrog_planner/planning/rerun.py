@@ -86,11 +86,16 @@ def recorded_task(result: PlanResult) -> tuple[Scenario, PlannerSettings]:
     data = result.task.to_dict()
     data.pop("solver", None)
     task = scenario_from_dict(data, result.task.source or "<result>")
+    return task, recorded_settings(result)
+
+
+def recorded_settings(result: PlanResult) -> PlannerSettings:
+    """The planner's settings ``result`` records, checked as settings (a
+    :class:`SettingsError` that names the result's scenario)."""
     try:
-        settings = PlannerSettings.from_dict(result.settings)
+        return PlannerSettings.from_dict(result.settings)
     except SettingsError as e:
         raise SettingsError(f"{result.scenario}: the recorded settings: {e}") from None
-    return task, settings
 
 
 @dataclass(frozen=True)
