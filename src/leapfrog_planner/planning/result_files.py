@@ -269,7 +269,7 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
             f"{source}: result schema {d['schema']!r}; this version reads schemas "
             f"{', '.join(map(str, READS))} (plan the scenario again to get a file it can read)"
         )
-    fault = _schema_fault(d) if d["schema"] == SCHEMA else None
+    fault = schema_fault(d) if d["schema"] == SCHEMA else None
     if fault is not None:
         raise ResultFileError(f"{source}: damaged result file ({fault})")
     try:
@@ -280,15 +280,6 @@ def result_fields(d: dict, source: str = "<dict>") -> dict[str, Any]:
         raise ResultFileError(f"{source}: damaged result file ({_damage(exc)})") from None
     _check_fields(out, source, d["schema"])
     return out
-
-
-def _schema_fault(d: dict) -> str | None:
-    """Where a file of the current schema breaks its JSON Schema (``leapfrog schema``), or
-    None. An NPZ file's trajectory, arrays, is checked as columns by :func:`_check_fields`."""
-    tr = d.get("trajectory")
-    if isinstance(tr, dict) and any(isinstance(v, np.ndarray) for v in tr.values()):
-        d = {**d, "trajectory": {}}
-    return schema_fault(d)
 
 
 def _damage(exc: Exception) -> str:

@@ -9,6 +9,8 @@ from dataclasses import fields, is_dataclass
 from functools import cache
 from typing import Any
 
+import numpy as np
+
 from ..checks import finite_number
 from .settings import PlannerSettings
 
@@ -225,7 +227,9 @@ def _columns_apart(data) -> tuple[Any, str | None]:
 def _numbers_apart(columns: dict, where: str) -> tuple[dict, str | None]:
     out, fault = {}, None
     for name, col in columns.items():
-        if isinstance(col, list) and all(type(v) is float or type(v) is int for v in col):
+        if isinstance(col, np.ndarray):  # an NPZ file's: checked as a column when read
+            out[name] = []
+        elif isinstance(col, list) and all(type(v) is float or type(v) is int for v in col):
             bad = next((i for i, v in enumerate(col) if not finite_number(v)), None)
             if bad is not None and fault is None:
                 fault = f"{where}.{name}[{bad}]: a number that is not finite"
