@@ -241,6 +241,33 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
     assert all(rtol == local.integrator.rtol for rtol, *_ in stages)
 
 
+def test_past_the_time_limit_the_final_solve_refines_no_more(monkeypatch):
+    """The final solves of a run under way when the plan's time limit passes run from the
+    level reached, but multiple shooting is not tried again on refined junctions (on an office
+    maze's routes of 60 to 100 s, each refinement took 0.3 to 1.8 s, and a plan with a limit of
+    5 s ended after 7.9 s; now after 5.2 to 5.8 s)."""
+    import time
+
+    import leapfrog_planner.planning.leapfrog.final as lf
+
+    arcs = []
+    real = lf.solve_multiple_shooting
+    deadline = time.perf_counter() + 2.0
+
+    def late(system, *args):
+        arcs.append(system.q)
+        while time.perf_counter() < deadline:  # the limit passes during the first attempt
+            time.sleep(0.01)
+        return replace(real(system, *args), status="stalled")
+
+    monkeypatch.setattr(lf, "solve_multiple_shooting", late)
+    planner = Planner(CASES[4].name, threads=1)
+    t, X = planner.initial_paths()[2].junctions(8, planner.scenario.horizon)
+    settings = LeapfrogSettings(final="multiple-shooting", final_retry_sweeps=0)
+    run = leapfrog(planner.problem, t, X, flow=planner.flow, settings=settings, deadline=deadline)
+    assert not run.success and arcs == [4]  # without the limit: 4, 8 and 16 arcs
+
+
 # --------------------------------------------------------------------------- q = 2
 
 

@@ -115,7 +115,8 @@ def leapfrog(
     local problems). ``progress`` is called after each sweep. A sweep that leaves the piecewise
     cost above ``stop_above`` ends the run (``abandoned``). Past ``deadline`` (a
     ``time.perf_counter()`` value) no further sweep starts: the final solves run from the
-    level reached (a plan's time limit); a run asked for past it does not start (a plan's
+    level reached, without refining its junctions (a plan's time limit); a run asked for past
+    it does not start (a plan's
     runs queue for its threads: on a map, 15 of 17 runs started after a limit of 120 s, each
     fitted its initial path and tried a final solve from it, and the plan took 261 s).
     """
@@ -123,7 +124,7 @@ def leapfrog(
         return _out_of_time()
     settings = settings or LeapfrogSettings()
     t, X = np.asarray(t, dtype=float), np.asarray(X, dtype=float)
-    local, final = _solvers(problem, t, X, guide, settings, flow)
+    local, final = _solvers(problem, t, X, guide, settings, flow, deadline)
     t_start = time.perf_counter()
     fit = fit_initial_path(local, t, X)
     if not fit.success:
@@ -136,9 +137,9 @@ def leapfrog(
     return postprocess(state, local, final, settings, progress, t_start)
 
 
-def _solvers(problem, t, X, guide, settings, flow) -> tuple[LocalSolver, FinalSolver]:
+def _solvers(problem, t, X, guide, settings, flow, deadline) -> tuple[LocalSolver, FinalSolver]:
     """The local and final solvers of a run, each with its flow (``flow`` reused where its
-    settings fit)."""
+    settings fit); the final solver begins no refinement past ``deadline``."""
     final_integrator = settings.final_shooting.integrator
     final_flow = flow if flow is not None and flow.settings == final_integrator else None
     final_flow = final_flow or Flow(problem, final_integrator)
@@ -146,7 +147,8 @@ def _solvers(problem, t, X, guide, settings, flow) -> tuple[LocalSolver, FinalSo
         flow = Flow(problem, settings.shooting.integrator)
     local = LocalSolver(problem, flow, settings, guide)
     start, goal = X[0].copy(), X[-1].copy()
-    return local, FinalSolver(local, final_flow, start, goal, float(t[0]), float(t[-1]))
+    ends = (float(t[0]), float(t[-1]))
+    return local, FinalSolver(local, final_flow, start, goal, *ends, deadline)
 
 
 def init(fit: InitialFit) -> State:

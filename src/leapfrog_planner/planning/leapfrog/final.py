@@ -1,10 +1,13 @@
 """The final solve at ``q = 2``: simple shooting over the whole horizon from the first arc's
 costate; if it fails (``final="auto"``), multiple shooting over the junctions of the last level
 with ``q > 2``, then over twice as many (every arc split at its middle: shorter arcs, a better
-conditioned system), and so on up to ``final_refinements`` times."""
+conditioned system), and so on up to ``final_refinements`` times (none begun past a plan's
+time limit)."""
 
 from __future__ import annotations
 
+import math
+import time
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -40,8 +43,14 @@ class FinalSolution:
 class FinalSolver:
     """The final solves of one run, from ``start`` at ``T0`` to ``goal`` at ``T1``."""
 
-    def __init__(self, local: LocalSolver, flow: Flow, start, goal, T0: float, T1: float):
+    def __init__(
+        self, local: LocalSolver, flow: Flow, start, goal, T0: float, T1: float,
+        deadline: float = math.inf,
+    ):  # fmt: skip
+        """``deadline`` (a ``time.perf_counter()`` value: a plan's time limit): past it,
+        multiple shooting is not tried again on refined junctions."""
         s = local.settings
+        self.deadline = deadline
         self.local, self.settings = local, s
         self.shooting = replace(s.final_shooting, samples=0, method=s.method)
         self.flow = flow
@@ -72,6 +81,8 @@ class FinalSolver:
             level = junctions
             for refinements in range(self.settings.final_refinements + 1):
                 if refinements:
+                    if time.perf_counter() >= self.deadline:
+                        break
                     level = level.refined(self.local.flow)
                 found = self.multiple_shooting(level)
                 root = found.root
