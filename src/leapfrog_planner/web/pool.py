@@ -456,6 +456,7 @@ class SolvePool:
                 "admitted": self._admitted,
                 "capacity": self.capacity,
                 "time_limit_s": self.time_limit,
-                "pids": sorted(w.proc.pid for w in self._all if w.proc.pid),
+                # live processes only: one that ended may wait a moment for its watcher
+                "pids": sorted(w.proc.pid for w in self._all if w.proc.pid and not w.ended),
                 **self.counts,
             }
