@@ -630,6 +630,16 @@ def test_no_three_point_turn_is_begun_past_a_plan_s_time():
     assert [p.label for p in some] == [p.label for p in every if not p.modes.cusp]
     later = initial_paths(start, goal, obstacles, k=3, turns=True, turns_until=math.inf)
     assert [p.label for p in later] == [p.label for p in every]
+    # A planner's paths asked for after a plan with a time limit are whole again.
+    from leapfrog_planner.planning.planner import Planner
+
+    def labels(planner):
+        return [[p.label for p in paths] for paths in planner.path_selection()]
+
+    planner = Planner("paper-case-2", time_limit=1e-6, initial_paths=12)
+    before = labels(planner)
+    assert "time limit" in planner.plan().message
+    assert labels(planner) == before and planner.paths_deadline == math.inf
 
 
 def test_junction_errors():

@@ -168,6 +168,13 @@ class Planner:
         t_begin = time.perf_counter()
         self.runner.deadline = self._deadline(t_begin) if deadline is None else deadline
         self.paths_deadline = t_begin + PATHS_SHARE * (self.runner.deadline - t_begin)
+        try:
+            return self._planned(t_begin, asked)
+        finally:  # the paths a caller asks for after the plan are built whole
+            self.paths_deadline = float("inf")
+
+    def _planned(self, t_begin: float, asked: int | None) -> PlanResult:
+        """:meth:`plan_fixed` once its deadlines are set."""
         method, settings = self.settings.leapfrog.method, plain(self.settings)
         try:
             paths = self.path_selection()
