@@ -121,7 +121,6 @@ class Planner:
             path, self.first_round, "paths", "asked for", float(self.scenario.weight),
             label=path.label,
         )  # fmt: skip
-        self.runner.deadline = self.paths_deadline = float("inf")  # a plan's limit is its own
         with single_threaded_blas():
             return self.runner.run(request)
 
@@ -170,8 +169,8 @@ class Planner:
         self.paths_deadline = t_begin + PATHS_SHARE * (self.runner.deadline - t_begin)
         try:
             return self._planned(t_begin, asked)
-        finally:  # the paths a caller asks for after the plan are built whole
-            self.paths_deadline = float("inf")
+        finally:  # a plan's limit is its own: paths and runs asked for afterwards are whole
+            self.runner.deadline = self.paths_deadline = float("inf")
 
     def _planned(self, t_begin: float, asked: int | None) -> PlanResult:
         """:meth:`plan_fixed` once its deadlines are set."""

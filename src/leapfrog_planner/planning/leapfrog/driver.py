@@ -116,9 +116,9 @@ def leapfrog(
     cost above ``stop_above`` ends the run (``abandoned``). Past ``deadline`` (a
     ``time.perf_counter()`` value) no further sweep starts: the final solves run from the
     level reached, without refining its junctions (a plan's time limit); a run asked for past
-    it does not start (a plan's
-    runs queue for its threads: on a map, 15 of 17 runs started after a limit of 120 s, each
-    fitted its initial path and tried a final solve from it, and the plan took 261 s).
+    it does not start (a plan's runs queue for its threads: on a map, 15 of 17 runs started
+    after a limit of 120 s, each fitted its initial path and tried a final solve from it, and
+    the plan took 261 s).
     """
     if time.perf_counter() >= deadline:
         return _out_of_time()
