@@ -29,8 +29,15 @@ def terms(pen, x, y, hessian=True):
     return np.array(penalty_terms(x, y, pen.obstacles, pen.weight, pen.exponent, hessian))
 
 
+def dense(pen, xy):
+    """The penalty's formula summed over every obstacle (NumPy, no cutoff): ``W sum exp(-s^n)``."""
+    xy = np.asarray(xy, dtype=float)
+    d2 = ((xy[..., None, :] - pen.obstacles[:, :2]) ** 2).sum(-1) / pen.obstacles[:, 2] ** 2
+    return (pen.weight * np.exp(-(d2**pen.exponent))).sum(-1)
+
+
 def grad_fd(pen, xy):
-    return fd_jacobian(lambda q: pen(q), xy, 1e-5)[0]
+    return fd_jacobian(lambda q: dense(pen, q), xy, 1e-5)[0]
 
 
 @pytest.mark.parametrize("exponent", EXPONENTS)
@@ -41,9 +48,10 @@ def test_value_gradient_hessian_against_numpy_and_finite_differences(exponent, x
     xy = np.array(xy)
     P, Px, Py, Pxx, Pxy, Pyy = terms(pen, *xy)
     assert np.all(np.isfinite([P, Px, Py, Pxx, Pxy, Pyy]))
-    # Value: the NumPy implementation, term for term.
+    # Value: the formula in NumPy, term for term; the penalty's own call gives the same.
     # (exp(-a) carries a relative rounding error ~ a eps, hence rel 1e-11 where a ~ 300.)
-    assert P == pytest.approx(float(pen(xy)), rel=1e-11, abs=1e-14 * weight)
+    assert P == pytest.approx(float(dense(pen, xy)), rel=1e-11, abs=1e-14 * weight)
+    assert float(pen(xy)) == P
     # Gradient: 5-point differences of the NumPy value. Scales: W / r and W / r^2 (r = 0.1).
     g_scale, h_scale = weight / 0.1, weight / 0.01
     np.testing.assert_allclose([Px, Py], grad_fd(pen, xy), rtol=0, atol=1e-8 * g_scale)
@@ -113,6 +121,22 @@ def test_an_obstacle_beyond_the_cutoff_is_skipped_and_its_terms_are_negligible(e
             assert max(abs(exact[3]), abs(exact[5])) < 1e-14
         else:
             np.testing.assert_allclose(got, exact, rtol=1e-10, atol=0)
+
+
+@pytest.mark.parametrize("exponent", EXPONENTS)
+@pytest.mark.parametrize("weight", [0.5, 100.0, 1e6])
+def test_the_penalty_of_many_points_among_many_discs_is_the_formula(exponent, weight):
+    """Called on an array of points, the penalty sums the discs near each point (a grid): the
+    formula over all of 3,000 discs to rounding (the terms left out are below 1e-26 W)."""
+    rng = np.random.default_rng(exponent)
+    obs = np.column_stack([rng.uniform(0.0, 30.0, (3000, 2)), rng.uniform(0.03, 0.8, 3000)])
+    pen = obstacle_penalty(obs, weight, exponent)
+    xy = np.vstack([rng.uniform(-1.0, 31.0, (400, 2)), obs[:50, :2], [[np.inf, 0.0]]])
+    got, want = pen(xy), dense(pen, xy)
+    assert got.shape == (451,) and got[-1] == 0.0
+    np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-24 * weight)
+    assert pen(xy.reshape(11, 41, 2)).shape == (11, 41) and pen(xy[0]).shape == ()
+    assert np.isnan(pen([np.nan, 1.0]))
 
 
 def test_penalty_is_a_sum_over_obstacles():

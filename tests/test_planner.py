@@ -801,6 +801,28 @@ def test_a_run_asked_for_past_the_time_limit_does_not_start():
     assert limited.run_path(path).run.success  # the plan's limit was the plan's own
 
 
+def test_a_plan_s_runs_stop_early_enough_for_the_answer_to_come_within_its_time_limit():
+    """Of a limit of L seconds, the paths may take PATHS_SHARE L (no three-point turn begun
+    later) and the runs RUNS_SHARE L (no sweep begun later): the runs under way, the choice of
+    the answer and its checks have the rest (among 10,000 discs they took 3.5 s past the runs,
+    and a plan with a limit of 30 s ended after 32.5 s; now after 27)."""
+    import time
+
+    from leapfrog_planner.planning.first_paths import PATHS_SHARE
+    from leapfrog_planner.planning.runner import RUNS_SHARE
+
+    limit, seen = 100.0, []
+    planner = Planner("paper-case-2", time_limit=limit)
+    planner.progress = lambda ev: seen.append((planner.paths_deadline, planner.runner.deadline))
+    t0 = time.perf_counter()
+    r = planner.plan()
+    paths, runs = seen[0]
+    begin = paths - PATHS_SHARE * limit
+    assert t0 <= begin <= t0 + r.wall_time_s and 0.0 < PATHS_SHARE < RUNS_SHARE < 1.0
+    assert runs == pytest.approx(begin + RUNS_SHARE * limit, abs=1e-9)
+    assert set(seen) == {(paths, runs)} and r.success
+
+
 @pytest.mark.parametrize("bad", [0, -1.0, float("nan"), "10", True, 1e8])
 def test_a_bad_time_limit_is_refused(bad):
     from leapfrog_planner.errors import SettingsError

@@ -226,8 +226,8 @@ def scenarios():
     "--time-limit",
     type=click.FloatRange(min=0.0, min_open=True, max=1e7),
     default=None,
-    help="seconds after which no new run or sweep starts: the plan ends with the best answer"
-    " found so far (the final solves under way finish)",
+    help="seconds the plan may take: no new run or sweep starts after 0.85 of them, and the"
+    " plan ends with the best answer found so far (the final solves under way finish)",
 )
 @click.option(
     "--horizon",

@@ -13,7 +13,7 @@ import numpy as np
 from .. import checks
 from ..compiled.kernels import ModelInfo, model_info
 from ..errors import ScenarioError, require_integer
-from ..model.penalty import ObstacleGrid, clearance, obstacle_grid
+from ..model.penalty import ObstacleGrid, clearance, disc_penalty_values, obstacle_grid
 from ..world.obstacle_map import ObstacleMap
 
 
@@ -70,14 +70,9 @@ class ObstaclePenalty:
         base = 0.0 if self.map is None else self.map.penalty(xy, self.weight, self.exponent)
         if obs.shape[0] == 0:
             return base + np.zeros(xy.shape[:-1])
-        # Rows in chunks of about a million terms: the same values, without an (N, m) array.
-        flat = xy.reshape(-1, 2)
-        out = np.empty(flat.shape[0])
-        step = max(1, (1 << 20) // obs.shape[0])
-        for lo in range(0, flat.shape[0], step):
-            part = flat[lo : lo + step]
-            d2 = ((part[:, None, :] - obs[:, :2]) ** 2).sum(-1) / obs[:, 2] ** 2
-            out[lo : lo + step] = (self.weight * np.exp(-(d2**self.exponent))).sum(-1)
+        # The compiled sum the kernels evaluate: a point visits the discs of its grid cell.
+        flat = np.ascontiguousarray(xy.reshape(-1, 2))
+        out = disc_penalty_values(flat, self.grid, float(self.weight), int(self.exponent))
         return base + out.reshape(xy.shape[:-1])[()]
 
     def clearance(self, xy) -> np.ndarray:

@@ -163,6 +163,16 @@ def _disc_terms(x, y, grid, weight, exponent, want_hessian):
     return _summed_terms(x, y, obs, grid.items, lo, hi, weight, exponent, want_hessian)
 
 
+@njit(cache=True)
+def disc_penalty_values(xy, grid, weight, exponent):
+    """The discs' penalty (no map's field) at each row ``[x, y]`` of ``xy``: the value of
+    :func:`grid_penalty_terms`, a point's cell visited alone."""
+    out = np.empty(xy.shape[0])
+    for i in range(xy.shape[0]):
+        out[i] = _disc_terms(xy[i, 0], xy[i, 1], grid, weight, exponent, False)[0]
+    return out
+
+
 def penalty_at(x, y, obs, weight, exponent, want_hessian):
     """The penalty terms at ``(x, y)`` for ``obs`` given as an :class:`ObstacleGrid` or as a
     plain ``(m, 3)`` array (compiled code picks the loop by the type)."""

@@ -31,7 +31,7 @@ from .outcome import Timing, plan_result, unreachable_result
 from .rerun import recorded, recorded_task, with_call
 from .result_files import plain
 from .results import PlanResult, Validation, validate_arcs
-from .runner import PlanEvent, Runner
+from .runner import RUNS_SHARE, PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest, Searched
 from .scenario import Scenario, as_scenario
 from .scenario_time import refuse_unreachable
@@ -163,10 +163,12 @@ class Planner:
     def plan_fixed(self, asked: int | None = None, deadline: float | None = None) -> PlanResult:
         """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for
         (default: the settings'), a note in the message when fewer ran; ``deadline``: when
-        the search stops (default: the settings' time limit from now)."""
+        the plan should end (default: the settings' time limit from now), of which its paths
+        and runs take shares (:data:`.first_paths.PATHS_SHARE`, :data:`.runner.RUNS_SHARE`)."""
         t_begin = time.perf_counter()
-        self.runner.deadline = self._deadline(t_begin) if deadline is None else deadline
-        self.paths_deadline = t_begin + PATHS_SHARE * (self.runner.deadline - t_begin)
+        end = self._deadline(t_begin) if deadline is None else deadline
+        self.runner.deadline = t_begin + RUNS_SHARE * (end - t_begin)
+        self.paths_deadline = t_begin + PATHS_SHARE * (end - t_begin)
         try:
             return self._planned(t_begin, asked)
         finally:  # a plan's limit is its own: paths and runs asked for afterwards are whole

@@ -39,6 +39,12 @@ class PlanEvent:
     sweep: SweepRecord | None = None
 
 
+#: The share of a plan's time limit that its runs may take: past it no sweep begins, so that
+#: the runs under way (their sweep and first final solve), the choice of the answer and its
+#: checks end within the limit (10,000 discs, a limit of 30 s: these took 3.5 s past the runs).
+RUNS_SHARE = 0.85
+
+
 class Runner:
     """Runs requests for one scenario. ``robot`` is the scenario's own problem; a round runs
     it with the model's planning aid at the round's value, and a request at its obstacle
@@ -63,7 +69,8 @@ class Runner:
         self._lock = threading.Lock()
         self._progress_lock = threading.Lock()
         self._flows: dict[tuple, tuple[OptimalControlProblem, Flow]] = {}
-        # A plan's time limit as a time.perf_counter() value: no sweep starts after it.
+        # When a plan's runs stop (a time.perf_counter() value): no sweep, and no refinement
+        # of a final solve, begins after it (see RUNS_SHARE).
         self.deadline = float("inf")
 
     def problem_of(self, rnd: Round, weight: float | None = None) -> OptimalControlProblem:

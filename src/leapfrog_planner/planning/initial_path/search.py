@@ -80,8 +80,8 @@ def _cusp_paths(S, G, obs, margin, tol, until=math.inf) -> list[tuple[np.ndarray
     backwards) to a cusp point (:func:`_cusp_points`), turn there in place as far as needed,
     and drive the other way into the goal, arriving along its heading. Each leg goes round the
     obstacles by its shortest way; cusp points inside an inflated obstacle are skipped, and
-    none is begun after ``until`` (a time of ``time.perf_counter``). Returns ``(cusp point,
-    path)`` pairs."""
+    no turn is begun, nor its second leg, after ``until`` (a time of ``time.perf_counter``).
+    Returns ``(cusp point, path)`` pairs."""
     chord = math.hypot(*(G[:2] - S[:2]))
     out = []
     for reverse in (False, True):
@@ -93,16 +93,22 @@ def _cusp_paths(S, G, obs, margin, tol, until=math.inf) -> list[tuple[np.ndarray
                 obs.shape[0] and np.any(np.hypot(*(C - obs[:, :2]).T) <= obs[:, 2] + margin)
             ):
                 continue
-            if time.perf_counter() >= until:
+            path = _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse, until)
+            if path is None:
                 return out
-            out.append((C, _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse)))
+            out.append((C, path))
     return out
 
 
-def _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse) -> InitialPath:
+def _cusp_path(S, G, C, off0, off1, obs, margin, tol, reverse, until) -> InitialPath | None:
     """Drive (heading = tangent - ``off0``) from the start to ``C``, turn in place, drive
-    (heading = tangent - ``off1``) to the goal."""
-    first, second = _route(S[:2], C, obs, margin, tol), _route(C, G[:2], obs, margin, tol)
+    (heading = tangent - ``off1``) to the goal; None when a leg would begin after ``until``."""
+    if time.perf_counter() >= until:
+        return None
+    first = _route(S[:2], C, obs, margin, tol)
+    if time.perf_counter() >= until:
+        return None
+    second = _route(C, G[:2], obs, margin, tol)
     h0 = S[2] + off0
     first, _ = with_turns(first, h0, angle_of(first[-1] - first[-2]), obs, tol, None)
     one = SmoothCurve(first, h0, angle_of(first[-1] - first[-2]), free_end=True)
