@@ -1,7 +1,7 @@
 """The JSON API of ``leapfrog serve``, in-process (Starlette's test client, real solver
 processes): every endpoint, bad input (a 4xx with a one-line JSON message, the command line's
-words), the time limit (504, the worker replaced), the pool bound (503) and a request superseded
-by a newer one of the same session (409)."""
+words), the time limit (a plan cut short at its share, or 504 and the worker replaced), the pool
+bound (503) and a request superseded by a newer one of the same session (409)."""
 
 from __future__ import annotations
 
@@ -31,6 +31,20 @@ from leapfrog_planner.world import load_ros_map  # noqa: E402
 CASE4 = load_scenario("paper-case-4").to_dict()
 #: Options that make paper case 4 take seconds (16 initial paths, 256 junctions each).
 HEAVY = {"initial_paths": 16, "partitions": 256}
+#: A plan of paper case 4 that takes minutes: 16 initial paths of 1,024 junctions each.
+ENDLESS = {"initial_paths": 16, "partitions": 1024}
+#: A field of 1,600 discs: its initial paths alone take seconds, a step no time limit stops.
+FIELD = {
+    "name": "field",
+    "horizon": 20.0,
+    "start": [-1.0, 0.3, 0.0],
+    "goal": [25.0, 23.7, 0.0],
+    "obstacles": [
+        {"center": [round(0.6 * i + 0.3 * (j % 2), 3), round(0.6 * j, 3)], "radius": 0.2}
+        for i in range(40)
+        for j in range(40)
+    ],
+}
 
 
 @pytest.fixture(scope="module")
@@ -409,10 +423,22 @@ def test_an_older_waiting_request_is_superseded(client):
     assert c.status_code == 200 and c.json()["cost"] == pytest.approx(4.585248, abs=1e-6)
 
 
+def test_a_plan_past_its_share_of_the_time_limit_ends_with_its_best_answer():
+    """A plan is given 0.8 of the server's limit as its own: one that would take minutes comes
+    back with the best motion found by then, said to be cut short, not as a 504."""
+    with TestClient(create_app(workers=1, queue=0, time_limit=8.0)) as c:
+        assert c.app.state.pool.wait_ready()
+        r = c.post("/api/plan", json={"scenario": CASE4, "options": ENDLESS})
+    assert r.status_code == 200, r.text
+    v = r.json()
+    assert "the time limit of 6.4 s cut the search short" in v["message"]
+    assert v["path"] is not None and (v["status"] == "converged") == v["success"]
+
+
 def test_a_solve_past_the_time_limit_is_stopped_and_its_worker_replaced(tight):
     pid = tight.get("/api/health").json()["pids"]
     t0 = time.monotonic()
-    r = tight.post("/api/plan", json={"scenario": CASE4, "options": HEAVY})
+    r = tight.post("/api/plan", json={"scenario": FIELD})
     assert time.monotonic() - t0 < 3.0
     assert r.status_code == 504
     assert r.json() == {"error": "time limit: the solve ran past 0.5 s and was stopped"}
@@ -426,7 +452,7 @@ def test_a_solve_past_the_time_limit_is_stopped_and_its_worker_replaced(tight):
 
 def test_requests_beyond_the_pool_get_503(tight):
     _wait_for(tight, "ready", 1)
-    first, a = _in_thread(tight, {"scenario": CASE4, "options": HEAVY})
+    first, a = _in_thread(tight, {"scenario": FIELD})
     _wait_for(tight, "busy", 1)
     r = tight.post("/api/plan", json={"scenario": CASE4})
     first.join()

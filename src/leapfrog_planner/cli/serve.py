@@ -34,7 +34,8 @@ def _default_workers() -> int:
     type=click.FloatRange(min=0, min_open=True, max=3600),
     default=20.0,
     show_default=True,
-    help="seconds a solve may take before it is stopped (504)",
+    help="seconds a solve may take: a plan ends with its best answer after 0.8 of them, and a"
+    " solve still running at the limit is stopped (504)",
 )
 def serve(host, port, workers, queue, time_limit):
     """Plan interactively in the browser: a local web page to edit a scenario (drag the start,

@@ -227,7 +227,7 @@ def scenarios():
     type=click.FloatRange(min=0.0, min_open=True, max=1e7),
     default=None,
     help="seconds the plan may take: no new run or sweep starts after 0.85 of them, and the"
-    " plan ends with the best answer found so far (the final solves under way finish)",
+    " plan ends with the best answer found so far (the runs under way end their sweep)",
 )
 @click.option(
     "--horizon",

@@ -23,7 +23,8 @@
 Every error is JSON, ``{"error": "<one line>"}``: 400 for bad input (the command line's message),
 404/405 for a wrong address or method, 409 for a request superseded by a newer one of the same
 session, 413 for a body too large, 503 when the pool is full or no solver process has warmed the
-plan's model up yet (with ``Retry-After``), 504 past the time limit.
+plan's model up yet (with ``Retry-After``), 504 past the time limit (a plan is given 0.8 of it
+as its own limit and ends with the best answer found by then: see :data:`.pool.PLAN_SHARE`).
 """
 
 from __future__ import annotations
@@ -139,7 +140,7 @@ def create_app(pool: SolvePool | None = None, **pool_options) -> Starlette:
             latest.note(req.session, req.seq)
             stale = latest.stale(req.session, req.seq)
             status, value = await anyio.to_thread.run_sync(
-                pool.run, req.job(kind), stale, req.scenario.model, limiter=limiter
+                pool.run, req.job(kind, pool.plan_limit), stale, req.scenario.model, limiter=limiter
             )
         if status == "bad":
             raise RequestError(value)

@@ -202,6 +202,12 @@ class _Worker:
                 conn.close()
 
 
+#: The share of the server's time limit that a plan is given as its own ``time_limit``: it then
+#: ends with the best answer found so far, said in its message, and the page draws it; a solve
+#: still running at the server's limit (one step that cannot stop) is stopped (504).
+PLAN_SHARE = 0.8
+
+
 class SolvePool:
     """``workers`` solver processes, at most ``queue`` requests waiting for one, ``time_limit``
     seconds per solve. Each process warms ``models`` up, in that order, while it takes jobs."""
@@ -217,6 +223,7 @@ class SolvePool:
         if workers < 1 or queue < 0 or not time_limit > 0:
             raise ValueError("workers >= 1, queue >= 0 and time_limit > 0 are required")
         self.workers, self.queue, self.time_limit = workers, queue, float(time_limit)
+        self.plan_limit = PLAN_SHARE * self.time_limit  # a plan's own time limit (seconds)
         self.models, self.threads = tuple(models), threads
         # One lock over the pool and its processes' warm-up states; notified on every change
         # (a process idle again, a model warm, a process gone), which a waiting request checks.

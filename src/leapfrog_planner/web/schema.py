@@ -49,11 +49,11 @@ class PlanRequest:
     seq: int = 0
     map: Any = None  # the LoadedMap of maps.py the scenario's map was opened as, if any
 
-    def job(self, kind: str) -> tuple[str, dict, dict, str | None]:
+    def job(self, kind: str, seconds: float | None = None) -> tuple:
         """What a worker process is sent: plain values only (and the image of an uploaded map,
-        which its YAML file may name elsewhere)."""
+        which its YAML file may name elsewhere), with the plan's time limit, ``seconds``."""
         image = None if self.map is None else self.map.image
-        return kind, self.scenario.to_dict(), dict(self.options), image
+        return kind, self.scenario.to_dict(), dict(self.options), image, seconds
 
     def toml(self) -> str:
         """The scenario file with the options in its ``[solver]`` table, an uploaded map named

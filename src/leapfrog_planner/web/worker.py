@@ -8,11 +8,12 @@ still compiling. (The compiling is a process apart, not a thread: numba compilin
 Python-heavy in a thread kept a plan's many short calls of compiled kernels waiting for the
 interpreter lock, measured 10 s and more for a plan of a few milliseconds.)
 
-A job is ``(kind, scenario, options, image)``: what to send back, ``"view"`` (what the page
-draws, as JSON), ``"json"`` (the result file ``leapfrog solve --json`` writes) or ``"csv"``
-(``leapfrog export --csv`` with its default step); the scenario in the layout of a scenario
-file; the planner's options; and the image of a map opened on the page (``None`` without one:
-its YAML file may name the image where it lay on the user's machine). The answer is ``("ok",
+A job is ``(kind, scenario, options, image, seconds)``: what to send back, ``"view"`` (what
+the page draws, as JSON), ``"json"`` (the result file ``leapfrog solve --json`` writes) or
+``"csv"`` (``leapfrog export --csv`` with its default step); the scenario in the layout of a
+scenario file; the planner's options; the image of a map opened on the page (``None`` without
+one: its YAML file may name the image where it lay on the user's machine); and the plan's time
+limit (``None``: the scenario's own, if any; else the lesser). The answer is ``("ok",
 bytes)``, ``("bad", message)`` for input the planner refused, or ``("error", message)``.
 
 Between the answers, in the order things happen, the warm-up says where it is: ``("warming",
@@ -62,10 +63,10 @@ def _map(table: dict, image: str, radius: float):
     return _maps[key]
 
 
-def _plan(scenario: dict, options: dict, threads: int, image: str | None = None):
+def _plan(scenario: dict, options: dict, threads: int, image: str | None, seconds: float | None):
     from dataclasses import replace
 
-    from ..planning.planner import Planner
+    from ..planning.planner import Planner, PlannerSettings
     from ..planning.scenario import scenario_from_dict
 
     if image is None or "map" not in scenario:
@@ -74,7 +75,11 @@ def _plan(scenario: dict, options: dict, threads: int, image: str | None = None)
         rest = {k: v for k, v in scenario.items() if k != "map"}
         sc = scenario_from_dict(rest, "scenario")
         sc = replace(sc, map=_map(scenario["map"], image, sc.robot_radius))
-    return Planner(sc, threads=threads, **options).plan()
+    options = {"threads": threads, **options}
+    if seconds is not None:  # the scenario's own limit, when it is the lesser
+        own = PlannerSettings.of_scenario(sc, None, **options).time_limit
+        options["time_limit"] = seconds if own is None else min(own, seconds)
+    return Planner(sc, **options).plan()
 
 
 def _csv(result) -> bytes:
@@ -91,9 +96,9 @@ def answer(job, threads: int = 0) -> tuple[str, object]:
     from ..errors import LeapfrogError
     from .view import result_view
 
-    kind, scenario, options, *image = job
+    kind, scenario, options, image, seconds = job
     try:
-        result = _plan(scenario, options, threads, *image)
+        result = _plan(scenario, options, threads, image, seconds)
         if kind == "view":
             body = json.dumps(result_view(result), allow_nan=False, separators=(",", ":"))
             return "ok", body.encode()
