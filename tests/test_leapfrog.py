@@ -267,18 +267,23 @@ def test_past_the_time_limit_the_final_solve_refines_no_more(monkeypatch):
     run = leapfrog(planner.problem, t, X, flow=planner.flow, settings=settings, deadline=deadline)
     assert not run.success and arcs == [4]  # without the limit: 4, 8 and 16 arcs
     # A run whose limit passed before its final solve (cut short, its arcs not merged) tries
-    # simple shooting alone.
+    # simple shooting, and multiple shooting only on a level of a few arcs.
     from leapfrog_planner.planning.leapfrog.local import LocalSolver
 
     local = LocalSolver(planner.problem, planner.flow, LeapfrogSettings(final="auto"))
     ends = (planner.scenario.start, planner.scenario.goal, 0.0, planner.scenario.horizon)
-    q = t.size - 1
-    level = Junctions(t, X, np.ones((q, 3)), np.ones((q, 3)), np.zeros(q))
-    arcs.clear()
+
+    def level(q):
+        t, X = planner.initial_paths()[2].junctions(q, planner.scenario.horizon)
+        return Junctions(t, X, np.ones((q, 3)), np.ones((q, 3)), np.zeros(q))
+
     cut = lf.FinalSolver(local, planner.flow, *ends, deadline=time.perf_counter())
-    found = cut.solve(np.ones(3), level)
-    assert arcs == [] and found.root is not None  # simple shooting's
-    lf.FinalSolver(local, planner.flow, *ends).solve(np.ones(3), level)
+    for q, tried in ((8, [8]), (lf.LATE_ARCS, [lf.LATE_ARCS]), (lf.LATE_ARCS + 2, [])):
+        arcs.clear()
+        found = cut.solve(np.ones(3), level(q))
+        assert arcs == tried and found.root is not None
+    arcs.clear()
+    lf.FinalSolver(local, planner.flow, *ends).solve(np.ones(3), level(8))
     assert arcs == [8, 16, 32]  # without a limit (the monkeypatched solves fail)
 
 

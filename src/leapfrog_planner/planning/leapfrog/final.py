@@ -2,7 +2,7 @@
 costate; if it fails (``final="auto"``), multiple shooting over the junctions of the last level
 with ``q > 2``, then over twice as many (every arc split at its middle: shorter arcs, a better
 conditioned system), and so on up to ``final_refinements`` times (none begun past a plan's
-time limit: a run cut short by it gets simple shooting alone)."""
+time limit; a run cut short by it tries multiple shooting only on a level of a few arcs)."""
 
 from __future__ import annotations
 
@@ -40,6 +40,11 @@ class FinalSolution:
         return self.extremal is not None
 
 
+#: Past a plan's time limit, multiple shooting is tried only on a level of at most this many
+#: arcs (its Newton system then has at most 32 times the state's size unknowns: milliseconds).
+LATE_ARCS = 16
+
+
 class FinalSolver:
     """The final solves of one run, from ``start`` at ``T0`` to ``goal`` at ``T1``."""
 
@@ -48,10 +53,11 @@ class FinalSolver:
         deadline: float = math.inf,
     ):  # fmt: skip
         """``deadline`` (a ``time.perf_counter()`` value: a plan's time limit): past it, no
-        multiple shooting is begun. A run cut short by the limit has not merged its arcs: on
+        refinement is begun, and multiple shooting only on a level of at most
+        :data:`LATE_ARCS` arcs. A run cut short by the limit may not have merged its arcs: on
         hundreds of them a multiple-shooting solve is a dense Newton system of thousands of
         unknowns, and 16 such runs of paper case 4 at 512 partitions took 6 minutes past a
-        limit of 2.4 s (the same plan takes 6.4 s without a limit)."""
+        limit of 2.4 s (the same plan takes 7 s without a limit)."""
         s = local.settings
         self.deadline = deadline
         self.local, self.settings = local, s
@@ -83,7 +89,8 @@ class FinalSolver:
         if final in ("auto", "multiple-shooting"):
             level = junctions
             for refinements in range(self.settings.final_refinements + 1):
-                if time.perf_counter() >= self.deadline:
+                late = time.perf_counter() >= self.deadline
+                if late and (refinements or level.q > LATE_ARCS):
                     break
                 if refinements:
                     level = level.refined(self.local.flow)
