@@ -823,6 +823,27 @@ def test_a_plan_s_runs_stop_early_enough_for_the_answer_to_come_within_its_time_
     assert set(seen) == {(paths, runs)} and r.success
 
 
+def test_no_more_runs_are_begun_when_the_time_left_is_shorter_than_a_run_so_far():
+    """Under a time limit, a stage's runs are begun only while the runs' deadline leaves the
+    time the longest run so far took (on a room in metres with a limit of 2 s, five extra runs
+    begun just before it fitted their paths and ended 1.6 s past it; now the plan ends in
+    1.6 s); without a limit, always. A plan's first runs are always asked for: those that come
+    past the deadline do not start, and say so."""
+    import time
+    from types import SimpleNamespace
+
+    planner = Planner("paper-case-1")
+    runner = planner.runner
+    runs = [SimpleNamespace(time_s=0.5), SimpleNamespace(time_s=3.0)]
+    assert runner.has_time_for(runs) and runner.has_time_for([])
+    runner.deadline = time.perf_counter() + 60.0
+    assert runner.has_time_for(runs)
+    runner.deadline = time.perf_counter() + 2.0
+    assert not runner.has_time_for(runs) and runner.has_time_for(runs[:1])
+    r = plan("paper-case-4", time_limit=1e-6)  # paths past the runs' deadline: none begun
+    assert r.search and all(x.message == "not started: the time limit had passed" for x in r.search)
+
+
 @pytest.mark.parametrize("bad", [0, -1.0, float("nan"), "10", True, 1e8])
 def test_a_bad_time_limit_is_refused(bad):
     from leapfrog_planner.errors import SettingsError

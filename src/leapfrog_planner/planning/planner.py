@@ -202,7 +202,7 @@ class Planner:
     def _search(self, paths: tuple[list[InitialPath], list[InitialPath]]) -> Searched:
         """The search's loop: each round's stages (:data:`.search.STAGES`) ask for runs until
         none asks for more, then the next round (:func:`.search.next_round`), if any; the time
-        limit stops it after the runs under way."""
+        limit stops it after the runs under way, or before runs it leaves no time for."""
         search = Search(
             self.scenario, self.settings, paths, self.robot.model.aid,
             self.runner.problem_of, self.initial_paths, self.choose,
@@ -212,6 +212,8 @@ class Planner:
         while rnd is not None:
             for stage in STAGES:
                 while requests := stage(search, rnd, [r for r in runs if r.request.round is rnd]):
+                    if runs and not self.runner.has_time_for(runs):  # (the first always run)
+                        return Searched(runs, runs_s, cut=True)
                     t0 = time.perf_counter()
                     runs += self.runner.run_all(requests)
                     runs_s += time.perf_counter() - t0

@@ -94,6 +94,13 @@ class Runner:
                 self._flows[key] = (problem, Flow(problem, self._final_integrator))
             return self._flows[key]
 
+    def has_time_for(self, runs: list[PathRun]) -> bool:
+        """Whether the runs' deadline leaves time for more runs as long as the longest of
+        ``runs`` so far (a plan's time limit: runs begun just before it fit their initial path
+        and try a final solve past it, for an answer that seldom wins)."""
+        longest = max((r.time_s for r in runs), default=0.0)
+        return time.perf_counter() + longest < self.deadline
+
     def run_all(self, requests: list[RunRequest]) -> list[PathRun]:
         """:meth:`run` for each request, in parallel threads (see ``threads``)."""
         n = len(requests)

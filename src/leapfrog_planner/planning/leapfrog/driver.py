@@ -189,7 +189,8 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
     large costate jump, that level swept on (at most ``final_retry_sweeps`` more sweeps, until
     its jump is below ``final_retry_jump`` or a sweep no longer lowers the cost) and the final
     solve again. (A run that spent ``max_sweeps`` before reaching ``q = 2`` is not retried, nor
-    one whose last sweep at that level moved no junction: another would repeat it.)"""
+    one whose last sweep at that level moved no junction: another would repeat it; no retry
+    sweep begins past the final solver's deadline, a plan's time limit.)"""
     sweep_time = time.perf_counter() - t_start
     arcs, level = state.arcs, state.last_multi
     final_jump = arcs.max_jump()
@@ -204,10 +205,13 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
         and arcs.q == 2
         and level.q > 2
         and not stuck
+        and time.perf_counter() < final.deadline
     ):
         t_more = time.perf_counter()
         first_failure = found.root
         for _ in range(settings.final_retry_sweeps):
+            if time.perf_counter() >= final.deadline:
+                break
             before = state.last_cost()
             rec = _sweep(state, level, local, progress)
             if rec.max_costate_jump < settings.final_retry_jump or not rec.cost < before:
