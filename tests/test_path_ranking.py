@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -83,3 +84,19 @@ def test_guide_costate_gives_the_path_its_own_controls():
         assert -(lam[0] * math.cos(x[2]) + lam[1] * math.sin(x[2])) == pytest.approx(v, abs=1e-6)
         assert -lam[2] == pytest.approx(omega, abs=1e-6)
     assert np.array_equal(spin.state(0.0), start) and np.allclose(spin.state(T), goal)
+
+
+@pytest.mark.parametrize("model", ["unicycle", "car"])
+def test_a_sampled_guide_gives_each_time_the_costate_it_gives_alone(model):
+    """A guide's trajectory samples its costates all at once (the states and linearisations
+    of every time together: four times faster); each is the costate asked for at its time
+    alone, bit for bit, the ends included."""
+    examples = Path(__file__).resolve().parents[1] / "docs" / "examples"
+    planner = Planner("paper-case-4" if model == "unicycle" else examples / "car.toml")
+    s = planner.scenario
+    for path in planner.initial_paths():
+        guide = PathGuide(planner.problem, path, s.horizon, 0.0, (s.start, s.goal))
+        tr = guide.trajectory(41)
+        for t, lam in zip(tr.t, tr.lam, strict=True):
+            np.testing.assert_array_equal(guide.costate(float(t)), lam)
+        assert np.all(np.isfinite(tr.lam)) and tr.lam.shape == (41, s.start.size)

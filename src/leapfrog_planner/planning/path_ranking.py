@@ -164,8 +164,30 @@ class PathGuide:
         return self._costates(np.array([t]))[0]
 
     def _costates(self, t: np.ndarray) -> np.ndarray:
-        """Costates at the times ``t`` (rows)."""
-        return np.array([self._costate(float(tk)) for tk in t])
+        """Costates at the times ``t`` (rows): each from the states a little before, at and a
+        little after it (all of them evaluated and linearised at once), then two small
+        least-squares solves."""
+        n = len(t)
+        s = (np.asarray(t, dtype=float) - self.t0) / self.horizon
+        ds = _DIFFERENCE_STEP
+        lo, at, hi = (
+            np.maximum(0.0, s - ds),
+            np.minimum(np.maximum(s, 0.0), 1.0),
+            np.minimum(1.0, s + ds),
+        )
+        X = self._poses(np.concatenate([lo, at, hi]))
+        xdot = (X[2 * n :] - X[:n]) / ((hi - lo) * self.horizon)[:, None]
+        model = self.problem.model
+        nx, nu = model.nx, model.nu
+        f, A = np.empty((n, nx)), np.empty((n, nx, nx))
+        B, R = np.empty((n, nx, nu)), np.empty((n, nu, nu))
+        p = np.asarray(self.problem.parameters, dtype=float)
+        model.kernels.linearize_rows(X[n : 2 * n], np.zeros(nu), p, f, A, B, R)
+        lam = np.empty((n, nx))
+        for k in range(n):
+            u = np.linalg.lstsq(B[k], xdot[k] - f[k], rcond=None)[0]
+            lam[k] = np.linalg.lstsq(B[k].T, -R[k] @ u, rcond=None)[0]
+        return lam
 
     def trajectory(self, samples: int = 1001) -> Trajectory:
         """The path followed, sampled uniformly: a feasible motion, not an extremal (``dH_du``
@@ -188,21 +210,6 @@ class PathGuide:
             t=t, x=X, lam=lam, u=u, cost=cost, hamiltonian=nan,
             dH_du=np.full((samples, nu), np.nan), at_step=np.zeros(samples, dtype=bool),
         )  # fmt: skip
-
-    def _costate(self, t: float) -> np.ndarray:
-        s = (t - self.t0) / self.horizon
-        ds = _DIFFERENCE_STEP
-        grid = np.array([max(0.0, s - ds), min(max(s, 0.0), 1.0), min(1.0, s + ds)])
-        X = self._poses(grid)
-        xdot = (X[2] - X[0]) / ((grid[2] - grid[0]) * self.horizon)
-        model = self.problem.model
-        nx, nu = model.nx, model.nu
-        f, A = np.empty((1, nx)), np.empty((1, nx, nx))
-        B, R = np.empty((1, nx, nu)), np.empty((1, nu, nu))
-        p = np.asarray(self.problem.parameters, dtype=float)
-        model.kernels.linearize_rows(X[1:2], np.zeros(nu), p, f, A, B, R)
-        u = np.linalg.lstsq(B[0], xdot - f[0], rcond=None)[0]
-        return np.linalg.lstsq(B[0].T, -R[0] @ u, rcond=None)[0]
 
 
 #: Step in normalised time of the central difference of :meth:`PathGuide.costate`.

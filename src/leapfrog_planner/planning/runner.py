@@ -69,8 +69,8 @@ class Runner:
         self._lock = threading.Lock()
         self._progress_lock = threading.Lock()
         self._flows: dict[tuple, tuple[OptimalControlProblem, Flow]] = {}
-        # When a plan's runs stop (a time.perf_counter() value): no sweep, and no refinement
-        # of a final solve, begins after it (see RUNS_SHARE).
+        # When a plan's runs stop (a time.perf_counter() value): no sweep begins after it, and
+        # the final solves are cut down (see RUNS_SHARE and leapfrog.final.FinalSolver).
         self.deadline = float("inf")
 
     def problem_of(self, rnd: Round, weight: float | None = None) -> OptimalControlProblem:
