@@ -94,7 +94,7 @@ def _ensure_compiled(model: str, show: bool, methods, here: bool = False) -> Non
     from ..planning.warmup import warm_up
 
     what = f"{model} kernels"
-    expected = 20 if background.in_background() and not here else 60  # measured: 21 s, 61 s
+    expected = 15 if background.in_background() and not here else 60  # measured: 15 s, 61 s
     note = f"compiling the {what}, once per machine (about {expected} s)"
     if not show:
         with held_interrupts():

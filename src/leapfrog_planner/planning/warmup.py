@@ -1,8 +1,8 @@
 """Compiling a model's kernels ahead of the first plan.
 
 numba compiles each kernel on its first call and caches the machine code on disk, so the first
-plan of a model on a machine takes about 20 s (its compiled Newton loops half a minute more, in
-the background) and every later one loads in a fraction of a second.
+plan of a model on a machine compiles for about 15 s (its compiled Newton loops half a minute
+more, in the background) and every later one loads in a fraction of a second.
 :func:`warm_up` makes that first call on purpose: a small plan with every local method and both
 final solvers, so that no kernel is left to compile in the middle of a real plan, and a plan's
 reported time never includes compiling. Where the compiled Newton loops are missing, they are
@@ -24,6 +24,7 @@ from ..compiled.linear import converges_next, dot, newton_correction, transpose_
 from ..compiled.linear import solve as linear_solve
 from ..integrate.flow import Flow
 from ..roots import RootSettings
+from .initial_path.curve import SmoothCurve
 from .planner import Planner, plan
 from .scenario import Scenario
 
@@ -56,12 +57,14 @@ def warm_up(model: str = "unicycle", methods=None, here: bool = False) -> float:
         flow = Flow(sc.problem())
         ready = loops_ready(flow)
         if not ready:  # a fresh cache: the process compiling the loops was started, and it
-            # compiles the planning functions first, while this one compiles the integrator,
-            # so that each loads what the other compiled (two cores at work)
+            # compiles the planning functions from the paths on, while this one compiles the
+            # integrator and then those functions from the last on, so that each loads what
+            # the other compiled (two cores at work)
             flow(0.0, np.zeros(2 * flow.nx), 1.0, sensitivity="costate")
+            _after_the_paths(sc, flow)
         warm = ready and _warm(flow)
         if not warm:
-            _planning_functions(sc, flow.nx)
+            _planning_functions(sc, flow)
         for options in runs(methods, warm):
             plan(sc, threads=1, initial_paths=1, **options)
         if not background.in_background():  # the loops were compiled here, if missing
@@ -111,13 +114,26 @@ def _warm(flow: Flow) -> bool:
     return background.in_background() and isinstance(flow.problem.model.definition, str)
 
 
-def _planning_functions(scenario: Scenario, nx: int) -> None:
-    """Compile (or load) the compiled functions a plan needs besides the model's kernels: the
-    initial paths' and the Python Newton loop's linear algebra."""
+def _planning_functions(scenario: Scenario, flow: Flow) -> None:
+    """Compile (or load) the compiled functions a plan needs besides the model's integrator:
+    the initial paths', then those of :func:`_after_the_paths`."""
     Planner(scenario, initial_paths=1).initial_paths()
+    _after_the_paths(scenario, flow)
+
+
+def _after_the_paths(scenario: Scenario, flow: Flow) -> None:
+    """Compile (or load) what a plan needs besides its integrator and the search of its initial
+    paths, in the reverse order of a plan's (the process compiling in the background meets this
+    one halfway): the Python Newton loop's linear algebra, a trajectory's samples (the answer's
+    checks), the penalty along many points and the paths' curves (their ranking)."""
+    nx = flow.nx
     J, F = np.eye(nx), np.ones(nx)
     newton_correction(J, F, RootSettings().max_cond)
     linear_solve(J, F)
     transpose_times(J, F)
     dot(F, F)
     converges_next(1.0, 1.0, RootSettings().tol)
+    flow(0.0, np.full(2 * nx, 0.1), 1.0, samples=8)
+    scenario.problem().penalty(np.zeros((2, 2)))
+    curve = SmoothCurve(np.array([[0.0, 0.0], [0.5, 0.2], [1.0, 0.3]]), 0.0, 0.5)
+    curve.evaluate(np.linspace(0.0, 1.0, 5))

@@ -116,7 +116,10 @@ def _append_path(flat, used, pred):
         k += 1
         v = pred[v]
     if used + k > flat.size:
-        flat = np.concatenate((flat, np.empty(max(flat.size, k), np.int64)))
+        grown = np.empty(flat.size + max(flat.size, k), np.int64)
+        for i in range(used):
+            grown[i] = flat[i]
+        flat = grown
     size = k
     v = np.int64(1)
     while v != -1:  # written backwards from the goal
@@ -129,9 +132,13 @@ def _append_path(flat, used, pred):
 @njit(cache=True)
 def _pad_paths(flat, plen):
     """The paths stored one after another in ``flat``, as rows padded with -1."""
-    paths = np.full((plen.size, max(plen.max(), 1) if plen.size else 1), -1, np.int64)
-    used = 0
+    width = 1
     for p in range(plen.size):
-        paths[p, : plen[p]] = flat[used : used + plen[p]]
+        width = max(width, plen[p])
+    paths = np.full((plen.size, width), -1, np.int64)
+    used = 0
+    for p in range(plen.size):  # element by element: slice assignment compiles for seconds
+        for k in range(plen[p]):
+            paths[p, k] = flat[used + k]
         used += plen[p]
     return paths
