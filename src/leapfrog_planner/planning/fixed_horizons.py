@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 
 import numpy as np
 
 from ..bvp.shooting import ShootingSettings
 from ..integrate.problem import OptimalControlProblem
 from ..model import get_model
-from .free_time import FREE_TIME_PATHS, first_horizon, least_time
+from .free_time import FREE_TIME_PATHS, first_horizon, least_time, plan_free_time
 from .initial_path.map_paths import Unreachable
 from .leapfrog import Arcs
 from .path_ranking import estimated_costs
@@ -39,19 +40,28 @@ class FixedHorizons:
         at = type(p).unrefused(fixed, settings, p.progress)  # the search may probe any T
         return at.plan_fixed(p.settings.initial_paths, deadline)
 
+    def plan(self) -> PlanResult:
+        """The free-time search's answer (:func:`.free_time.plan_free_time`); the time limit and
+        the wall time are the whole search's, not each plan's."""
+        t_begin = time.perf_counter()
+        T0, least = self.first_horizon()
+        deadline = self.planner.deadline_after(t_begin)
+        result = plan_free_time(self, self.planner.scenario, T0, deadline, least)
+        return dataclasses.replace(result, wall_time_s=time.perf_counter() - t_begin)
+
     def problem_at(self, weight: float) -> OptimalControlProblem:
-        return self.planner.problem_at(weight)
+        return self.planner.runner.problem_at(weight)
 
     @property
     def shooting(self) -> ShootingSettings:
-        return self.planner.shooting
+        return self.planner.runner.shooting
 
     def progress_note(self, note: str) -> None:
         """Reports ``note`` as a :class:`.runner.PlanEvent` of stage ``"time"``."""
         self.planner.runner.emit(PlanEvent("time", 0, 1, note))
 
     def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation | None:
-        return self.planner.validate(problem, arcs)
+        return self.planner.runner.validate(problem, arcs)
 
     def first_horizon(self) -> tuple[float, float]:
         """Where the search starts (:func:`.free_time.first_horizon`), and the least horizon the

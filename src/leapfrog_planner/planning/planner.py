@@ -16,21 +16,16 @@ from pathlib import Path
 from typing import Any
 
 from .._blas import single_threaded_blas
-from ..bvp.shooting import ShootingSettings
-from ..errors import SettingsError
 from ..integrate.flow import Flow
-from ..integrate.problem import OptimalControlProblem
 from .answer import Chosen, Context, choose_answer
 from .first_paths import PATHS_SHARE, first_paths
 from .fixed_horizons import FixedHorizons
-from .free_time import plan_free_time
 from .initial_path import InitialPath
 from .initial_path.map_paths import Unreachable
-from .leapfrog import Arcs
 from .outcome import Timing, plan_result, unreachable_result
-from .rerun import recorded, recorded_task, with_call
+from .rerun import call_of, recorded, recorded_task, with_call
 from .result_files import plain
-from .results import PlanResult, Validation, validate_arcs
+from .results import PlanResult
 from .runner import RUNS_SHARE, PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest, Searched
 from .scenario import Scenario, as_scenario
@@ -76,12 +71,13 @@ class Planner:
 
     @classmethod
     def from_result(
-        cls, result: PlanResult, *, progress: Callable[[PlanEvent], None] | None = None
+        cls, result: PlanResult, *, progress: Callable[[PlanEvent], None] | None = None, **options
     ) -> Planner:
         """A planner of the scenario ``result`` records, with every setting it records (they
-        rule over the scenario's ``[solver]`` table): its :meth:`plan` re-plans the task, and
-        gives the recorded answer bit for bit with the same versions on the same machine."""
-        scenario, settings = recorded_task(result)
+        rule over the scenario's ``[solver]`` table; no ``options``): its :meth:`plan` re-plans
+        the task, and gives the recorded answer bit for bit with the same versions on the same
+        machine."""
+        scenario, settings = recorded_task(result, options)
         return cls(scenario, settings, progress=progress)
 
     @property
@@ -128,37 +124,14 @@ class Planner:
         with single_threaded_blas():
             if self.scenario.free_time is None:
                 result = self.plan_fixed()
-            else:  # the time limit and the wall time are the whole search's, not each plan's
-                t_begin = time.perf_counter()
-                deadline = self._deadline(t_begin)
-                plans = FixedHorizons(self)
-                T0, least = plans.first_horizon()
-                result = plan_free_time(plans, self.scenario, T0, deadline, least)
-                result = dataclasses.replace(result, wall_time_s=time.perf_counter() - t_begin)
+            else:
+                result = FixedHorizons(self).plan()
         return recorded(result, self.settings, "Planner.plan")
 
-    def _deadline(self, t_begin: float) -> float:
+    def deadline_after(self, t_begin: float) -> float:
         """When a plan begun at ``t_begin`` must stop: the settings' time limit after it."""
         limit = self.settings.time_limit
         return t_begin + limit if limit is not None else float("inf")
-
-    def problem_at(self, weight: float) -> OptimalControlProblem:
-        """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
-        s = self.scenario
-        problem = s.problem(s.smoothing_widths[-1]) if s.control_bounds else self.robot
-        return problem if weight == problem.penalty.weight else problem.with_weight(weight)
-
-    def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation | None:
-        """``arcs`` re-integrated and checked as every answer is (``validate_arcs``); None when
-        they miss the goal by more than a run's extremal may."""
-        v = validate_arcs(problem, arcs, self.settings.samples, self.runner.validation)
-        return v if v.end_state_error <= self.runner.end_tolerance else None
-
-    @property
-    def shooting(self) -> ShootingSettings:
-        """The final solves' shooting settings (no dense output)."""
-        lf = self.settings.leapfrog
-        return dataclasses.replace(lf.final_shooting, samples=0, method=lf.method)
 
     def plan_fixed(self, asked: int | None = None, deadline: float | None = None) -> PlanResult:
         """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for
@@ -166,7 +139,7 @@ class Planner:
         the plan should end (default: the settings' time limit from now), of which its paths
         and runs take shares (:data:`.first_paths.PATHS_SHARE`, :data:`.runner.RUNS_SHARE`)."""
         t_begin = time.perf_counter()
-        end = self._deadline(t_begin) if deadline is None else deadline
+        end = self.deadline_after(t_begin) if deadline is None else deadline
         self.runner.deadline = t_begin + RUNS_SHARE * (end - t_begin)
         self.paths_deadline = t_begin + PATHS_SHARE * (end - t_begin)
         try:
@@ -242,14 +215,7 @@ def plan(
     fields of :class:`PlannerSettings` and :class:`LeapfrogSettings`.
     """
     if isinstance(scenario, PlanResult):
-        if options:
-            raise SettingsError(
-                f"plan(result): a result re-plans with its recorded settings; got options"
-                f" {', '.join(sorted(options))} (plan result.task to change them)"
-            )
-        result = Planner.from_result(scenario, progress=progress).plan()
-        return with_call(result, f"plan(<result of {scenario.scenario!r}>)")
-    result = Planner(scenario, progress=progress, **options).plan()
-    given = repr(str(scenario)) if not isinstance(scenario, Scenario) else f"<{scenario.name!r}>"
-    call = ", ".join([given, *(f"{k}={v!r}" for k, v in options.items())])
-    return with_call(result, f"plan({call})")
+        planner = Planner.from_result(scenario, progress=progress, **options)
+    else:
+        planner = Planner(scenario, progress=progress, **options)
+    return with_call(planner.plan(), call_of(scenario, options))

@@ -110,7 +110,7 @@ def _warm_start(previous: PlanResult, moved: Scenario, planner: Planner) -> tupl
 def _solved(planner: Planner, problem, guess: Arcs) -> Arcs | None:
     """The moved task's extremal near ``guess``: in one jump, else the ends moved in steps."""
     s = planner.scenario
-    T, settings = float(s.horizon), planner.shooting
+    T, settings = float(s.horizon), planner.runner.shooting
     start, goal = np.array(s.start, dtype=float), np.array(s.goal, dtype=float)
     arcs = resolve(problem, guess, problem, (0.0, T), (start, goal), settings)
     if arcs is not None:
@@ -141,12 +141,12 @@ def _jumped(v: Validation, guess: Arcs) -> bool:
 def _warm(planner: Planner, previous: PlanResult, tau: float) -> tuple[PlanResult | None, str]:
     """The warm answer, or None and why not."""
     s = planner.scenario
-    problem = planner.problem_at(s.weight)
+    problem = planner.runner.problem_at(s.weight)
     guess = arcs_of(previous.trajectory, tau)
     arcs = _solved(planner, problem, guess)
     if arcs is None:
         return None, "the warm start did not converge"
-    v = planner.validate(problem, arcs)
+    v = planner.runner.validate(problem, arcs)
     if v is None or v.trajectory is None:
         return None, "the warm extremal missed the goal when re-integrated"
     if touches(v.clearance, s.margin):

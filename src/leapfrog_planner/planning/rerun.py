@@ -74,10 +74,24 @@ def with_call(result: PlanResult, call: str) -> PlanResult:
     return dataclasses.replace(result, provenance=prov)
 
 
-def recorded_task(result: PlanResult) -> tuple[Scenario, PlannerSettings]:
+def call_of(scenario, options: dict) -> str:
+    """The call ``plan(scenario, **options)`` as its provenance records it."""
+    if isinstance(scenario, PlanResult):
+        return f"plan(<result of {scenario.scenario!r}>)"
+    given = repr(str(scenario)) if not isinstance(scenario, Scenario) else f"<{scenario.name!r}>"
+    return f"plan({', '.join([given, *(f'{k}={v!r}' for k, v in options.items())])})"
+
+
+def recorded_task(result: PlanResult, options=None) -> tuple[Scenario, PlannerSettings]:
     """The scenario and the settings ``result`` records, as a file holds them (a free final
     time as the file's tables, whatever ``T`` was chosen); the settings rule over the
-    scenario's ``[solver]`` table (an older file's table may be stale)."""
+    scenario's ``[solver]`` table (an older file's table may be stale). A result re-plans with
+    its recorded settings: other ``options`` are refused."""
+    if options:
+        raise SettingsError(
+            f"plan(result): a result re-plans with its recorded settings; got options"
+            f" {', '.join(sorted(options))} (plan result.task to change them)"
+        )
     if result.task is None or result.settings is None:
         raise ResultFileError(
             f"{result.scenario}: the result records no scenario or no settings (an older "

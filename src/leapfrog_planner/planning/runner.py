@@ -14,12 +14,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .._blas import held_by_parent
+from ..bvp.shooting import ShootingSettings
 from ..integrate.flow import Flow, IntegratorSettings
 from ..integrate.problem import OptimalControlProblem
 from .bounded import continue_to_bounds, exceeded, schedule
-from .leapfrog import LeapfrogSettings, SweepRecord, leapfrog
+from .leapfrog import Arcs, LeapfrogSettings, SweepRecord, leapfrog
 from .path_ranking import PathGuide, path_states
-from .results import validate_arcs
+from .results import Validation, validate_arcs
 from .runs import END_STATE_FACTOR, PathRun, Round, RunRequest
 from .scenario import Scenario
 from .settings import PlannerSettings
@@ -93,6 +94,24 @@ class Runner:
             if key not in self._flows:
                 self._flows[key] = (problem, Flow(problem, self._final_integrator))
             return self._flows[key]
+
+    def problem_at(self, weight: float) -> OptimalControlProblem:
+        """The problem an answer at obstacle weight ``weight`` solves (sharp control bounds)."""
+        s = self.scenario
+        problem = s.problem(s.smoothing_widths[-1]) if s.control_bounds else self.robot
+        return problem if weight == problem.penalty.weight else problem.with_weight(weight)
+
+    def validate(self, problem: OptimalControlProblem, arcs: Arcs) -> Validation | None:
+        """``arcs`` re-integrated and checked as every answer is (``validate_arcs``); None when
+        they miss the goal by more than a run's extremal may."""
+        v = validate_arcs(problem, arcs, self.settings.samples, self.validation)
+        return v if v.end_state_error <= self.end_tolerance else None
+
+    @property
+    def shooting(self) -> ShootingSettings:
+        """The final solves' shooting settings (no dense output)."""
+        lf = self.settings.leapfrog
+        return replace(lf.final_shooting, samples=0, method=lf.method)
 
     def has_time_for(self, runs: list[PathRun]) -> bool:
         """Whether the runs' deadline leaves time for more runs as long as the longest of
