@@ -214,3 +214,43 @@ def test_generate_on_a_map_writes_the_protocols_queries(tmp_path):
     again = run_cli(["generate", "--map", str(MAPS / "depot.yaml"), "--n", "4", "--seed", "3",
                      "--out", "q"], tmp_path)  # fmt: skip
     assert again.returncode == 0  # the same set again: the same files, left alone
+
+
+#: A query of navigation2's depot by the planner-benchmark protocol (seed 0, query 7): the goal
+#: lies up and to the right, behind the start's heading. Backing along the lower aisle costs
+#: 3.6323 (the cheapest of Leapfrog from 27 initial paths and of IPOPT from the planner's
+#: paths); turning round, or backing along the upper aisle, 4.05 to 4.16.
+DEPOT_QUERY = """
+name = "depot query"
+horizon = 20.40510024321638
+start = [17.523808348160852, 8.971426980407147, 2.217167455995847]
+goal = [26.321186872148527, 14.07931501767954, 2.269664239291938]
+
+[robot]
+radius = 0.2
+
+[penalty]
+weight = 1.0
+
+[map]
+file = "depot.yaml"
+"""
+
+
+def test_each_route_of_a_map_is_a_class_of_its_own(depot_folder):
+    """The first paths of a plan are one per class and direction: on a map the classes are
+    the routes round its islands of blocked cells. When every route of a map counted as one
+    class, backing along the lower aisle (the map's first route, reversed) was never run and
+    the plan returned 4.048."""
+    from leapfrog_planner.planning.planner import Planner
+    from leapfrog_planner.planning.search import family
+
+    path = depot_folder / "query.toml"
+    path.write_text(DEPOT_QUERY)
+    planner = Planner(str(path))
+    first = planner.initial_paths()
+    assert len({family(p) for p in first}) == len(first)
+    assert len({p.signature for p in first if not p.modes.cusp}) >= 2  # two routes at least
+    r = planner.plan()
+    assert r.status.value == "converged" and r.min_clearance >= 0.0
+    assert r.cost <= 3.6323

@@ -94,7 +94,10 @@ def clearance_of(path: InitialPath, world: ObstacleMap, discs) -> float:
 
 def _smoothed(poly, S, G, world, discs, tol, route: MapRoute, modes: EndModes) -> InitialPath:
     """The smoothed path of ``poly`` for ``modes``; where it cuts a corner into a blocked cell,
-    mid-leg points pull it closer to the polyline (twice at most); the clearest is kept."""
+    mid-leg points pull it closer to the polyline (twice at most); the clearest is kept. Its
+    homotopy class is the route's, round the map's islands of blocked cells (the planner runs
+    one path per class and direction first: with the class of the discs alone, every route of a
+    map was one class, and a cheaper route in reverse was never run)."""
     best = None
     for _ in range(MIDPOINT_ROUNDS + 1):
         path = smooth_path(poly, S, G, NO_DISCS, "", tol, route.signature, modes)
@@ -104,7 +107,7 @@ def _smoothed(poly, S, G, world, discs, tol, route: MapRoute, modes: EndModes) -
         if path.min_clearance >= 0.0:
             break
         poly = midpoints(poly)
-    return best
+    return replace(best, signature=route.signature)
 
 
 def _three_point_turns(S, G, world, discs, margin, tol) -> list[InitialPath]:
