@@ -49,7 +49,9 @@ class PlanRequest:
     seq: int = 0
     map: Any = None  # the LoadedMap of maps.py the scenario's map was opened as, if any
 
-    def job(self, kind: str, seconds: float | None = None) -> tuple:
+    def job(
+        self, kind: str, seconds: float | None = None
+    ) -> tuple[str, dict, dict, str | None, float | None]:
         """What a worker process is sent: plain values only (and the image of an uploaded map,
         which its YAML file may name elsewhere), with the plan's time limit, ``seconds``."""
         image = None if self.map is None else self.map.image

@@ -115,7 +115,8 @@ def leapfrog(
     local problems). ``progress`` is called after each sweep. A sweep that leaves the piecewise
     cost above ``stop_above`` ends the run (``abandoned``). Past ``deadline`` (a
     ``time.perf_counter()`` value) no further sweep starts: the final solves run from the
-    level reached, without refining its junctions (a plan's time limit); a run asked for past
+    level reached, without refining its junctions, and by multiple shooting only on a level of
+    at most :data:`.final.LATE_ARCS` arcs (a plan's time limit); a run asked for past
     it does not start (a plan's runs queue for its threads: on a map, 15 of 17 runs started
     after a limit of 120 s, each fitted its initial path and tried a final solve from it, and
     the plan took 261 s).
