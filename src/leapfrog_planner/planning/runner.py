@@ -110,8 +110,7 @@ class Runner:
     @property
     def shooting(self) -> ShootingSettings:
         """The final solves' shooting settings (no dense output)."""
-        lf = self.settings.leapfrog
-        return replace(lf.final_shooting, samples=0, method=lf.method)
+        return self.settings.leapfrog.final_solves()
 
     def has_time_for(self, runs: list[PathRun]) -> bool:
         """Whether the runs' deadline leaves time for more runs as long as the longest of

@@ -61,7 +61,7 @@ class FinalSolver:
         s = local.settings
         self.deadline = deadline
         self.local, self.settings = local, s
-        self.shooting = replace(s.final_shooting, samples=0, method=s.method)
+        self.shooting = s.final_solves()
         self.flow = flow
         self.start, self.goal, self.T0, self.T1 = start, goal, T0, T1
         # Multiple shooting's first stage: the local problems' integrator and tolerance, with

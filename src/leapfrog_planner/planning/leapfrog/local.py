@@ -82,7 +82,7 @@ class LocalSolver:
     ):
         self.problem, self.flow, self.settings, self.guide = problem, flow, settings, guide
         self.step = settings.local_step()
-        self.shooting = replace(settings.shooting, samples=0, method=settings.method)
+        self.shooting = settings.local_solves()
         # A direct attempt that has not converged after a few iterations is failing: the next
         # strategy is then cheaper than more Newton steps on the hard problem.
         self.attempt = replace(

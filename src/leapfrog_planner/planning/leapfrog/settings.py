@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from ...bvp.shooting import ShootingSettings
 from ...errors import SettingsError, require_integer
@@ -112,3 +112,11 @@ class LeapfrogSettings:
     def local_step(self):
         """The step object of the local problems."""
         return self.local if self.local is not None else LOCAL_STEPS[self.method]
+
+    def local_solves(self) -> ShootingSettings:
+        """The local problems' shooting settings: this run's method, no dense output."""
+        return replace(self.shooting, samples=0, method=self.method)
+
+    def final_solves(self) -> ShootingSettings:
+        """The final solves' shooting settings: this run's method, no dense output."""
+        return replace(self.final_shooting, samples=0, method=self.method)
