@@ -494,3 +494,22 @@ def test_a_goal_walled_off_is_said_plainly_and_planned_once(tmp_path, horizon):
     r = PlanResult.load(tmp_path / "r.json")
     if horizon == "free":
         assert len(r.free_time.steps) == 1
+
+
+def test_an_output_folder_made_by_another_command_at_the_same_moment_is_used(tmp_path, monkeypatch):
+    """Two commands sharing an output folder (a script that runs two benches at once) both
+    check it, find it missing and create it: the second finds it made and goes on."""
+    from leapfrog_planner.cli.common import output_folder
+
+    out = tmp_path / "bench-out"
+    real_exists = Path.exists
+
+    def made_meanwhile(path, *args, **kwargs):
+        if path == out:
+            out.mkdir(exist_ok=True)  # the other command, between this one's check and mkdir
+            return False
+        return real_exists(path, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "exists", made_meanwhile)
+    assert output_folder(str(out), "--out") == out
+    assert out.is_dir()

@@ -133,7 +133,7 @@ def output_folder(value: str, option: str, inputs: Iterable = ()) -> Path:
             _fail(option, f"folder {str(parent)!r} does not exist")
         _probe_folder(parent, option)
         try:
-            path.mkdir()
+            path.mkdir(exist_ok=True)  # another command may create it at the same moment
         except OSError as exc:
             _fail(option, f"cannot create folder {value!r} ({exc.strerror or exc})")
     _probe_folder(path, option)

@@ -22,6 +22,7 @@ is cheaper and the median ratio of the costs.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import statistics
@@ -33,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import checks
+from .._atomic import write_atomic
 from ..errors import SettingsError, require_integer
 from .paper import ExperimentEvent
 
@@ -237,16 +239,22 @@ def write_map_bench(result: MapBenchResult, folder) -> None:
     """``bench_map.md``, ``bench_map.csv`` (a row per query and solver) and ``bench_map.json``
     (settings, summary, rows) in ``folder``."""
     folder = Path(folder)
-    (folder / "bench_map.md").write_text(report(result), encoding="utf-8")
     names = [f.name for f in fields(MapBenchRow)]
-    with open(folder / "bench_map.csv", "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow(names)
-        w.writerows([getattr(r, n) for n in names] for r in result.rows)
+    table = io.StringIO(newline="")
+    w = csv.writer(table)
+    w.writerow(names)
+    w.writerows([getattr(r, n) for n in names] for r in result.rows)
     data = {"map_file": result.map_file, "settings": asdict(result.settings),
             "summary": summary(result), "rows": [asdict(r) for r in result.rows]}  # fmt: skip
-    text = json.dumps(_plain(data), indent=1, allow_nan=False)
-    (folder / "bench_map.json").write_text(text + "\n", encoding="utf-8")
+    texts = {
+        "bench_map.md": report(result),
+        "bench_map.csv": table.getvalue(),
+        "bench_map.json": json.dumps(_plain(data), indent=1, allow_nan=False) + "\n",
+    }
+    for name, text in texts.items():
+        write_atomic(
+            folder / name, lambda tmp, t=text: Path(tmp).write_text(t, encoding="utf-8", newline="")
+        )
 
 
 def _plain(value):
