@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from conftest import CASES, EXTREMAL_COSTATE
@@ -112,3 +113,34 @@ def test_a_kernel_called_through_its_entry_point_gives_the_dispatchers_bits():
     r = flow(0.0, Y0[:6], 1.0, sensitivity="costate")
     np.testing.assert_array_equal(r.z, direct[0][:6])
     assert entry_point(len, ()) is len  # not a numba kernel (or the JIT disabled): itself
+
+
+def test_an_entry_point_is_remembered_per_argument_types_never_across_them():
+    """Entry points are kept by the fingerprint of their arguments' types: arguments of other
+    types (dtype, dimensions, layout, a read-only array, another record class) get their own
+    machine code, and arguments numba types otherwise than the fingerprint sees are not kept."""
+    from collections import namedtuple
+
+    @numba.njit
+    def total(a, pair):
+        return a.sum() + pair[0] + pair[1]
+
+    Pair, Other = namedtuple("Pair", "x y"), namedtuple("Other", "x y")
+    a = np.arange(4.0)
+    readonly = a.copy()
+    readonly.flags.writeable = False
+    calls = [
+        (a, Pair(1.0, 2.0)),
+        (a, Other(1.0, 2.0)),
+        (a, Pair(1, 2)),
+        (np.arange(4), Pair(1.0, 2.0)),
+        (a.reshape(2, 2), Pair(1.0, 2.0)),
+        (a[::2], Pair(1.0, 2.0)),
+        (readonly, Pair(1.0, 2.0)),
+    ]
+    entries = [entry_point(total, args) for args in calls]
+    for args, entry in zip(calls, entries, strict=True):
+        assert entry is entry_point(total, args)
+        assert entry(*args) == total(*args)
+        assert entry is total.overloads[tuple(numba.typeof(v) for v in args)].entry_point
+    assert len({id(e) for e in entries}) == len(calls)

@@ -1,15 +1,14 @@
 """A differential drive with small wheels (a TurtleBot3: r = 0.033, b = 0.16): its costates
 are about 1/r^2 times the unicycle's, and the final multiple shooting's polish at rtol 1e-12
 then stalls at |F| of 1e-10 to 1e-9, the rounding of its defects (see
-``leapfrog.final.within_costate_scale``)."""
+``bvp.multiple_shooting.within_costate_scale``)."""
 
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from leapfrog_planner.bvp.multiple_shooting import MultipleShootingSystem
-from leapfrog_planner.planning.leapfrog.final import within_costate_scale
+from leapfrog_planner.bvp.multiple_shooting import MultipleShootingSystem, within_costate_scale
 from leapfrog_planner.planning.planner import Planner
 from leapfrog_planner.roots import RootResult, RootStatus
 

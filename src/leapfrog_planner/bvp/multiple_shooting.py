@@ -7,11 +7,14 @@ excellent starting point: its junctions and the costates of its piecewise-optima
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..compiled.abi import Ends
 from ..integrate.flow import Flow, FlowStatus
-from ..roots import RootResult, RootSettings, get_strategy, solve_root
+from ..roots import RootResult, RootSettings, RootStatus, get_strategy, solve_root
+from ..roots.messages import converged
 from . import shooting
 
 
@@ -84,3 +87,22 @@ def solve_multiple_shooting(
     if compiled and shooting.runs_compiled(system.flow, strategy):
         return shooting.compiled_newton(system, w0, strategy, settings)[0]
     return solve_root(system, w0, strategy, settings)
+
+
+def within_costate_scale(root: RootResult, ms: MultipleShootingSystem, tol: float) -> RootResult:
+    """The polish's root, counted as converged where it failed with ``|F|`` within ``tol``
+    times the costates' magnitude (when above 1). Its defects are integrated at rtol 1e-12,
+    and the states' rounding grows with the costates: costates of a few hundred (a
+    differential drive with small wheels, whose wheel cost is ``1/r^2`` times the motion's)
+    leave the defects at 1e-10 to 1e-9, where the line search finds no decrease: measured on
+    a TurtleBot3 on its map (``r = 0.033``, costates about 300), polishes stalled at 1.6e-10
+    and 2.2e-10 from 3e-6. The answer is validated as every other (re-integrated, its end
+    state within the end tolerance), so a false root is not taken for an extremal."""
+    if root.success or not np.isfinite(root.F).all():
+        return root
+    scale = max(1.0, float(np.abs(ms.unpack(root.x)[:, ms.nx :]).max()))
+    norm = root.residual_norm
+    if scale == 1.0 or not norm <= tol * scale:
+        return root
+    message = converged(norm, tol * scale, root.iterations) + " (tolerance times the costates)"
+    return replace(root, status=RootStatus.CONVERGED, message=message)

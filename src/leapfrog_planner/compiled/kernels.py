@@ -19,6 +19,7 @@ from types import ModuleType
 from typing import Any
 
 import numba
+import numpy as np
 from numba.core.dispatcher import Dispatcher
 
 from .._atomic import write_atomic
@@ -167,7 +168,33 @@ def entry_point(kernel, args: tuple):
     """
     if not isinstance(kernel, Dispatcher):
         return kernel
-    return kernel.compile(tuple(numba.typeof(a) for a in args))
+    key = (kernel, _fingerprint(args))
+    entry = _ENTRY_POINTS.get(key)
+    if entry is None:
+        entry = kernel.compile(tuple(numba.typeof(a) for a in args))
+        if key[1] is not None:
+            _ENTRY_POINTS[key] = entry
+    return entry
+
+
+#: Entry points by kernel and the fingerprint of their arguments' types (:func:`_fingerprint`):
+#: numba's ``typeof`` of a plan's records costs about 0.5 ms a call, and Leapfrog binds a
+#: shooter's entry point some 20 times a plan (measured on the general preset).
+_ENTRY_POINTS: dict[tuple, Any] = {}
+
+
+def _fingerprint(value):
+    """What numba's type of ``value`` depends on, for arrays, scalars and tuples of them
+    (records are NamedTuples: their class is part of it); None for anything else (not cached)."""
+    if isinstance(value, np.ndarray):
+        f = value.flags
+        return (value.dtype.str, value.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
+    if isinstance(value, tuple):
+        parts = tuple(_fingerprint(v) for v in value)
+        return None if None in parts else (type(value), parts)
+    if type(value) in (float, int, bool):
+        return type(value)
+    return None
 
 
 def cached_entry_point(kernel, args: tuple):

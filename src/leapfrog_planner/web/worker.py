@@ -75,11 +75,11 @@ def _plan(scenario: dict, options: dict, threads: int, image: str | None, second
         rest = {k: v for k, v in scenario.items() if k != "map"}
         sc = scenario_from_dict(rest, "scenario")
         sc = replace(sc, map=_map(scenario["map"], image, sc.robot_radius))
-    options = {"threads": threads, **options}
+    settings = PlannerSettings.of_scenario(sc, None, **{"threads": threads, **options})
     if seconds is not None:  # the scenario's own limit, when it is the lesser
-        own = PlannerSettings.of_scenario(sc, None, **options).time_limit
-        options["time_limit"] = seconds if own is None else min(own, seconds)
-    return Planner(sc, **options).plan()
+        own = settings.time_limit
+        settings = replace(settings, time_limit=seconds if own is None else min(own, seconds))
+    return Planner(sc, settings).plan()
 
 
 def _csv(result) -> bytes:

@@ -12,11 +12,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...bvp.multiple_shooting import MultipleShootingSystem, solve_multiple_shooting
+from ...bvp.multiple_shooting import (
+    MultipleShootingSystem,
+    solve_multiple_shooting,
+    within_costate_scale,
+)
 from ...bvp.shooting import solve_shooting
 from ...integrate.flow import Flow
 from ...roots import RootResult, RootStatus
-from ...roots.messages import converged
 from .arcs import Arcs, Junctions
 from .local import LocalSolver
 
@@ -128,22 +131,3 @@ class FinalSolver:
         nx = self.start.size
         ends = np.vstack([Z[:, :nx], self.goal[None, :]])
         return FinalSolution(Arcs(ms.t.copy(), ends, Z[:, nx:].copy()), "multiple-shooting", root)
-
-
-def within_costate_scale(root: RootResult, ms: MultipleShootingSystem, tol: float) -> RootResult:
-    """The polish's root, counted as converged where it failed with ``|F|`` within ``tol``
-    times the costates' magnitude (when above 1). Its defects are integrated at rtol 1e-12,
-    and the states' rounding grows with the costates: costates of a few hundred (a
-    differential drive with small wheels, whose wheel cost is ``1/r^2`` times the motion's)
-    leave the defects at 1e-10 to 1e-9, where the line search finds no decrease: measured on
-    a TurtleBot3 on its map (``r = 0.033``, costates about 300), polishes stalled at 1.6e-10
-    and 2.2e-10 from 3e-6. The answer is validated as every other (re-integrated, its end
-    state within the end tolerance), so a false root is not taken for an extremal."""
-    if root.success or not np.isfinite(root.F).all():
-        return root
-    scale = max(1.0, float(np.abs(ms.unpack(root.x)[:, ms.nx :]).max()))
-    norm = root.residual_norm
-    if scale == 1.0 or not norm <= tol * scale:
-        return root
-    message = converged(norm, tol * scale, root.iterations) + " (tolerance times the costates)"
-    return replace(root, status=RootStatus.CONVERGED, message=message)
