@@ -798,3 +798,55 @@ def test_a_local_problem_that_failed_is_not_solved_again_with_the_same_data(monk
     pairs = zip(trying.history, remembering.history, strict=True)
     assert all(np.array_equal(a.X, b.X) for a, b in pairs)
     assert trying.f_evals > remembering.f_evals
+
+
+# --------------------------------------------------------------------------- a bound known late
+
+
+class _LateBound:
+    """A :class:`LateBound` that is not known until ``after`` questions have been asked."""
+
+    def __init__(self, bound: float, after: int):
+        self.bound, self.after, self.asked = bound, after, 0
+
+    def value(self):
+        self.asked += 1
+        return self.bound if self.asked > self.after else None
+
+    def wait(self):
+        return self.bound
+
+
+def _same_run(a, b):
+    assert (a.status, a.message, a.initial_cost) == (b.status, b.message, b.initial_cost)
+    assert (a.newton_iterations, a.f_evals, a.cost_increases) == (
+        b.newton_iterations, b.f_evals, b.cost_increases,
+    )  # fmt: skip
+    assert [h.cost for h in a.history] == [h.cost for h in b.history]
+    assert (a.arcs is None) == (b.arcs is None)
+    if a.arcs is not None:
+        np.testing.assert_array_equal(a.arcs.lam0, b.arcs.lam0)
+        np.testing.assert_array_equal(a.arcs.X, b.arcs.X)
+    if a.costate0 is not None:
+        np.testing.assert_array_equal(a.costate0, b.costate0)
+
+
+@pytest.mark.parametrize("after", [0, 2, 5, 1000])
+def test_a_bound_known_late_stops_a_run_as_if_known_from_its_start(case1, after):
+    """A run raced against others in other threads learns their bound when they end: it is
+    abandoned at the first sweep above the bound, with what it had then, whenever it learns
+    it (after 0, 2 or 5 sweeps, or only before the final solve)."""
+    planner, path = case1
+    t, X = path.junctions(8, 1.0)
+
+    def run(stop_above):
+        return leapfrog(planner.problem, t, X, flow=planner.flow, stop_above=stop_above)
+
+    free = run(math.inf)
+    costs = [h.cost for h in free.history]
+    assert len(costs) >= 8 and all(np.diff(costs) < 0)
+    within = 0.5 * (costs[4] + costs[5])  # Leapfrog's cost falls: above it from the first
+    abandoned = run(within)
+    assert abandoned.status.value == "abandoned" and len(abandoned.history) == 1
+    _same_run(run(_LateBound(within, after)), abandoned)
+    _same_run(run(_LateBound(2.0 * costs[0], after)), free)  # never above it

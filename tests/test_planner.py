@@ -770,7 +770,7 @@ def test_a_time_limit_ends_the_plan_with_what_was_found_and_says_so():
     full = plan_("paper-case-4")
     r = plan_("paper-case-4", time_limit=1e-6)
     assert "the time limit of 1e-06 s cut the search short" in r.message
-    assert len(r.search) < len(full.search) and r.sweeps == 0
+    assert r.sweeps == 0 and {x.stage for x in r.search} <= {"paths", "more paths"}
     assert r.trajectory is not None
     if r.success:  # a converged answer is still a checked extremal, never cheaper than the best
         assert r.min_clearance >= 0.0 and r.cost >= full.cost - 1e-9

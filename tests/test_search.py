@@ -120,3 +120,22 @@ def test_a_goal_at_the_start_stays_there():
     assert r.success and r.cost == pytest.approx(0.0, abs=1e-12)
     assert r.energy >= 0.0 and r.penalty >= 0.0 and r.min_clearance > 0
     assert all(rec.reason for rec in r.search)
+
+
+def test_extra_paths_raced_beside_the_first_give_the_same_search_whatever_the_threads():
+    """The extra paths queue behind the first ones in one batch and learn their bound (three
+    times the first paths' cheapest extremal) only when those end: each is judged as if it had
+    known it from its start, so one thread, two, or one per path give the same runs, bit for
+    bit (a layout of the general preset whose extra path is abandoned after its first sweep)."""
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+
+    sc = list(generate(GeneratorSpec.preset("general", n=10, seed=1)))[9]
+    results = [plan(sc, threads=n) for n in (1, 2, 0)]
+    records = [
+        [(q.stage, q.label, q.status, repr(q.cost), q.sweeps, q.message) for q in r.search]
+        for r in results
+    ]
+    assert records[0] == records[1] == records[2]
+    extra = [q for q in results[0].search if q.stage == "more paths"]
+    assert any(q.message.startswith("abandoned after sweep 1") for q in extra)
+    assert len({r.cost for r in results}) == 1 and results[0].success

@@ -131,7 +131,17 @@ class Runner:
 
     def run(self, request: RunRequest, k: int = 0, paths: int = 1) -> PathRun:
         """Leapfrog from the request's path, continued to the robot's problem (bounds, planning
-        aid) and validated; progress names it path ``k`` of ``paths``."""
+        aid) and validated; progress names it path ``k`` of ``paths``. A leader of a race
+        (``request.leads``) tells it when it ends, however it ends."""
+        done = None
+        try:
+            done = self._run(request, k, paths)
+            return done
+        finally:
+            if request.leads is not None:
+                request.leads.ended(done)
+
+    def _run(self, request: RunRequest, k: int, paths: int) -> PathRun:
         t_start = time.perf_counter()
         s = self.scenario
         rnd, path = request.round, request.path

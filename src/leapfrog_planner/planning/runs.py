@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,9 +56,45 @@ class RunRequest:
     weight: float
     raises: int = 0
     label: str = ""
-    # The run stops after a sweep that leaves its piecewise cost above this (a race against
-    # the extremals of the paths run before it: see :mod:`.search`).
-    stop_above: float = math.inf
+    # The run stops after a sweep that leaves its piecewise cost above this: a number, or the
+    # bound its race's leaders set when they end (see :mod:`.search`).
+    stop_above: float | LeadersBound = math.inf
+    # The race whose leaders this run is one of: told when it ends.
+    leads: LeadersBound | None = None
+
+
+class LeadersBound:
+    """The bound at which the runs raced against ``leaders`` others stop: ``factor`` times the
+    cheapest collision-free extremal of the leaders, known when all of them have ended (no
+    bound where none clears). The runs share it in threads (a :class:`.leapfrog.LateBound`):
+    the leaders' runs tell it when they end (:meth:`ended`), the others ask for it."""
+
+    def __init__(self, leaders: int, factor: float):
+        self.factor = factor
+        self._left = leaders
+        self._clear: list[float] = []
+        self._bound = math.inf
+        self._known = threading.Event()
+        self._lock = threading.Lock()
+        if leaders <= 0:
+            self._known.set()
+
+    def ended(self, run: PathRun | None) -> None:
+        """A leader's run ended (None: it raised)."""
+        with self._lock:
+            if run is not None and run.clear:
+                self._clear.append(run.validation.cost)
+            self._left -= 1
+            if self._left == 0:
+                self._bound = self.factor * min(self._clear, default=math.inf)
+                self._known.set()
+
+    def value(self) -> float | None:
+        return self._bound if self._known.is_set() else None
+
+    def wait(self) -> float:
+        self._known.wait()
+        return self._bound
 
 
 @dataclass(frozen=True)

@@ -6,15 +6,15 @@ that asks and why. Stages are pure functions of the runs so far (:data:`STAGES`)
 asks each in turn until it asks for nothing more, runs what it asks, and moves to the next
 round (:func:`next_round`) when the stages of a round are done:
 
-1. ``paths``: the initial paths of least estimated cost, one per family (:func:`select_paths`).
-2. ``more paths``: the next ones, while estimated within ``EXTRA_GATE`` times the cheapest,
-   each stopped once a sweep leaves it ``ABANDON_FACTOR`` times dearer than the cheapest
-   collision-free extremal of the first.
-3. ``wider margin``: initial paths at the penalty's own margin, where those at the robot's
+1. ``paths``: the initial paths of least estimated cost, one per family (:func:`select_paths`),
+   and in the same batch ``more paths``: the next ones, while estimated within ``EXTRA_GATE``
+   times the cheapest, each stopped once a sweep leaves it ``ABANDON_FACTOR`` times dearer
+   than the cheapest collision-free extremal of the first.
+2. ``wider margin``: initial paths at the penalty's own margin, where those at the robot's
    margin led to no extremal, or were estimated far dearer than the extremals they led to.
-4. ``penalty-timed``: still no extremal (an end in the penalty's grip): the paths followed at
+3. ``penalty-timed``: still no extremal (an end in the penalty's grip): the paths followed at
    the pace the penalty sets.
-5. ``weight raised``: every extremal passes through an obstacle: their paths again with the
+4. ``weight raised``: every extremal passes through an obstacle: their paths again with the
    obstacle weight raised (x4, up to three times).
 
 Rounds: the first at the settings' partitions and the aid's first value; when its answer falls
@@ -25,7 +25,6 @@ clears the obstacles and the model has a planning aid, the stages again at its n
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -38,7 +37,7 @@ from .answer import Chosen
 from .initial_path import InitialPath
 from .leapfrog.settings import MAX_PARTITIONS
 from .path_ranking import estimated_costs, penalty_margin, penalty_timed
-from .runs import PathRun, Round, RunRequest
+from .runs import LeadersBound, PathRun, Round, RunRequest
 from .scenario import Scenario
 from .settings import PlannerSettings
 from .status import PlanStatus
@@ -162,25 +161,23 @@ def _asked(runs: list[PathRun], stage: str) -> list[PathRun]:
 
 
 def ranked_paths(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
-    """The initial paths of least estimated cost (:meth:`.Planner.initial_paths`)."""
+    """The initial paths of least estimated cost (:meth:`.Planner.initial_paths`) and the
+    extra ones (:func:`select_paths`, stage ``more paths``), raced against them: each extra
+    stops at the first sweep that leaves it ``ABANDON_FACTOR`` times dearer than their cheapest
+    collision-free extremal. The extras queue behind the first paths in one batch and start as
+    threads free up; the bound is known when the first paths have all ended, and a run judged
+    then as if it had known it from its start (:class:`.leapfrog.stop.StopRule`): the
+    answer does not depend on which run ends first."""
     if runs:
         return []
-    return [search.request(p, rnd, "paths", rnd.reason) for p in search.paths]
-
-
-def more_paths(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
-    """The extra paths (:func:`select_paths`), raced against the first: each stops when a
-    sweep leaves it ``ABANDON_FACTOR`` times dearer than their cheapest collision-free
-    extremal. (The bound is fixed before they start: the result does not depend on which run
-    ends first.)"""
-    if _asked(runs, "more paths") or not search.extras:
-        return []
-    clear = [r.validation.cost for r in runs if r.clear]
-    stop = ABANDON_FACTOR * min(clear) if clear else math.inf
-    why = f"estimated within {EXTRA_GATE:g} times the cheapest path"
-    if clear:
-        why += f"; stopped above {stop:.6g}, {ABANDON_FACTOR:g} times the extremal found"
-    return [search.request(p, rnd, "more paths", why, stop_above=stop) for p in search.extras]
+    race = LeadersBound(len(search.paths), ABANDON_FACTOR) if search.extras else None
+    first = [search.request(p, rnd, "paths", rnd.reason, leads=race) for p in search.paths]
+    why = (
+        f"estimated within {EXTRA_GATE:g} times the cheapest path; stopped when"
+        f" {ABANDON_FACTOR:g} times dearer than the first paths' cheapest extremal"
+    )
+    extra = [search.request(p, rnd, "more paths", why, stop_above=race) for p in search.extras]
+    return first + extra
 
 
 def wider_margin(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
@@ -252,9 +249,7 @@ def weight_raised(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRe
 
 
 #: The stages of a round, in order; each is asked until it asks for nothing more.
-STAGES: tuple[Stage, ...] = (
-    ranked_paths, more_paths, wider_margin, timed_by_penalty, weight_raised,
-)  # fmt: skip
+STAGES: tuple[Stage, ...] = (ranked_paths, wider_margin, timed_by_penalty, weight_raised)
 
 
 def falls_short(runs: list[PathRun], chosen: Chosen) -> str:

@@ -25,8 +25,8 @@ included) is never changed: this robustness lives at the Leapfrog level.
 
 The pieces: :mod:`.settings`, :mod:`.arcs` (piecewise extremals), :mod:`.local` (the local
 problems and their strategies), :mod:`.sweep` (the initial path's arcs, one sweep),
-:mod:`.levels` (the rule for q), :mod:`.final` (the final solve) and :mod:`.driver` (init, step,
-terminate, postprocess).
+:mod:`.levels` (the rule for q), :mod:`.stop` (when a run raced against others is abandoned),
+:mod:`.final` (the final solve) and :mod:`.driver` (init, step, terminate, postprocess).
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ from .driver import LeapfrogSolution, LeapfrogStatus, leapfrog
 from .levels import Level, LevelState, next_level
 from .local import LocalSolver, continuation
 from .settings import FINAL_MODES, LOCAL_STEPS, LeapfrogSettings
+from .stop import LateBound
 from .sweep import SweepRecord
 
 #: The old name of :class:`LeapfrogSolution`, kept for one release.
@@ -46,6 +47,7 @@ __all__ = [
     "LOCAL_STEPS",
     "Arcs",
     "Junctions",
+    "LateBound",
     "LeapfrogRun",
     "LeapfrogSettings",
     "LeapfrogSolution",

@@ -22,6 +22,7 @@ from .final import FinalSolution, FinalSolver
 from .levels import Level, LevelState, idle, next_level
 from .local import LocalSolver
 from .settings import LeapfrogSettings
+from .stop import LateBound, Snapshot, StopRule
 from .sweep import InitialFit, SweepRecord, fit_initial_path, sweep
 
 
@@ -104,7 +105,7 @@ def leapfrog(
     settings: LeapfrogSettings | None = None,
     flow: Flow | None = None,
     progress: Callable[[SweepRecord], None] | None = None,
-    stop_above: float = np.inf,
+    stop_above: float | LateBound = np.inf,
     deadline: float = np.inf,
 ) -> LeapfrogSolution:
     """Run Leapfrog from the junctions ``(t, X)`` of a feasible path from ``X[0]`` to ``X[-1]``.
@@ -113,7 +114,10 @@ def leapfrog(
     start the initial segments' shooting, and its states split a segment whose two-point
     problem fails. ``flow`` is reused for the stage it was built for (the final solves or the
     local problems). ``progress`` is called after each sweep. A sweep that leaves the piecewise
-    cost above ``stop_above`` ends the run (``abandoned``). Past ``deadline`` (a
+    cost above ``stop_above`` ends the run (``abandoned``); a :class:`LateBound` (the extremals
+    of runs in other threads) is asked after each sweep, and waited for before the final solve,
+    and a run abandoned once it is known as it would have been with it from the start (at the
+    first sweep above it, with what it had then). Past ``deadline`` (a
     ``time.perf_counter()`` value) no further sweep starts: the final solves run from the
     level reached, without refining its junctions, and by multiple shooting only on a level of
     at most :data:`.final.LATE_ARCS` arcs (a plan's time limit); a run asked for past
@@ -131,10 +135,16 @@ def leapfrog(
     if not fit.success:
         return _failed(fit, local, time.perf_counter() - t_start)
     state = init(fit)
+    stop = StopRule(stop_above)
     while not terminate(state, settings) and time.perf_counter() < deadline:
         step(state, local, settings, progress)
-        if state.last_cost() > stop_above:
-            return _abandoned(state, local, time.perf_counter() - t_start, stop_above)
+        if stop.asks(state.last_cost()):
+            lost = stop.judge(_snapshot(state, local, time.perf_counter() - t_start))
+            if lost is not None:
+                return _abandoned(lost, stop.bound)
+    lost = stop.before_final()
+    if lost is not None:
+        return _abandoned(lost, stop.bound)
     return postprocess(state, local, final, settings, progress, t_start)
 
 
@@ -293,26 +303,34 @@ def _without_arcs(status, message: str, local: LocalSolver | None = None, sweep_
     )
 
 
-def _abandoned(state: State, local: LocalSolver, sweep_time: float, bound: float):
+def _snapshot(state: State, local: LocalSolver, time_s: float) -> Snapshot:
+    """The run after a sweep, as much of it as an abandoned run reports."""
+    arcs = state.arcs if state.arcs.q > 2 else state.last_multi
+    return Snapshot(
+        state.last_cost(), tuple(state.history), arcs.frozen(), arcs.max_jump(),
+        state.initial_cost, state.increases, local.count.iterations, local.count.f_evals,
+        dict(local.strategies.counts), time_s,
+    )  # fmt: skip
+
+
+def _abandoned(at: Snapshot, bound: float) -> LeapfrogSolution:
     """A run stopped after a sweep that left it dearer than ``bound``: its arcs (a piecewise
     extremal from start to goal) are kept."""
-    arcs = state.arcs if state.arcs.q > 2 else state.last_multi
-    cost = state.last_cost()
     return LeapfrogSolution(
         status=LeapfrogStatus.ABANDONED,
-        message=f"abandoned after sweep {len(state.history)} at cost {cost:.6g}, above {bound:.6g}",
+        message=f"abandoned after sweep {len(at.sweeps)} at cost {at.cost:.6g}, above {bound:.6g}",
         costate0=None,
         extremal=None,
         final_solver=None,
-        initial_cost=state.initial_cost,
-        max_costate_jump=arcs.max_jump(),
-        history=tuple(state.history),
-        newton_iterations=local.count.iterations,
-        f_evals=local.count.f_evals,
-        cost_increases=state.increases,
-        sweep_time_s=sweep_time,
+        initial_cost=at.initial_cost,
+        max_costate_jump=at.max_jump,
+        history=at.sweeps,
+        newton_iterations=at.iterations,
+        f_evals=at.f_evals,
+        cost_increases=at.increases,
+        sweep_time_s=at.time_s,
         final_time_s=0.0,
         final_root=None,
-        arcs=arcs.frozen(),
-        fit_strategies=dict(local.strategies.counts),
+        arcs=at.arcs,
+        fit_strategies=at.fit_strategies,
     )
