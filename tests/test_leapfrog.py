@@ -850,3 +850,40 @@ def test_a_bound_known_late_stops_a_run_as_if_known_from_its_start(case1, after)
     assert abandoned.status.value == "abandoned" and len(abandoned.history) == 1
     _same_run(run(_LateBound(within, after)), abandoned)
     _same_run(run(_LateBound(2.0 * costs[0], after)), free)  # never above it
+
+
+def test_no_refinement_is_begun_that_would_end_past_the_time_limit(monkeypatch):
+    """A refined level of multiple shooting (twice the arcs) costs at least twice the level
+    before it: one that would end past the plan's time limit is not begun (on 100 arcs and
+    more, a refinement begun just before the limit ran 3 s past it). Here each level takes
+    25 ms an arc pair and fails: 4 arcs (50 ms), 8 (100 ms), and 16 arcs (200 ms) would end
+    past a limit 0.25 s away."""
+    import time
+
+    import leapfrog_planner.planning.leapfrog.final as lf
+    from leapfrog_planner.planning.leapfrog.local import LocalSolver
+
+    arcs = []
+    one = np.ones(1)
+    stalled = lf.RootResult(np.zeros(3), one, lf.RootStatus.STALLED, "stalled", 1, 1, 1, one, one)
+
+    def slow(system, *args):
+        arcs.append(system.q)
+        time.sleep(0.0125 * system.q)
+        return stalled
+
+    monkeypatch.setattr(lf, "solve_multiple_shooting", slow)
+    planner = Planner(CASES[4].name, threads=1)
+    settings = LeapfrogSettings(final="multiple-shooting")
+    local = LocalSolver(planner.problem, planner.flow, settings)
+    ends = (planner.scenario.start, planner.scenario.goal, 0.0, planner.scenario.horizon)
+    t, X = planner.initial_paths()[2].junctions(4, planner.scenario.horizon)
+    level = Junctions(t, X, np.ones((4, 3)), np.ones((4, 3)), np.zeros(4))
+    start = time.perf_counter()
+    solver = lf.FinalSolver(local, planner.flow, *ends, deadline=start + 0.25)
+    found = solver.solve(np.ones(3), level)
+    assert not found.success and arcs == [4, 8]
+    assert time.perf_counter() < start + 0.25
+    arcs.clear()
+    lf.FinalSolver(local, planner.flow, *ends).solve(np.ones(3), level)
+    assert arcs == [4, 8, 16]  # without a limit

@@ -1,8 +1,9 @@
 """The final solve at ``q = 2``: simple shooting over the whole horizon from the first arc's
 costate; if it fails (``final="auto"``), multiple shooting over the junctions of the last level
 with ``q > 2``, then over twice as many (every arc split at its middle: shorter arcs, a better
-conditioned system), and so on up to ``final_refinements`` times (none begun past a plan's
-time limit; a run cut short by it tries multiple shooting only on a level of a few arcs)."""
+conditioned system), and so on up to ``final_refinements`` times (none begun that would end
+past a plan's time limit; a run cut short by it tries multiple shooting only on a level of a
+few arcs)."""
 
 from __future__ import annotations
 
@@ -46,6 +47,10 @@ class FinalSolution:
 #: Past a plan's time limit, multiple shooting is tried only on a level of at most this many
 #: arcs (its Newton system then has at most 32 times the state's size unknowns: milliseconds).
 LATE_ARCS = 16
+#: A refined level (twice the arcs) costs at least this many times the level before it (twice
+#: the flows; its dense Newton system grows faster still): none is begun that would end past a
+#: plan's time limit (on 100 arcs and more, a refinement begun just before it ran 3 s past).
+REFINED_COSTS = 2.0
 
 
 class FinalSolver:
@@ -55,8 +60,9 @@ class FinalSolver:
         self, local: LocalSolver, flow: Flow, start, goal, T0: float, T1: float,
         deadline: float = math.inf,
     ):  # fmt: skip
-        """``deadline`` (a ``time.perf_counter()`` value: a plan's time limit): past it, no
-        refinement is begun, and multiple shooting only on a level of at most
+        """``deadline`` (a ``time.perf_counter()`` value: a plan's time limit): no refinement
+        is begun that would end past it (:data:`REFINED_COSTS`), and past it multiple shooting
+        runs only on a level of at most
         :data:`LATE_ARCS` arcs. A run cut short by the limit may not have merged its arcs: on
         hundreds of them a multiple-shooting solve is a dense Newton system of thousands of
         unknowns, and 16 such runs of paper case 4 at 512 partitions took 6 minutes past a
@@ -90,14 +96,17 @@ class FinalSolver:
                 t, ends = np.array([self.T0, self.T1]), np.array([self.start, self.goal])
                 return FinalSolution(Arcs(t, ends, r.costate0[None, :]), "shooting", root)
         if final in ("auto", "multiple-shooting"):
-            level = junctions
+            level, took = junctions, 0.0
             for refinements in range(self.settings.final_refinements + 1):
-                late = time.perf_counter() >= self.deadline
-                if late and (refinements or level.q > LATE_ARCS):
+                now = time.perf_counter()
+                if refinements and now + REFINED_COSTS * took > self.deadline:
+                    break  # (the refined level would end past it)
+                if now >= self.deadline and level.q > LATE_ARCS:
                     break
                 if refinements:
                     level = level.refined(self.local.flow)
                 found = self.multiple_shooting(level)
+                took = time.perf_counter() - now
                 root = found.root
                 if found.success:
                     return found
