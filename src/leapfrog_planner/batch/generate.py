@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import write_atomic
+from .._atomic import write_text_atomic
 from ..errors import SettingsError, require_integer
 from ..planning.scenario import Scenario
 from ..planning.scenario_time import FreeTime
@@ -289,7 +289,7 @@ def write_all(scenarios: list[Scenario], folder, *, overwrite: bool = False) -> 
             if path.read_text(encoding="utf-8") != text:
                 raise GeneratorError(f"{path} exists with other content (overwrite to replace)")
         else:
-            write_atomic(path, lambda tmp, text=text: Path(tmp).write_text(text, encoding="utf-8"))
+            write_text_atomic(path, text)
         paths.append(path)
     return paths
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import write_atomic
+from .._atomic import write_atomic, write_text_atomic
 from ..errors import LeapfrogError
 
 __all__ = [
@@ -524,7 +524,7 @@ def save_report(rep: Report, folder) -> list[Path]:
     written = []
     md = rep.to_markdown()
     path = folder / "report.md"
-    write_atomic(path, lambda tmp: Path(tmp).write_text(md, encoding="utf-8"))
+    write_text_atomic(path, md)
     written.append(path)
     for name, fig in report_figures(rep).items():
         p = folder / name

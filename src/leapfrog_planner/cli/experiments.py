@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from .._atomic import write_atomic
+from .._atomic import write_text_atomic
 from .common import EXIT_OK, console, err, output_folder, write_output
 from .warmup import ensure_compiled, held_interrupts
 
@@ -124,7 +124,7 @@ def _write_paper(result, free, folder) -> None:
     for name, text in (("free_time.md", free_time_markdown), ("free_time.csv", free_time_csv)):
         if free:
             content = text(free)
-            write_atomic(folder / name, lambda tmp, c=content: Path(tmp).write_text(c, "utf-8"))
+            write_text_atomic(folder / name, content)
 
 
 @click.command()

@@ -191,9 +191,7 @@ def schema(out):
     if path is None:
         click.echo(text, nl=False)
     else:
-        from .._atomic import write_atomic
+        from .._atomic import write_text_atomic
 
-        write_output(
-            lambda p: write_atomic(p, lambda tmp: Path(tmp).write_text(text)), path, "--out"
-        )
+        write_output(lambda p: write_text_atomic(p, text), path, "--out")
     return EXIT_OK

@@ -13,7 +13,7 @@ import click
 import numpy as np
 from rich.table import Table
 
-from .._atomic import write_atomic
+from .._atomic import write_text_atomic
 from .common import (
     EXIT_FAILED,
     EXIT_OK,
@@ -146,9 +146,7 @@ def shoot(start, goal, horizon, obstacles, model, method, guess, json_path):
             "f_evals": res.root.f_evals,
         }
         text = json.dumps(out, indent=2)
-        write_output(
-            lambda p: write_atomic(p, lambda tmp: Path(tmp).write_text(text)), json_out, "--json"
-        )
+        write_output(lambda p: write_text_atomic(p, text), json_out, "--json")
     if status != "converged":
         err.print(
             "hint: simple shooting converges only from a good initial costate (--guess), to"

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import write_atomic
+from .._atomic import write_text_atomic
 from ..errors import SettingsError, require_integer
 from ..planning.scenario import Scenario, load_scenario
 from . import peers
@@ -524,7 +524,7 @@ def write_bench(result: BenchResult, out: Path | str) -> list[Path]:
         ("bench.csv", bench_csv(result)),
         ("bench.json", bench_json(result)),
     ):
-        write_atomic(out / name, lambda tmp, text=text: Path(tmp).write_text(text))
+        write_text_atomic(out / name, text)
         written.append(out / name)
     written.append(save_figure(bench_figure(result), out / "bench.png"))
     return written

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import checks
-from .._atomic import write_atomic
+from .._atomic import write_text_atomic
 from ..errors import SettingsError, require_integer
 from .paper import ExperimentEvent
 
@@ -252,9 +252,7 @@ def write_map_bench(result: MapBenchResult, folder) -> None:
         "bench_map.json": json.dumps(_plain(data), indent=1, allow_nan=False) + "\n",
     }
     for name, text in texts.items():
-        write_atomic(
-            folder / name, lambda tmp, t=text: Path(tmp).write_text(t, encoding="utf-8", newline="")
-        )
+        write_text_atomic(folder / name, text)
 
 
 def _plain(value):

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .._atomic import write_atomic
+from .._atomic import write_text_atomic
 from ..compiled import background
 from ..errors import SettingsError, require_integer
 from ..planning.planner import Planner
@@ -378,10 +378,6 @@ def comparison_markdown(result: PaperResult) -> str:
     return "\n".join(lines)
 
 
-def _write_text(path: Path, text: str) -> None:
-    write_atomic(path, lambda tmp: Path(tmp).write_text(text))
-
-
 def _figure_title(c: CaseRun) -> str:
     r = c.mnm.result
     cost = f"J = {r.cost:.6g}" if r.success else str(r.status)
@@ -399,7 +395,7 @@ def write_paper(result: PaperResult, out: Path | str, *, figures: bool = True) -
         ("table1.csv", table1_csv(result)),
         ("comparison.md", comparison_markdown(result)),
     ):
-        _write_text(out / name, text)
+        write_text_atomic(out / name, text)
         written.append(out / name)
     for c in result.cases:
         for run, tag in ((c.nm, "nm"), (c.mnm, "mnm")):

@@ -428,7 +428,7 @@ def write_work_precision(result: WorkPrecisionResult, folder) -> list:
     """``work_precision.png``, ``.csv`` and ``.md`` in ``folder`` (created), each atomically."""
     from pathlib import Path
 
-    from .._atomic import write_atomic
+    from .._atomic import write_atomic, write_text_atomic
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -438,7 +438,7 @@ def write_work_precision(result: WorkPrecisionResult, folder) -> list:
         ("work_precision.md", work_precision_markdown(result)),
     ):
         path = folder / name
-        write_atomic(path, lambda tmp, text=text: Path(tmp).write_text(text))
+        write_text_atomic(path, text)
         out.append(path)
     fig = work_precision_figure(result)
     path = folder / "work_precision.png"

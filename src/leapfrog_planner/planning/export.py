@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import write_atomic
+from .._atomic import write_atomic, write_text_atomic
 from ..errors import LeapfrogError
 
 
@@ -192,7 +192,7 @@ def write_ros_path(result, path, dt: float, frame_id: str = "map") -> Path:
         text = "\n".join(_yaml(msg)) + "\n"
     else:
         text = json.dumps(msg, indent=1)
-    write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    write_text_atomic(path, text)
     return Path(path)
 
 

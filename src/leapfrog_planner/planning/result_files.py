@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .._atomic import write_atomic
+from .._atomic import write_atomic, write_text_atomic
 from ..errors import LeapfrogError
 from ..integrate.flow import Trajectory
 from .leapfrog import SweepRecord
@@ -402,7 +402,7 @@ def _check_trajectory(tr: Trajectory, label: str, bad) -> None:
 
 def save_json(r, path) -> None:
     text = json.dumps(result_to_dict(r), indent=1, allow_nan=False)
-    write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    write_text_atomic(path, text)
 
 
 def save_npz(r, path) -> None:
