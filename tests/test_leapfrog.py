@@ -540,7 +540,9 @@ def test_two_arc_attempts_reach_the_same_optimum_with_less_work():
     two arcs through their junction. Same optimum as with the paper's local simple shooting
     only, and (measured) about half the flow evaluations, since continuation is rarely needed."""
     runs = {
-        flag: Planner(CASES[3].name, initial_paths=1, threads=1, two_arc_attempt=flag).plan()
+        flag: Planner(
+            CASES[3].name, initial_paths=1, extra_paths=0, threads=1, two_arc_attempt=flag
+        ).plan()
         for flag in (True, False)
     }
     for r in runs.values():

@@ -226,9 +226,9 @@ def test_best_result_is_the_cheapest_converged_path(planned, case, method):
 def test_case_2_alternatives_are_the_specs_other_local_optima(planned):
     r = planned(2, MNM).result
     costs = sorted(a.cost for a in r.alternatives if a.status is PlanStatus.CONVERGED)
-    assert len(costs) == 2
-    assert rel(costs[0], 22.780) <= 1e-4
-    assert rel(costs[1], 23.215) <= 1e-4
+    for known in (22.780, 23.215):  # the paper's other local optima, among those found
+        assert any(rel(c, known) <= 1e-4 for c in costs), costs
+    assert all(c > r.cost for c in costs)
 
 
 # --------------------------------------------------------------------------- case 1
@@ -495,7 +495,7 @@ def test_no_extremal_and_no_arcs_hands_back_the_initial_path():
     # with how many paths and the first of them.
     assert r.message.count("(warm start, path costate") == 1
     assert "an initial segment failed" in r.message
-    assert " on all 14 paths (first: visibility #2, segment 0)" in r.message
+    assert f" on all {len(r.search)} paths (first: visibility #2, segment 0)" in r.message
     np.testing.assert_allclose(r.trajectory.x[[0, -1]], [CASES[3].start, CASES[3].goal])
     assert r.min_clearance > 0.0 and np.isfinite(r.cost)
 
@@ -709,7 +709,7 @@ def test_parallel_paths_give_the_same_result_as_sequential(planned):
     # Every path reports its start and its sweeps, whatever the thread interleaving.
     for got in (events, planned(3, MNM).events):
         starts = sorted(e.path_index for e in got if e.stage == "path")
-        assert starts == [0, 1, 2]
+        assert starts == list(range(len(par.search)))
         assert got[-1].stage == "final"
 
 
