@@ -9,8 +9,9 @@ Ctrl-C state lives in :mod:`.ctrl_c`, which the commands read: they never import
 """
 
 import signal
+import sys
 
-from .ctrl_c import exit_interrupted, interrupted, on_ctrl_c
+from .ctrl_c import exit_interrupted, interrupted, on_ctrl_c, quiet_swallowed_ctrl_c
 
 __all__ = ["run"]  # the command itself: :func:`.main.main`
 
@@ -18,6 +19,7 @@ __all__ = ["run"]  # the command itself: :func:`.main.main`
 def run() -> None:
     """Console entry point: the command, started under a Ctrl-C handler."""
     signal.signal(signal.SIGINT, on_ctrl_c)
+    sys.unraisablehook = quiet_swallowed_ctrl_c
     try:
         from .main import run as run_command
     except KeyboardInterrupt:
