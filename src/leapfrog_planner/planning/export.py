@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import write_atomic, write_text_atomic
+from .._atomic import write_text_atomic
 from ..errors import LeapfrogError
 
 
@@ -127,11 +127,9 @@ def write_csv(result, path, dt: float) -> Path:
     table = np.column_stack(list(cols.values()))
     header = ",".join(cols)
 
-    def write(tmp):  # each number as Python writes it: the shortest text that reads back exact
-        lines = [header, *(",".join(map(repr, row)) for row in table.tolist())]
-        Path(tmp).write_text("\n".join(lines) + "\n", encoding="utf-8")
-
-    write_atomic(path, write)
+    # each number as Python writes it: the shortest text that reads back exact
+    lines = [header, *(",".join(map(repr, row)) for row in table.tolist())]
+    write_text_atomic(path, "\n".join(lines) + "\n")
     return Path(path)
 
 
