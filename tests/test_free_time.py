@@ -231,6 +231,23 @@ def test_an_answer_continued_from_an_alternative_is_told_as_that_path_s_run():
     assert _from_path(r, None) is r  # continued from the answer: as it was
 
 
+@pytest.mark.parametrize("method", ["modified-newton", "newton", "nleq-err"])
+def test_the_continuation_in_t_solves_at_the_final_accuracy_with_the_local_step(method):
+    """The continuation in T solves each horizon from a prediction to the final solves'
+    tolerances, with the local problems' step: a failing prediction ends after a line search
+    of 2^-3 (then a shorter step in T), not 2^-20 (general 17: 8.0 s -> 4.7 s)."""
+    from leapfrog_planner.planning.fixed_horizons import FixedHorizons
+    from leapfrog_planner.roots import ModifiedNewtonStep
+
+    planner = Planner(load_scenario_text(line()), method=method)
+    settings = planner.settings.leapfrog
+    continued, final = FixedHorizons(planner).shooting, settings.final_solves()
+    assert (continued.root, continued.integrator) == (final.root, final.integrator)
+    assert continued.method == settings.local_step()
+    if method == "modified-newton":
+        assert continued.method == ModifiedNewtonStep(max_halvings=3)
+
+
 def test_a_first_horizon_shorter_than_the_top_speed_allows_is_not_planned():
     """The estimate that picks the first horizon does not see a bound on the speed: on general
     layout 3 with |v| <= 1.5 it chose 0.84 s where the shortest initial path needs 1.11 s, and

@@ -1,5 +1,6 @@
 """What the free-time search (:mod:`.free_time`) asks of a planner: plans of the scenario at
-fixed horizons, the problem and the final solves of an answer, and where to start."""
+fixed horizons, the problem of an answer, the solves of the continuation in ``T``, and where
+to start."""
 
 from __future__ import annotations
 
@@ -54,7 +55,9 @@ class FixedHorizons:
 
     @property
     def shooting(self) -> ShootingSettings:
-        return self.planner.runner.shooting
+        """The continuation in ``T``'s shooting settings
+        (:meth:`.leapfrog.LeapfrogSettings.continued_solves`)."""
+        return self.planner.settings.leapfrog.continued_solves()
 
     def progress_note(self, note: str) -> None:
         """Reports ``note`` as a :class:`.runner.PlanEvent` of stage ``"time"``."""

@@ -73,8 +73,8 @@ RETRIES = (1.6, 2.5)
 
 
 class FixedHorizonPlans(Protocol):
-    """What the free-time search needs of the planner: a plan at a horizon, and the problem
-    and final solves' settings of an answer's obstacle weight."""
+    """What the free-time search needs of the planner: a plan at a horizon, the problem of an
+    answer's obstacle weight, and the shooting settings of the continuation in ``T``."""
 
     def plan_at(
         self, horizon: float, deadline: float = math.inf, wide: bool = True

@@ -120,3 +120,11 @@ class LeapfrogSettings:
     def final_solves(self) -> ShootingSettings:
         """The final solves' shooting settings: this run's method, no dense output."""
         return replace(self.final_shooting, samples=0, method=self.method)
+
+    def continued_solves(self) -> ShootingSettings:
+        """The solves that follow a family of extremals from a nearby one (the free-time
+        search's continuation in ``T``): the final solves' accuracy with the local problems'
+        step. Their guess is a prediction; where a step eight times shorter than Newton's still
+        fails, the prediction was not near enough, and the continuation takes a shorter step
+        (a longer line search, 2^-20, only made the failures slow: ``docs/tuning.md``)."""
+        return replace(self.final_solves(), method=self.local_step())
