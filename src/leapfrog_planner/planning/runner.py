@@ -218,9 +218,8 @@ class Runner:
             return run, problem, iterate_problem
         steps = 8 if relaxed or aid else len(s.smoothing_widths) - 1
         ends = (s.start, s.goal)
-        done = continue_to_bounds(
-            at, run, (0.0, s.horizon), ends, steps, lf.final_shooting, self.deadline
-        )
+        settings = lf.final_shooting if aid else lf.bounds_solves()
+        done = continue_to_bounds(at, run, (0.0, s.horizon), ends, steps, settings, self.deadline)
         return done.run, done.problem, iterate_problem
 
     def emit(self, event: PlanEvent):

@@ -128,3 +128,13 @@ class LeapfrogSettings:
         fails, the prediction was not near enough, and the continuation takes a shorter step
         (a longer line search, 2^-20, only made the failures slow: ``docs/tuning.md``)."""
         return replace(self.final_solves(), method=self.local_step())
+
+    def bounds_solves(self) -> ShootingSettings:
+        """The solves of the continuation to bounded controls (the smoothing of the clip
+        narrowed step by step): ``final_shooting`` with its method's local step (MNM: the line
+        search stops at 2^-3), so that a step that fails is halved sooner. The car's turn assist
+        is continued with ``final_shooting`` itself: there the shorter search changed answers
+        (``docs/tuning.md``)."""
+        method = self.final_shooting.method
+        step = LOCAL_STEPS[method] if isinstance(method, str) else method
+        return replace(self.final_shooting, method=step)
