@@ -118,7 +118,7 @@ def test_speed_and_turn_rate_bounds_match_the_bounded_direct_method(case, w):
 def test_the_continuation_to_the_bounds_halves_its_step_after_a_short_line_search(monkeypatch):
     """The continuation to bounded controls solves each smoothing width with the final solves'
     tolerances and MNM's line search stopped at 2^-3 (a failed step is halved sooner: 120
-    bounded layouts gave the same answers in 34 to 37% less time); the car's assist keeps the
+    bounded layouts gave the same answers in 33 to 37% less time); the car's assist keeps the
     final solves' own 2^-20."""
     from leapfrog_planner.planning import runner
     from leapfrog_planner.planning.leapfrog import LeapfrogSettings
