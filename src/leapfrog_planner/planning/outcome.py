@@ -60,15 +60,17 @@ def plan_result(
     chosen: Chosen,
     problem,
     timing: Timing,
+    notes: tuple[str, ...] = (),
 ) -> PlanResult:
     """The result of a plan: ``chosen`` among ``runs``, ``problem`` the returned trajectory's
-    (at its run's obstacle weight), ``settings`` the planner's as JSON values."""
+    (at its run's obstacle weight), ``settings`` the planner's as JSON values, ``notes`` what
+    the message adds about the search (:func:`.search.search_notes`)."""
     best, answer = chosen.run, chosen.answer
     run, info, optimal = best.run, problem.model, answer.validation is not None
     lines = [r for r in runs if not any(r.same_line(o) for o in runs[: runs.index(r)])]
     return PlanResult(
         status=chosen.status,
-        message=plan_message(chosen, runs, scenario.margin),
+        message="; ".join([plan_message(chosen, runs, scenario.margin), *notes]),
         scenario=scenario.name,
         model=info.name,
         state_names=info.states,

@@ -9,7 +9,6 @@ no stage of the last round asks for more, the answer is chosen among all the run
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -30,7 +29,7 @@ from .runner import RUNS_SHARE, PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest, Searched
 from .scenario import Scenario, as_scenario
 from .scenario_time import refuse_unreachable
-from .search import STAGES, Search, fewer_paths_note, next_round
+from .search import STAGES, Search, next_round, search_notes
 from .settings import PlannerSettings
 
 __all__ = ["PlanEvent", "Planner", "PlannerSettings", "plan"]
@@ -162,15 +161,10 @@ class Planner:
         wall = time.perf_counter() - t_begin
         problem = self.runner.problem_of(self.first_round, chosen.run.weight)
         timing = Timing(paths_s=wall - searched.runs_s, runs_s=searched.runs_s, wall_s=wall)
-        result = plan_result(
-            self.scenario, settings, method, searched.runs, chosen, problem, timing
-        )
-        asked = asked or self.settings.initial_paths
-        notes = [fewer_paths_note(self.scenario, asked, len(paths[0]))]
-        if searched.cut or paths_cut:  # said in the message, whatever the answer
-            notes.append(f"the time limit of {self.settings.time_limit:g} s cut the search short")
-        message = "; ".join([result.message, *filter(None, notes)])
-        return dataclasses.replace(result, message=message)
+        asked, cut = asked or self.settings.initial_paths, searched.cut or paths_cut
+        notes = search_notes(self.scenario, self.settings, asked, len(paths[0]), cut)
+        runs = searched.runs
+        return plan_result(self.scenario, settings, method, runs, chosen, problem, timing, notes)
 
     def _search(self, paths: tuple[list[InitialPath], list[InitialPath]]) -> Searched:
         """The search's loop: each round's stages (:data:`.search.STAGES`) ask for runs until

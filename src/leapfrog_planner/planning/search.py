@@ -140,6 +140,16 @@ def select_paths(
     return paths, extras
 
 
+def search_notes(scenario: Scenario, settings: PlannerSettings, asked, ran: int, cut: bool):
+    """What a plan's message adds about its search: fewer initial paths ran than ``asked``
+    (:func:`fewer_paths_note`), and the time limit cut it short (``cut``), whatever the
+    answer."""
+    notes = [fewer_paths_note(scenario, asked, ran)]
+    if cut:
+        notes.append(f"the time limit of {settings.time_limit:g} s cut the search short")
+    return tuple(n for n in notes if n)
+
+
 def fewer_paths_note(scenario: Scenario, asked: int, ran: int) -> str:
     """Why a plan ran fewer initial paths than the ``asked`` (an ``initial_paths`` other than
     the default, which asks for up to 3): waypoints allow one way round the obstacles, and
