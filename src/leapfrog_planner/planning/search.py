@@ -140,7 +140,9 @@ def select_paths(
     return paths, extras
 
 
-def search_notes(scenario: Scenario, settings: PlannerSettings, asked, ran: int, cut: bool):
+def search_notes(
+    scenario: Scenario, settings: PlannerSettings, asked: int, ran: int, cut: bool
+) -> tuple[str, ...]:
     """What a plan's message adds about its search: fewer initial paths ran than ``asked``
     (:func:`fewer_paths_note`), and the time limit cut it short (``cut``), whatever the
     answer."""
