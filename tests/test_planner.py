@@ -500,6 +500,41 @@ def test_no_extremal_and_no_arcs_hands_back_the_initial_path():
     assert r.min_clearance > 0.0 and np.isfinite(r.cost)
 
 
+def test_a_failure_hands_back_an_initial_path_that_keeps_the_margin(monkeypatch):
+    """Where no run leaves a collision-free motion, the initial path handed back is the
+    cheapest that keeps the margin from the obstacles, not merely the cheapest (a smoothed
+    route on a 100 m office map cut 2.4 cm into a wall); where none does, the one that comes
+    nearest to it, and its source says how far inside it goes."""
+    from types import SimpleNamespace
+
+    from leapfrog_planner.planning import answer
+
+    sc = Scenario(
+        name="disc", horizon=1.0, start=[0, 0, 0], goal=[1, 0, 0], obstacles=[[0.5, 0.0, 0.1]]
+    )
+    problem = sc.problem()
+    ctx = answer.Context(sc, problem, 101, None, problem)
+    s = np.linspace(0.0, 1.0, 101)
+
+    def run(y):
+        tr = SimpleNamespace(t=s, x=np.column_stack([s, y, np.zeros_like(s)]))
+        guide = SimpleNamespace(trajectory=lambda samples: tr, problem=problem)
+        return SimpleNamespace(path=object(), guide=guide)
+
+    through, around = run(np.zeros_like(s)), run(0.3 * np.sin(np.pi * s))
+    ranked = lambda problem, paths, T, ends: np.arange(1.0, len(paths) + 1.0)  # noqa: E731
+    monkeypatch.setattr(answer, "estimated_costs", ranked)
+    chosen, handed = answer._initial_path([through, around], ctx)
+    assert chosen is around and handed.source == "initial path, not optimal"
+    grazing = run(0.05 * np.sin(np.pi * s))  # 0.05 inside the disc at its top
+    chosen, handed = answer._initial_path([through, grazing], ctx)
+    assert chosen is grazing
+    chosen, handed = answer._initial_path([through], ctx)
+    assert chosen is through
+    assert handed.source.startswith("initial path (0.1 inside an obstacle: none keeps the margin")
+    assert handed.source.endswith(", not optimal")
+
+
 def test_an_extremal_through_an_obstacle_is_never_converged():
     """Paper case 4 with a soft penalty (W = 5): every extremal at W = 5 passes through a disc.
     The planner raises the weight until one clears, and says so."""
