@@ -110,9 +110,11 @@ def choose_answer(runs: list[PathRun], ctx: Context) -> Chosen:
 def _initial_path(runs: list[PathRun], ctx: Context) -> tuple[PathRun, Answer]:
     """The cheapest initial path followed as timed (a penalty-timed one may be far cheaper than
     the constant-speed paths: at T = 100, 0.86 against 34.8) that keeps the margin from the
-    obstacles, as a collision-free iterate must, and a run from it. Where none does (a
-    smoothed path on a map may cut a corner: 2.4 cm into a wall on a 100 m office maze), the
-    one that comes nearest to it, and its source says how near."""
+    obstacles, as a collision-free iterate must, and a run from it: clearance as every answer
+    is checked, at the samples returned (on a map a lower bound between them: on a 70 m route
+    of a 100 m office maze, 1001 samples put the cheapest path 2.4 cm into a wall where its
+    curve clears by at least 0.3 mm). Where none does, the one that comes nearest, and its
+    source says how near."""
     paths = list(dict.fromkeys(r.path for r in runs))  # in order: the scenario's weight first
     s = ctx.scenario
     cost = estimated_costs(ctx.problem, paths, s.horizon, ends=(s.start, s.goal))
