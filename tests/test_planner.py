@@ -508,27 +508,28 @@ def test_a_failure_hands_back_an_initial_path_that_keeps_the_margin(monkeypatch)
     from types import SimpleNamespace
 
     from leapfrog_planner.planning import answer
+    from leapfrog_planner.planning.initial_path import InitialPath
+    from leapfrog_planner.planning.path_ranking import PathGuide
 
     sc = Scenario(
         name="disc", horizon=1.0, start=[0, 0, 0], goal=[1, 0, 0], obstacles=[[0.5, 0.0, 0.1]]
     )
     problem = sc.problem()
     ctx = answer.Context(sc, problem, 101, None, problem)
-    s = np.linspace(0.0, 1.0, 101)
 
-    def run(y):
-        tr = SimpleNamespace(t=s, x=np.column_stack([s, y, np.zeros_like(s)]))
-        guide = SimpleNamespace(trajectory=lambda samples: tr, problem=problem)
-        return SimpleNamespace(path=object(), guide=guide)
+    def run(top):  # a path over (0.5, top)
+        path = InitialPath.from_polyline([[0, 0], [0.5, top], [1, 0]], sc.start, sc.goal)
+        guide = PathGuide(problem, path, sc.horizon, 0.0, (sc.start, sc.goal))
+        return SimpleNamespace(path=path, guide=guide)
 
-    through, around = run(np.zeros_like(s)), run(0.3 * np.sin(np.pi * s))
+    through, grazing, around = run(0.0), run(0.05), run(0.3)
     ranked = lambda problem, paths, T, ends: np.arange(1.0, len(paths) + 1.0)  # noqa: E731
     monkeypatch.setattr(answer, "estimated_costs", ranked)
     chosen, handed = answer._initial_path([through, around], ctx)
     assert chosen is around and handed.source == "initial path, not optimal"
-    grazing = run(0.05 * np.sin(np.pi * s))  # 0.05 inside the disc at its top
+    assert handed.trajectory.x[:, 1].max() > 0.2  # the path over the disc, sampled
     chosen, handed = answer._initial_path([through, grazing], ctx)
-    assert chosen is grazing
+    assert chosen is grazing and "inside an obstacle: none keeps the margin" in handed.source
     chosen, handed = answer._initial_path([through], ctx)
     assert chosen is through
     assert handed.source.startswith("initial path (0.1 inside an obstacle: none keeps the margin")

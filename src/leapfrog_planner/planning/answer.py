@@ -19,7 +19,7 @@ from ..integrate.problem import OptimalControlProblem
 from ..model.bounds import bound_parameters
 from .bounded import STOPPED
 from .leapfrog import LeapfrogSolution, LeapfrogStatus
-from .path_ranking import estimated_costs
+from .path_ranking import estimated_costs, path_states
 from .results import PlanStatus, Validation, piecewise_trajectory
 from .runs import PathRun
 from .scenario import Scenario
@@ -118,17 +118,20 @@ def _initial_path(runs: list[PathRun], ctx: Context) -> tuple[PathRun, Answer]:
     paths = list(dict.fromkeys(r.path for r in runs))  # in order: the scenario's weight first
     s = ctx.scenario
     cost = estimated_costs(ctx.problem, paths, s.horizon, ends=(s.start, s.goal))
-    followed = []
+    where = np.linspace(0.0, 1.0, ctx.samples)  # the returned samples' points, uniform in time
+    gaps = []
     for k in np.argsort(cost, kind="stable"):
-        run = next(r for r in runs if r.path is paths[k])
-        tr = run.guide.trajectory(ctx.samples)
-        gap = min_clearance(ctx.problem, tr)
-        if gap >= s.margin:
-            return run, Answer(tr, None, _not_optimal("initial path", run.guide.problem, tr, ctx))
-        followed.append((run, tr, gap))
-    run, tr, gap = max(followed, key=lambda f: f[2])  # the first of equals: the cheapest
-    near = f"{-gap:.3g} inside an obstacle" if gap < 0.0 else f"within {gap:.3g} of an obstacle"
-    what = f"initial path ({near}: none keeps the margin {s.margin:g})"
+        xy = path_states(paths[k], where, (s.start, s.goal))[:, :2]
+        gaps.append((float(ctx.problem.penalty.clearance(xy).min(initial=np.inf)), k))
+        if gaps[-1][0] >= s.margin:
+            break
+    gap, k = max(gaps, key=lambda g: g[0])  # the first of equals: the cheapest
+    run = next(r for r in runs if r.path is paths[k])
+    tr = run.guide.trajectory(ctx.samples)
+    what = "initial path"
+    if gap < s.margin:
+        near = f"{-gap:.3g} inside" if gap < 0.0 else f"within {gap:.3g} of"
+        what += f" ({near} an obstacle: none keeps the margin {s.margin:g})"
     return run, Answer(tr, None, _not_optimal(what, run.guide.problem, tr, ctx))
 
 
