@@ -122,7 +122,7 @@ def _initial_path(runs: list[PathRun], ctx: Context) -> tuple[PathRun, Answer]:
     gaps = []
     for k in np.argsort(cost, kind="stable"):
         xy = path_states(paths[k], where, (s.start, s.goal))[:, :2]
-        gaps.append((float(ctx.problem.penalty.clearance(xy).min(initial=np.inf)), k))
+        gaps.append((min_clearance(ctx.problem, xy), k))
         if gaps[-1][0] >= s.margin:
             break
     gap, k = max(gaps, key=lambda g: g[0])  # the first of equals: the cheapest
@@ -180,7 +180,7 @@ def clear_iterates(runs: list[PathRun], ctx: Context, below: float = np.inf):
             tr = piecewise_trajectory(ctx.flow_of(r.iterate_problem), r.run.arcs, ctx.samples)
         except ValueError:
             continue
-        if min_clearance(ctx.problem, tr) >= ctx.scenario.margin:
+        if min_clearance(ctx.problem, tr.x[:, :2]) >= ctx.scenario.margin:
             yield r, tr
 
 
@@ -269,9 +269,10 @@ def _detail(run: LeapfrogSolution) -> str:
     return ""
 
 
-def min_clearance(problem: OptimalControlProblem, tr: Trajectory) -> float:
-    c = problem.penalty.clearance(tr.x[:, :2])
-    return float(c.min()) if c.size else np.inf
+def min_clearance(problem: OptimalControlProblem, xy: np.ndarray) -> float:
+    """The least clearance of the points ``xy`` (``(N, 2)``) from ``problem``'s obstacles
+    (``inf`` without any)."""
+    return float(problem.penalty.clearance(xy).min(initial=np.inf))
 
 
 def _too_close(clearance: float, margin: float) -> str:
