@@ -2,7 +2,7 @@
 
     python benchmarks/bench_map_plans.py [--n 100] [--maps depot,tb3_sandbox,office,...]
                                          [--weight 1.0] [--seed 0] [--size 1000] [--json out]
-                                         [--cruise-speed V]
+                                         [--cruise-speed V] [--option KEY=VALUE ...]
 
 Per map: ``--n`` random queries (``leapfrog generate --map``: start and goal at least 0.3 m from
 every blocked cell, more than 3 m apart, headings uniform, connected for the robot), robot
@@ -15,6 +15,8 @@ The real maps (depot, tb3_sandbox) are read from ``../shared/maps`` (navigation2
 warehouse and shapes are the synthetic maps of ``world/synthetic.py`` (``--size`` cells a
 side). ``--cruise-speed V``: the same queries with a free final time at a cruise speed of V m/s
 (the planner chooses how long to take; ``horizon`` in the rows is then the time it chose).
+``--option KEY=VALUE`` (repeatable): a planner setting for every plan, as ``leapfrog solve
+--option`` takes it (``--option partitions=32 --option fewest_arcs=16`` for long horizons).
 No assertions.
 """
 
@@ -30,6 +32,7 @@ import time
 from pathlib import Path
 
 from leapfrog_planner.batch.generate import map_scenarios
+from leapfrog_planner.cli.common import planner_options
 from leapfrog_planner.planning.planner import Planner
 from leapfrog_planner.planning.scenario_time import FreeTime
 from leapfrog_planner.world import nonconvex_field, office_maze, save_ros_map, warehouse
@@ -51,11 +54,11 @@ def map_file(name: str, folder: Path, size: int) -> Path:
     return path
 
 
-def run(scenarios, verbose: bool) -> list[dict]:
+def run(scenarios, verbose: bool, options: dict) -> list[dict]:
     rows = []
     for sc in scenarios:
         t0 = time.perf_counter()
-        r = Planner(sc).plan()
+        r = Planner(sc, **options).plan()
         horizon = sc.horizon if r.free_time is None else r.free_time.horizon
         row = {"query": sc.name, "status": str(r.status), "cost": r.cost, "horizon": horizon,
                "wall_s": time.perf_counter() - t0, "clearance": r.min_clearance,
@@ -92,7 +95,10 @@ def main(argv=None) -> int:
     parser.add_argument("--json", default=None, help="write every plan's row here")
     parser.add_argument("--cruise-speed", type=float, default=None,
                         help="a free final time at this cruise speed (m/s)")  # fmt: skip
+    parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                        help="a planner setting for every plan (repeatable)")  # fmt: skip
     args = parser.parse_args(argv)
+    options = planner_options(args.option)
     out, warm = {}, False
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.maps.split(","):
@@ -105,9 +111,9 @@ def main(argv=None) -> int:
                 scenarios = [dataclasses.replace(sc, free_time=free) for sc in scenarios]
             made = time.perf_counter() - t0
             if not warm:  # numba's kernels loaded before anything is timed
-                run(scenarios[:1], False)
+                run(scenarios[:1], False, options)
                 warm = True
-            out[name] = run(scenarios, args.verbose)
+            out[name] = run(scenarios, args.verbose, options)
             print(f"{summary(name, out[name])} (queries and field {made:.1f} s)", flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1))

@@ -137,7 +137,7 @@ KEYS = {
         ("penalty", "weight"): 0, ("penalty", "exponent"): 0,
         ("obstacles", 0, "center"): 2, ("obstacles", 0, "radius"): 0,
         ("solver", "method"): 0, ("solver", "partitions"): 0, ("solver", "initial_paths"): 0,
-        ("solver", "reduce_tol"): 0, ("solver", "max_sweeps"): 0,
+        ("solver", "reduce_tol"): 0, ("solver", "max_sweeps"): 0, ("solver", "fewest_arcs"): 0,
     },
     "robot": {("robot", "model"): 0, ("robot", "radius"): 0, ("robot", "margin"): 0, ("robot", "v"): 2, ("robot", "omega"): 2},
     "diff-drive": {("robot", "wheel_radius"): 0, ("robot", "axle_length"): 0},

@@ -18,6 +18,7 @@ from leapfrog_planner.batch.generate import GeneratorSpec, generate_one
 from leapfrog_planner.bvp.shooting import solve_shooting
 from leapfrog_planner.errors import SettingsError
 from leapfrog_planner.planning.leapfrog import Junctions, LeapfrogSettings, SweepRecord, leapfrog
+from leapfrog_planner.planning.leapfrog.final import FinalSolver
 from leapfrog_planner.planning.path_ranking import PathGuide
 from leapfrog_planner.planning.planner import Planner, plan
 from leapfrog_planner.planning.results import validate
@@ -157,6 +158,30 @@ def test_partitions_are_halved_level_by_level(case1):
     assert max(levels.values()) <= 3
     assert set(levels) == {8, 4}  # 8 -> 4 -> 2
     assert rel(final_cost(case1[0], run.costate0), OPTIMUM_1) <= 1e-5
+
+
+def test_halving_stops_at_the_fewest_arcs_and_the_final_solve_starts_there(case1, monkeypatch):
+    """``fewest_arcs = 4`` from q = 16: levels of 16, 8 and 4, never 2, and the final solves
+    start from the 4-arc level (simple shooting from its first arc, multiple shooting over its
+    arcs): the same extremal as the default run that halved down to 2."""
+    seen = []
+    original = FinalSolver.solve
+
+    def solve(self, lam0, junctions):
+        seen.append(junctions.q)
+        return original(self, lam0, junctions)
+
+    monkeypatch.setattr(FinalSolver, "solve", solve)
+    run, _ = run_case1(case1, 16, fewest_arcs=4, sweeps_per_level=3)
+    assert run.success, run.message
+    qs = [h.q for h in run.history]
+    assert set(qs) == {16, 8, 4}, qs
+    assert seen == [4]
+    assert rel(final_cost(case1[0], run.costate0), OPTIMUM_1) <= 1e-5
+    # Multiple shooting alone over those arcs reaches the same extremal.
+    multi, _ = run_case1(case1, 16, fewest_arcs=4, sweeps_per_level=3, final="multiple-shooting")
+    assert multi.success and multi.final_solver == "multiple-shooting", multi.message
+    np.testing.assert_allclose(multi.costate0, run.costate0, rtol=1e-7, atol=1e-7)
 
 
 def test_max_sweeps_caps_the_sweeps(case1):
@@ -361,6 +386,8 @@ def test_default_settings_are_documented_values():
         ("final_retry_jump", 0.0, "final_retry_jump"),
         ("final_refinements", -1, "final_refinements"),
         ("final_refinements", 7, "final_refinements"),
+        ("fewest_arcs", 1, "fewest_arcs"),
+        ("fewest_arcs", 4.0, "fewest_arcs"),
     ],
 )
 def test_leapfrog_settings_reject_bad_values(option, value, message):

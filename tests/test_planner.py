@@ -668,11 +668,12 @@ partitions = 4
 initial_paths = 2
 reduce_tol = 1e-4
 max_sweeps = 7
+fewest_arcs = 3
 """
     sc = load_scenario_text(text)
     s = Planner(sc).settings
     assert (s.leapfrog.method, s.leapfrog.partitions, s.initial_paths) == ("nleq-err", 4, 2)
-    assert (s.leapfrog.reduce_tol, s.leapfrog.max_sweeps) == (1e-4, 7)
+    assert (s.leapfrog.reduce_tol, s.leapfrog.max_sweeps, s.leapfrog.fewest_arcs) == (1e-4, 7, 3)
     s = Planner(sc, partitions=6, method=MNM).settings
     assert (s.leapfrog.method, s.leapfrog.partitions, s.initial_paths) == (MNM, 6, 2)
     bad = load_scenario_text(text.replace("partitions = 4", "partitions = 1"))

@@ -53,6 +53,7 @@ __all__ = [
 SOLVER_KEYS: dict[str, type] = {
     "method": str,
     "partitions": int,
+    "fewest_arcs": int,
     "initial_paths": int,
     "reduce_tol": float,
     "max_sweeps": int,

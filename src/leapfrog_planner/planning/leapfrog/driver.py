@@ -1,7 +1,8 @@
 """Leapfrog's driver, in the shape of an iterative solve: :func:`init` fits the initial path's
-arcs, :func:`step` sweeps once and decides the level, :func:`terminate` says when ``q = 2`` or
-the sweep budget is reached, :func:`postprocess` runs the final solve (and its retry) and
-returns the :class:`LeapfrogSolution`."""
+arcs, :func:`step` sweeps once and decides the level, :func:`terminate` says when ``q = 2``, when
+the level of ``fewest_arcs`` has ended, or when the sweep budget is reached,
+:func:`postprocess` runs the final solve (and its retry) and returns the
+:class:`LeapfrogSolution`."""
 
 from __future__ import annotations
 
@@ -90,6 +91,7 @@ class State:
     initial_cost: float
     history: list[SweepRecord] = field(default_factory=list)
     increases: int = 0
+    at_fewest: bool = False  # the level ended, and halving it would leave too few arcs
 
     def last_cost(self) -> float:
         return self.history[-1].cost if self.history else self.initial_cost
@@ -169,7 +171,7 @@ def init(fit: InitialFit) -> State:
 
 
 def terminate(state: State, settings: LeapfrogSettings) -> bool:
-    return state.arcs.q <= 2 or len(state.history) >= settings.max_sweeps
+    return state.arcs.q <= 2 or state.at_fewest or len(state.history) >= settings.max_sweeps
 
 
 def _sweep(state: State, level: Junctions, local: LocalSolver, progress) -> SweepRecord:
@@ -192,7 +194,9 @@ def step(state: State, local: LocalSolver, settings: LeapfrogSettings, progress)
         state.arcs = state.arcs.refined(local.flow)
     elif move is Level.HALVE:
         state.last_multi = state.arcs
-        state.arcs = state.arcs.halved()
+        state.at_fewest = (state.arcs.q + 1) // 2 < settings.fewest_arcs  # (halved: ceil(q / 2))
+        if not state.at_fewest:
+            state.arcs = state.arcs.halved()
 
 
 def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSolution:

@@ -35,6 +35,10 @@ class LeapfrogSettings:
     method: str = "modified-newton"
     local: object | None = None
     partitions: int = 8  # initial q
+    # Levels are halved while the halved level keeps at least this many arcs; above 2, the
+    # last level is the final solves' (simple shooting from its first arc, then multiple
+    # shooting over its arcs): at long horizons arcs merged further are too long to solve.
+    fewest_arcs: int = 2
     max_sweeps: int = 60  # over all levels
     sweeps_per_level: int = 10
     reduce_tol: float = 1e-3  # q is halved below this relative decrease per sweep...
@@ -85,6 +89,7 @@ class LeapfrogSettings:
                 f" got {self.local!r}"
             )
         require_integer("partitions", self.partitions, 2, MAX_PARTITIONS)
+        require_integer("fewest_arcs", self.fewest_arcs, 2, MAX_PARTITIONS)
         require_integer("max_sweeps", self.max_sweeps, 1, 1000)
         require_integer("sweeps_per_level", self.sweeps_per_level, 1, 1000)
         if not (self.reduce_tol > 0 and self.jump_tol > 0 and self.final_retry_jump > 0):
