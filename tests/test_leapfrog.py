@@ -773,6 +773,12 @@ def test_next_level_is_a_pure_rule_of_the_sweep_record():
     # The level's sweep budget ends it whatever the progress.
     last = LevelState(s.sweeps_per_level - 1, 0, 0)
     assert next_level(_rec(50.0), 100.0, last, s)[0] is Level.HALVE
+    # A level of 8 arcs whose halving would keep fewer than fewest_arcs ends the sweeps.
+    assert next_level(_rec(99.99), 100.0, fresh, replace(s, fewest_arcs=4))[0] is Level.HALVE
+    assert next_level(_rec(99.99), 100.0, fresh, replace(s, fewest_arcs=5)) == (
+        Level.FINAL,
+        LevelState(),
+    )
 
 
 def test_a_sweep_that_moved_no_junction_ends_its_level():

@@ -91,7 +91,7 @@ class State:
     initial_cost: float
     history: list[SweepRecord] = field(default_factory=list)
     increases: int = 0
-    at_fewest: bool = False  # the level ended, and halving it would leave too few arcs
+    at_fewest: bool = False  # the level's move was FINAL: the final solves start from it
 
     def last_cost(self) -> float:
         return self.history[-1].cost if self.history else self.initial_cost
@@ -194,9 +194,10 @@ def step(state: State, local: LocalSolver, settings: LeapfrogSettings, progress)
         state.arcs = state.arcs.refined(local.flow)
     elif move is Level.HALVE:
         state.last_multi = state.arcs
-        state.at_fewest = (state.arcs.q + 1) // 2 < settings.fewest_arcs  # (halved: ceil(q / 2))
-        if not state.at_fewest:
-            state.arcs = state.arcs.halved()
+        state.arcs = state.arcs.halved()
+    elif move is Level.FINAL:
+        state.last_multi = state.arcs
+        state.at_fewest = True
 
 
 def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSolution:

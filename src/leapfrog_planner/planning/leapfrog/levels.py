@@ -8,7 +8,8 @@ two sweeps in a row made no such progress (failures or not); when a sweep moved 
 still failing is refined (every arc split at its middle: shorter local problems) rather than
 halved, at most ``max_refinements`` times per run: halving on would hand the final solve a
 large costate jump. After ``k`` refinements a level must lower the cost by less than
-``reduce_tol * 0.1**k`` to count as settled.
+``reduce_tol * 0.1**k`` to count as settled. A level that would be halved to fewer than
+``fewest_arcs`` arcs is the last: the final solves start from it.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ class Level(Enum):
     STAY = "stay"  # sweep on at this q
     HALVE = "halve"  # keep every other junction
     REFINE = "refine"  # split every arc at its middle
+    FINAL = "final"  # halving would leave fewer than ``fewest_arcs``: the final solves start here
 
 
 @dataclass(frozen=True)
@@ -50,6 +52,8 @@ def next_level(
         return Level.STAY, LevelState(sweeps, stalls, state.refinements)
     if rec.failures and state.refinements < settings.max_refinements:
         return Level.REFINE, LevelState(0, 0, state.refinements + 1)
+    if (rec.q + 1) // 2 < settings.fewest_arcs:  # (a halved level keeps ceil(q / 2) arcs)
+        return Level.FINAL, LevelState(0, 0, state.refinements)
     return Level.HALVE, LevelState(0, 0, state.refinements)
 
 
