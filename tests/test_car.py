@@ -209,14 +209,11 @@ def test_an_iterate_of_the_assisted_car_is_no_cheaper_motion_of_the_car():
         unlike_robot,
     )
     from leapfrog_planner.planning.planner import Planner
-    from leapfrog_planner.planning.search import STAGES, Search
+    from leapfrog_planner.planning.search import STAGES
 
     sc = parking_car(4)
     p = Planner(sc)
-    search = Search(
-        p.scenario, p.settings, p.path_selection(), p.robot.model.aid, p.runner.problem_of,
-        p.initial_paths, p.choose,
-    )  # fmt: skip
+    search = p.search(p.path_selection())
     runs = []
     for stage in STAGES:
         while asked := stage(search, p.first_round, runs):

@@ -254,3 +254,48 @@ def test_each_route_of_a_map_is_a_class_of_its_own(depot_folder):
     r = planner.plan()
     assert r.status.value == "converged" and r.min_clearance >= 0.0
     assert r.cost <= 3.6323
+
+
+def test_a_long_route_starts_with_more_partitions_halved_down_to_more_arcs(depot_folder):
+    """The first round fits the route: the depot aisle's route of 15 m is 38 of the penalty's
+    length scales (0.4 m), under the default ``long_route`` of 64, so the first round is the
+    settings' (q = 8 halved down to 2 arcs); with ``long_route = 16`` it is a long route: q =
+    32 halved down to 16 arcs, and more where the settings ask for more. Without a map, and
+    with ``long_route = 0``, never."""
+    from leapfrog_planner.planning.planner import Planner
+
+    path = depot_folder / "aisle.toml"
+    path.write_text(DEPOT.format(file="depot.yaml"))
+
+    def first(scenario, **options):
+        planner = Planner(scenario, **options)
+        return planner.search(planner.path_selection()).first
+
+    default = first(str(path))
+    assert (default.partitions, default.fewest_arcs) == (8, 2)
+    assert default.reason == "the initial paths"
+    long = first(str(path), long_route=16)
+    assert (long.partitions, long.fewest_arcs, long.doublings) == (32, 16, 0)
+    assert "a route of 38 length scales: q = 32, halved down to 16 arcs" in long.reason
+    more = first(str(path), long_route=16, partitions=64, fewest_arcs=24)
+    assert (more.partitions, more.fewest_arcs) == (64, 24)
+    assert first(str(path), long_route=0).partitions == 8
+    assert first("paper-case-3", long_route=1e-3).partitions == 8
+
+
+def test_a_long_route_plan_converges_with_its_finer_first_round(tmp_path):
+    """Through the door of two rooms (a route of 8 length scales) with ``long_route = 4``:
+    every run of the first round at q = 32, the answer a collision-free extremal no dearer than
+    the plan at q = 8 (1.4368 both ways today), the round's reason in the result's search."""
+    from leapfrog_planner.planning.planner import plan
+
+    write_rooms(tmp_path, door=True)
+    (tmp_path / "task.toml").write_text(ROOMS + '\n[map]\nfile = "rooms.yaml"\n')
+    short = plan(str(tmp_path / "task.toml"))
+    assert {rec.partitions for rec in short.search} == {8}
+    r = plan(str(tmp_path / "task.toml"), long_route=4)
+    assert r.status.value == "converged" and r.min_clearance >= 0.0
+    assert r.cost <= short.cost * (1 + 1e-9)
+    first = [rec for rec in r.search if rec.stage == "paths"]
+    assert first and all(rec.partitions == 32 for rec in first)
+    assert "length scales: q = 32, halved down to 16 arcs" in first[0].reason

@@ -647,6 +647,9 @@ def test_unknown_option_is_named():
         ("margin", -0.1, "margin"),
         ("margin", float("nan"), "margin"),
         ("samples", 1, "samples"),
+        ("long_route", -1.0, "long_route"),
+        ("long_route", float("nan"), "long_route"),
+        ("long_route", "far", "long_route"),
     ],
 )
 def test_bad_option_values_raise_settings_error(option, value, message):
@@ -669,11 +672,13 @@ initial_paths = 2
 reduce_tol = 1e-4
 max_sweeps = 7
 fewest_arcs = 3
+long_route = 100
 """
     sc = load_scenario_text(text)
     s = Planner(sc).settings
     assert (s.leapfrog.method, s.leapfrog.partitions, s.initial_paths) == ("nleq-err", 4, 2)
     assert (s.leapfrog.reduce_tol, s.leapfrog.max_sweeps, s.leapfrog.fewest_arcs) == (1e-4, 7, 3)
+    assert s.long_route == 100.0
     s = Planner(sc, partitions=6, method=MNM).settings
     assert (s.leapfrog.method, s.leapfrog.partitions, s.initial_paths) == (MNM, 6, 2)
     bad = load_scenario_text(text.replace("partitions = 4", "partitions = 1"))

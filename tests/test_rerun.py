@@ -234,6 +234,10 @@ def test_an_older_file_with_a_stale_solver_table_reruns_with_its_settings(result
     old = PlanResult.load(tmp_path / "old.json")
     assert old.provenance is None
     assert Planner.from_result(old).settings.leapfrog.partitions == 16
+    # Written before long routes were planned with more partitions: re-run as it was planned.
+    assert d["settings"].pop("long_route") == 64.0
+    (tmp_path / "older.json").write_text(json.dumps(d))
+    assert Planner.from_result(PlanResult.load(tmp_path / "older.json")).settings.long_route == 0
 
 
 def test_a_rerun_of_bad_recorded_settings_names_the_file_and_the_scenario(results, tmp_path):

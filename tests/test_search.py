@@ -35,10 +35,7 @@ def test_every_run_is_recorded_with_the_stage_that_asked_and_why(tmp_path):
 
 
 def _search(planner: Planner) -> Search:
-    return Search(
-        planner.scenario, planner.settings, planner.path_selection(), planner.robot.model.aid,
-        planner.runner.problem_of, planner.initial_paths, planner.choose,
-    )  # fmt: skip
+    return planner.search(planner.path_selection())
 
 
 def test_stages_are_pure_functions_of_the_runs_so_far():

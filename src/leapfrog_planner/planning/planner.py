@@ -29,7 +29,7 @@ from .runner import RUNS_SHARE, PlanEvent, Runner
 from .runs import PathRun, Round, RunRequest, Searched
 from .scenario import Scenario, as_scenario
 from .scenario_time import refuse_unreachable
-from .search import STAGES, Search, next_round, search_notes
+from .search import STAGES, Search, next_round, route_round, search_notes
 from .settings import PlannerSettings
 
 __all__ = ["PlanEvent", "Planner", "PlannerSettings", "plan"]
@@ -63,8 +63,10 @@ class Planner:
         self.runner = Runner(self.scenario, self.settings, self.scenario.problem(), progress)
         self.robot = self.runner.robot  # the scenario's own problem, without planning aids
         aid = self.robot.model.aid
-        first = None if aid is None else aid.values[0]
-        self.first_round = Round(self.settings.leapfrog.partitions, first, "the initial paths")
+        first, lf = (None if aid is None else aid.values[0]), self.settings.leapfrog
+        self.first_round = Round(
+            lf.partitions, first, "the initial paths", fewest_arcs=lf.fewest_arcs
+        )
         self.problem = self.runner.problem_of(self.first_round)  # what Leapfrog solves first
         self.paths_deadline = float("inf")  # when building three-point turns stops
 
@@ -110,12 +112,11 @@ class Planner:
 
     def run_path(self, path: InitialPath) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) in the plan's
-        first round, continued to the robot's problem and validated (BLAS on one thread, as in
-        :meth:`plan`: the same bits)."""
-        request = RunRequest(
-            path, self.first_round, "paths", "asked for", float(self.scenario.weight),
-            label=path.label,
-        )  # fmt: skip
+        first round (fitted to the path's route: :func:`.search.route_round`), continued to the
+        robot's problem and validated (BLAS on one thread, as in :meth:`plan`: the same bits)."""
+        rnd = route_round(self.first_round, self.scenario, self.settings, [path])
+        weight = float(self.scenario.weight)
+        request = RunRequest(path, rnd, "paths", "asked for", weight, label=path.label)
         with single_threaded_blas():
             return self.runner.run(request)
 
@@ -170,12 +171,9 @@ class Planner:
         """The search's loop: each round's stages (:data:`.search.STAGES`) ask for runs until
         none asks for more, then the next round (:func:`.search.next_round`), if any; the time
         limit stops it after the runs under way, or before runs it leaves no time for."""
-        search = Search(
-            self.scenario, self.settings, paths, self.robot.model.aid,
-            self.runner.problem_of, self.initial_paths, self.choose,
-        )  # fmt: skip
+        search = self.search(paths)
         runs: list[PathRun] = []
-        runs_s, rnd = 0.0, self.first_round
+        runs_s, rnd = 0.0, search.first
         while rnd is not None:
             for stage in STAGES:
                 while requests := stage(search, rnd, [r for r in runs if r.request.round is rnd]):
@@ -188,6 +186,14 @@ class Planner:
                         return Searched(runs, runs_s, cut=True)
             rnd = next_round(search, rnd, runs)
         return Searched(runs, runs_s, cut=False)
+
+    def search(self, paths: tuple[list[InitialPath], list[InitialPath]]) -> Search:
+        """What the search's stages read, of a plan whose paths are ``paths``
+        (:meth:`path_selection`)."""
+        return Search(
+            self.scenario, self.settings, paths, self.robot.model.aid, self.first_round,
+            self.runner.problem_of, self.initial_paths, self.choose,
+        )  # fmt: skip
 
     def choose(self, runs: list[PathRun]) -> Chosen:
         """The answer ``runs`` give (:func:`.answer.choose_answer`)."""

@@ -105,9 +105,10 @@ def recorded_task(result: PlanResult, options=None) -> tuple[Scenario, PlannerSe
 
 def recorded_settings(result: PlanResult) -> PlannerSettings:
     """The planner's settings ``result`` records, checked as settings (a
-    :class:`SettingsError` that names the result's scenario)."""
+    :class:`SettingsError` that names the result's scenario). A result written before the
+    ``long_route`` setting existed planned every route as a short one: ``long_route = 0``."""
     try:
-        return PlannerSettings.from_dict(result.settings)
+        return PlannerSettings.from_dict({"long_route": 0.0, **result.settings})
     except SettingsError as e:
         raise SettingsError(f"{result.scenario}: the recorded settings: {e}") from None
 

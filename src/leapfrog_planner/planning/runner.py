@@ -148,8 +148,8 @@ class Runner:
         label = request.label + (f" (obstacle weight {request.weight:g})" if request.raises else "")
         self.emit(PlanEvent("path", k, paths, label))
         lf = self.settings.leapfrog
-        if rnd.partitions != lf.partitions:
-            lf = replace(lf, partitions=rnd.partitions)
+        if (rnd.partitions, rnd.fewest_arcs) != (lf.partitions, lf.fewest_arcs):
+            lf = replace(lf, partitions=rnd.partitions, fewest_arcs=rnd.fewest_arcs)
         t, X = path.junctions(lf.partitions, s.horizon, 0.0)
         if s.start.size > 3:  # a model's further states, from their start to their goal values
             X = np.column_stack([X, path_states(path, t / s.horizon, (s.start, s.goal))[:, 3:]])

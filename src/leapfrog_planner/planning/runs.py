@@ -27,14 +27,16 @@ END_STATE_TOLERANCE = END_STATE_FACTOR * RootSettings().tol
 
 @dataclass(frozen=True)
 class Round:
-    """What the runs of a round share: Leapfrog's partitions and the value of the model's
-    planning aid (None for a model without one); ``reason`` says why the round runs."""
+    """What the runs of a round share: Leapfrog's partitions, the fewest arcs its levels are
+    halved down to, and the value of the model's planning aid (None for a model without one);
+    ``reason`` says why the round runs."""
 
     partitions: int
     aid: float | None
     reason: str
-    doublings: int = 0  # the partitions doubled this many times from the settings'
+    doublings: int = 0  # the partitions doubled this many times from the first round's
     aid_step: int = 0  # the index of ``aid`` among the aid's values
+    fewest_arcs: int = 2
 
     def suffix(self, aid_name: str) -> str:
         """What a run's label adds for its round (nothing in the first)."""

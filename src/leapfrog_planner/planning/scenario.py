@@ -54,6 +54,7 @@ SOLVER_KEYS: dict[str, type] = {
     "method": str,
     "partitions": int,
     "fewest_arcs": int,
+    "long_route": float,
     "initial_paths": int,
     "reduce_tol": float,
     "max_sweeps": int,

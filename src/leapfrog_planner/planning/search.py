@@ -17,9 +17,10 @@ round (:func:`next_round`) when the stages of a round are done:
 4. ``weight raised``: every extremal passes through an obstacle: their paths again with the
    obstacle weight raised (x4, up to three times).
 
-Rounds: the first at the settings' partitions and the aid's first value; when its answer falls
-short, the same stages with twice the partitions (``finer_doublings`` times); when no run
-clears the obstacles and the model has a planning aid, the stages again at its next value.
+Rounds: the first at the settings' partitions and the aid's first value (on a long route, more
+partitions, halved down to more arcs: :func:`route_round`); when its answer falls short, the
+same stages with twice the partitions (``finer_doublings`` times); when no run clears the
+obstacles and the model has a planning aid, the stages again at its next value.
 """
 
 from __future__ import annotations
@@ -64,12 +65,19 @@ WIDER_WHEN = 4.0
 EXTRA_GATE = 2.5
 ABANDON_FACTOR = 3.0
 
+#: A long route (:func:`route_round`) starts at this many partitions at least, and its levels
+#: are halved down to this many arcs at least: on the office maze of 100 x 100 m (routes of 15
+#: to 120 m at 0.5 m/s) 8 of 10 queries converged against 4 of 10 (docs/tuning.md).
+LONG_ROUTE_PARTITIONS = 32
+LONG_ROUTE_ARCS = 16
+
 
 class Search:
     """What the stages read: the scenario, the settings, the initial paths (those run first
-    and the extra ones: :func:`select_paths`), the model's
-    planning aid, the problem of each round (for estimates), initial paths at other margins
-    (planned once) and the answer the runs so far give (``choose``)."""
+    and the extra ones: :func:`select_paths`), the model's planning aid, the first round
+    (``first``: the settings' partitions and the aid's first value, fitted to the route by
+    :func:`route_round`), the problem of each round (for estimates), initial paths at other
+    margins (planned once) and the answer the runs so far give (``choose``)."""
 
     def __init__(
         self,
@@ -77,6 +85,7 @@ class Search:
         settings: PlannerSettings,
         paths: tuple[list[InitialPath], list[InitialPath]],
         aid: PlanningAid | None,
+        first: Round,
         problem_of: Callable[[Round], OptimalControlProblem],
         paths_at: Callable[[float], list[InitialPath]],
         choose: Callable[[list[PathRun]], Chosen],
@@ -85,6 +94,7 @@ class Search:
         self.paths, self.extras = paths
         self.problem_of, self.paths_at, self.choose = problem_of, paths_at, choose
         self._wider: dict[float, list[InitialPath]] = {}
+        self.first = route_round(first, scenario, settings, self.paths)
 
     def request(self, path, rnd: Round, stage: str, reason: str, raises: int = 0, **more):
         weight = float(self.scenario.weight) * WEIGHT_FACTOR**raises
@@ -105,6 +115,26 @@ class Search:
             label = f", margin {margin:.3g}"
             self._wider[margin] = [replace(p, label=p.label + label) for p in wide]
         return self._wider[margin]
+
+
+def route_round(first: Round, scenario: Scenario, settings: PlannerSettings, paths) -> Round:
+    """The first round of a plan whose initial paths are ``paths``: ``first`` (the settings'
+    partitions and fewest arcs), or, on a map where the shortest of them is at least
+    ``settings.long_route`` of the penalty's length scales long, at least
+    :data:`LONG_ROUTE_PARTITIONS` partitions halved down to at least :data:`LONG_ROUTE_ARCS`
+    arcs: on such a route the arcs of fewer partitions cross many walls and corridors, too long
+    for the local problems, and the levels merged further too long for the final solves."""
+    if not settings.long_route or scenario.map is None or not paths:
+        return first
+    scale = scenario.map.obstacles(scenario.robot_radius).length
+    route = min(p.length for p in paths) / scale
+    if route < settings.long_route:
+        return first
+    q = max(first.partitions, LONG_ROUTE_PARTITIONS)
+    arcs = max(first.fewest_arcs, LONG_ROUTE_ARCS)
+    log.info("a route of %.0f length scales: q = %d, halved down to %d arcs", route, q, arcs)
+    why = f"a route of {route:.0f} length scales: q = {q}, halved down to {arcs} arcs"
+    return replace(first, partitions=q, fewest_arcs=arcs, reason=f"{first.reason} ({why})")
 
 
 def family(path: InitialPath) -> tuple:
@@ -289,7 +319,7 @@ def next_round(search: Search, rnd: Round, runs: list[PathRun]) -> Round | None:
         if why:
             log.info("the answer falls short (%s): the stages again with q = %d", why, doubled)
             reason = f"the answer fell short ({why}): twice the partitions"
-            return Round(doubled, rnd.aid, reason, rnd.doublings + 1)
+            return replace(rnd, partitions=doubled, reason=reason, doublings=rnd.doublings + 1)
     aid = search.aid
     if aid is None or rnd.aid_step + 1 >= len(aid.values) or any(r.clear for r in runs):
         return None
@@ -297,5 +327,4 @@ def next_round(search: Search, rnd: Round, runs: list[PathRun]) -> Round | None:
     name = aid.parameter.replace("_", " ")
     log.info("no extremal clears: the paths again, %s %g", name, value)
     reason = f"no extremal cleared the obstacles: {name} {value:g}"
-    q = search.settings.leapfrog.partitions
-    return Round(q, value, reason, aid_step=rnd.aid_step + 1)
+    return replace(search.first, aid=value, reason=reason, aid_step=rnd.aid_step + 1)

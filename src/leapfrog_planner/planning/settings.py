@@ -28,6 +28,10 @@ class PlannerSettings:
     # cheaper than the best extremal) runs its stages again with the partitions doubled, this
     # many times at most: at long horizons the arcs of q = 8 are too long for a stiff penalty.
     finer_doublings: int = 1
+    # A route on a map at least this many of its penalty's length scales long (the shortest
+    # initial path's length) starts at 32 partitions at least, halved down to 16 arcs at least
+    # (docs/tuning.md); 0: never.
+    long_route: float = 64.0
     # Seconds a plan may take (None: no limit). Past it no new run or sweep starts: the plan
     # ends with the best answer found so far, and says that the limit cut it short.
     time_limit: float | None = None
@@ -39,6 +43,8 @@ class PlannerSettings:
         require_integer("candidate_paths", self.candidate_paths, 1, 64)
         require_integer("threads", self.threads, 0, 256)
         require_integer("finer_doublings", self.finer_doublings, 0, 7)
+        if not 0 <= self.long_route <= 1e9:
+            raise SettingsError(f"long_route must be between 0 and 1e9, got {self.long_route!r}")
         if not 0 <= self.margin <= 1e6:
             raise SettingsError(f"margin must be between 0 and 1e6, got {self.margin!r}")
         require_integer("samples", self.samples, 2, 1_000_000)
