@@ -26,10 +26,10 @@ from .rerun import call_of, recorded, recorded_task, with_call
 from .result_files import plain
 from .results import PlanResult
 from .runner import RUNS_SHARE, PlanEvent, Runner
-from .runs import PathRun, Round, RunRequest, Searched
+from .runs import PathRun, RunRequest, Searched
 from .scenario import Scenario, as_scenario
 from .scenario_time import refuse_unreachable
-from .search import STAGES, Search, next_round, route_round, search_notes
+from .search import STAGES, Search, next_round, route_round, search_notes, settings_round
 from .settings import PlannerSettings
 
 __all__ = ["PlanEvent", "Planner", "PlannerSettings", "plan"]
@@ -62,11 +62,7 @@ class Planner:
         self.scenario, self.settings = scenario, settings
         self.runner = Runner(self.scenario, self.settings, self.scenario.problem(), progress)
         self.robot = self.runner.robot  # the scenario's own problem, without planning aids
-        aid = self.robot.model.aid
-        first, lf = (None if aid is None else aid.values[0]), self.settings.leapfrog
-        self.first_round = Round(
-            lf.partitions, first, "the initial paths", fewest_arcs=lf.fewest_arcs
-        )
+        self.first_round = settings_round(self.settings, self.robot.model.aid)
         self.problem = self.runner.problem_of(self.first_round)  # what Leapfrog solves first
         self.paths_deadline = float("inf")  # when building three-point turns stops
 
@@ -191,7 +187,7 @@ class Planner:
         """What the search's stages read, of a plan whose paths are ``paths``
         (:meth:`path_selection`)."""
         return Search(
-            self.scenario, self.settings, paths, self.robot.model.aid, self.first_round,
+            self.scenario, self.settings, paths, self.robot.model.aid,
             self.runner.problem_of, self.initial_paths, self.choose,
         )  # fmt: skip
 

@@ -75,9 +75,9 @@ LONG_ROUTE_ARCS = 16
 class Search:
     """What the stages read: the scenario, the settings, the initial paths (those run first
     and the extra ones: :func:`select_paths`), the model's planning aid, the first round
-    (``first``: the settings' partitions and the aid's first value, fitted to the route by
-    :func:`route_round`), the problem of each round (for estimates), initial paths at other
-    margins (planned once) and the answer the runs so far give (``choose``)."""
+    (:func:`settings_round` fitted to the route: :func:`route_round`), the problem of each
+    round (for estimates), initial paths at other margins (planned once) and the answer the
+    runs so far give (``choose``)."""
 
     def __init__(
         self,
@@ -85,7 +85,6 @@ class Search:
         settings: PlannerSettings,
         paths: tuple[list[InitialPath], list[InitialPath]],
         aid: PlanningAid | None,
-        first: Round,
         problem_of: Callable[[Round], OptimalControlProblem],
         paths_at: Callable[[float], list[InitialPath]],
         choose: Callable[[list[PathRun]], Chosen],
@@ -94,7 +93,7 @@ class Search:
         self.paths, self.extras = paths
         self.problem_of, self.paths_at, self.choose = problem_of, paths_at, choose
         self._wider: dict[float, list[InitialPath]] = {}
-        self.first = route_round(first, scenario, settings, self.paths)
+        self.first = route_round(settings_round(settings, aid), scenario, settings, self.paths)
 
     def request(self, path, rnd: Round, stage: str, reason: str, raises: int = 0, **more):
         weight = float(self.scenario.weight) * WEIGHT_FACTOR**raises
@@ -115,6 +114,14 @@ class Search:
             label = f", margin {margin:.3g}"
             self._wider[margin] = [replace(p, label=p.label + label) for p in wide]
         return self._wider[margin]
+
+
+def settings_round(settings: PlannerSettings, aid: PlanningAid | None) -> Round:
+    """The first round as the settings set it: their partitions and fewest arcs, and the
+    planning aid's first value."""
+    lf = settings.leapfrog
+    first = None if aid is None else aid.values[0]
+    return Round(lf.partitions, first, "the initial paths", fewest_arcs=lf.fewest_arcs)
 
 
 def route_round(first: Round, scenario: Scenario, settings: PlannerSettings, paths) -> Round:
