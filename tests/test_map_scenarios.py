@@ -299,3 +299,25 @@ def test_a_long_route_plan_converges_with_its_finer_first_round(tmp_path):
     first = [rec for rec in r.search if rec.stage == "paths"]
     assert first and all(rec.partitions == 32 for rec in first)
     assert "length scales: q = 32, halved down to 16 arcs" in first[0].reason
+
+
+def test_a_long_route_that_falls_short_runs_again_with_twice_the_fewest_arcs(tmp_path, monkeypatch):
+    """Every answer dropped (as if no extremal were confirmed): a long route's rounds are q =
+    32 halved down to 16 arcs, twice the partitions (64, down to 16), then twice the fewest
+    arcs (64, down to 32), each said in the result's search; a short route's only q = 8 and
+    16 (tests/test_search.py)."""
+    from tests.test_search import _failing
+
+    from leapfrog_planner.planning.planner import plan
+
+    write_rooms(tmp_path, door=True)
+    (tmp_path / "task.toml").write_text(ROOMS + '\n[map]\nfile = "rooms.yaml"\n')
+    seen = []
+    _failing(monkeypatch, seen)
+    r = plan(str(tmp_path / "task.toml"), long_route=4, initial_paths=1, extra_paths=0)
+    assert r.status.value == "failed"
+    rounds = list(dict.fromkeys((q.round.partitions, q.round.fewest_arcs) for q in seen))
+    assert rounds == [(32, 16), (64, 16), (64, 32)]
+    reasons = list(dict.fromkeys(q.round.reason for q in seen))
+    assert "twice the fewest arcs, levels halved down to 32" in reasons[2]
+    assert any(rec.label.endswith("q = 64 down to 32 arcs") for rec in r.search)

@@ -40,7 +40,8 @@ class Round:
 
     def suffix(self, aid_name: str) -> str:
         """What a run's label adds for its round (nothing in the first)."""
-        finer = f", q = {self.partitions}" if self.doublings else ""
+        arcs = f" down to {self.fewest_arcs} arcs" if self.fewest_arcs > 2 else ""
+        finer = f", q = {self.partitions}{arcs}" if self.doublings else ""
         weaker = f", {aid_name.replace('_', ' ')} {self.aid:g}" if self.aid_step else ""
         return finer + weaker
 
