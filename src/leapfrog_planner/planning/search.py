@@ -19,8 +19,9 @@ round (:func:`next_round`) when the stages of a round are done:
 
 Rounds: the first at the settings' partitions and the aid's first value (on a long route, more
 partitions, halved down to more arcs: :func:`route_round`); when its answer falls short, the
-same stages with twice the partitions (``finer_doublings`` times); when no run clears the
-obstacles and the model has a planning aid, the stages again at its next value.
+same stages with twice the partitions (``finer_doublings`` times), and on a long route then
+with twice the fewest arcs (:func:`finer_round`); when no run clears the obstacles and the
+model has a planning aid, the stages again at its next value.
 """
 
 from __future__ import annotations
