@@ -286,7 +286,8 @@ def test_a_long_route_starts_with_more_partitions_halved_down_to_more_arcs(depot
 def test_a_long_route_plan_converges_with_its_finer_first_round(tmp_path):
     """Through the door of two rooms (a route of 8 length scales) with ``long_route = 4``:
     every run of the first round at q = 32, the answer a collision-free extremal no dearer than
-    the plan at q = 8 (1.4368 both ways today), the round's reason in the result's search."""
+    the plan at q = 8 (1.4368 both ways today), the round's reason in the result's search, and
+    the levels in the sweeps row of ``leapfrog solve``."""
     from leapfrog_planner.planning.planner import plan
 
     write_rooms(tmp_path, door=True)
@@ -299,6 +300,11 @@ def test_a_long_route_plan_converges_with_its_finer_first_round(tmp_path):
     first = [rec for rec in r.search if rec.stage == "paths"]
     assert first and all(rec.partitions == 32 for rec in first)
     assert "length scales: q = 32, halved down to 16 arcs" in first[0].reason
+    from tests.test_cli import run_cli
+
+    out = run_cli(["solve", "task.toml", "--option", "long_route=4"], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "(levels of 32 down to 16 arcs)" in " ".join(out.stdout.split())  # the sweeps row
 
 
 def test_a_long_route_that_falls_short_runs_again_with_twice_the_fewest_arcs(tmp_path, monkeypatch):

@@ -502,6 +502,15 @@ def _clearance_text(r) -> str:
     return text
 
 
+def _levels(history) -> str:
+    """The arcs of the answer's first and last sweeps ("  (levels of 8 down to 4 arcs)"); ""
+    without sweeps."""
+    if not history:
+        return ""
+    first, last = history[0].q, history[-1].q
+    return f"  (levels of {first} down to {last} arcs)" if first != last else f"  ({first} arcs)"
+
+
 def _summary(r) -> Table:
     from ..planning.status import listed_alternatives
 
@@ -535,7 +544,7 @@ def _summary(r) -> Table:
     rows += [("time limit", part) for part in r.message.split("; ") if "time limit" in part]
     rows += [("initial paths", part) for part in r.message.split("; ") if "initial path" in part]
     rows += [
-        ("sweeps", str(r.sweeps)),
+        ("sweeps", str(r.sweeps) + _levels(r.history)),
         ("Newton iterations", f"{r.newton_iterations}  ({r.f_evals} F evaluations)"),
         (
             "time",
