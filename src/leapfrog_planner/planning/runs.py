@@ -32,11 +32,11 @@ class Round:
     ``reason`` says why the round runs."""
 
     partitions: int
+    fewest_arcs: int
     aid: float | None
     reason: str
     doublings: int = 0  # the partitions doubled this many times from the first round's
     aid_step: int = 0  # the index of ``aid`` among the aid's values
-    fewest_arcs: int = 2
 
     def suffix(self, aid_name: str) -> str:
         """What a run's label adds for its round (nothing in the first)."""

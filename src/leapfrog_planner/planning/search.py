@@ -122,7 +122,9 @@ def settings_round(settings: PlannerSettings, aid: PlanningAid | None) -> Round:
     planning aid's first value."""
     lf = settings.leapfrog
     first = None if aid is None else aid.values[0]
-    return Round(lf.partitions, first, "the initial paths", fewest_arcs=lf.fewest_arcs)
+    return Round(
+        partitions=lf.partitions, fewest_arcs=lf.fewest_arcs, aid=first, reason="the initial paths"
+    )
 
 
 def route_round(first: Round, scenario: Scenario, settings: PlannerSettings, paths) -> Round:
@@ -322,9 +324,9 @@ def next_round(search: Search, rnd: Round, runs: list[PathRun]) -> Round | None:
     answer falls short, finer rounds (:func:`finer_round`); then, while no run clears the
     obstacles, the aid's next value."""
     finer = None if rnd.aid_step else finer_round(search, rnd, runs)
-    aid = search.aid
     if finer is not None:
         return finer
+    aid = search.aid
     if aid is None or rnd.aid_step + 1 >= len(aid.values) or any(r.clear for r in runs):
         return None
     value = aid.values[rnd.aid_step + 1]

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, is_dataclass, replace
 
+from .. import checks
 from ..errors import ScenarioError, SettingsError, describe, did_you_mean, require_integer, short
 from .leapfrog import LeapfrogSettings
 
@@ -43,8 +44,8 @@ class PlannerSettings:
         require_integer("candidate_paths", self.candidate_paths, 1, 64)
         require_integer("threads", self.threads, 0, 256)
         require_integer("finer_doublings", self.finer_doublings, 0, 7)
-        if not 0 <= self.long_route <= 1e9:
-            raise SettingsError(f"long_route must be between 0 and 1e9, got {self.long_route!r}")
+        route = checks.real(self.long_route, "long_route", error=SettingsError)
+        checks.in_range(route, "long_route", 0.0, 1e9, error=SettingsError)
         if not 0 <= self.margin <= 1e6:
             raise SettingsError(f"margin must be between 0 and 1e6, got {self.margin!r}")
         require_integer("samples", self.samples, 2, 1_000_000)
