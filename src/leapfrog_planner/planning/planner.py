@@ -34,26 +34,24 @@ from .settings import PlannerSettings
 
 __all__ = ["PlanEvent", "Planner", "PlannerSettings", "plan"]
 
+Progress = Callable[[PlanEvent], None] | None
+
 
 class Planner:
     """Leapfrog planner for one scenario; reuse it to re-plan with other settings."""
 
     def __init__(
-        self,
-        scenario: Scenario | Mapping[str, Any] | str | Path,
-        settings: PlannerSettings | None = None,
-        *,
-        progress: Callable[[PlanEvent], None] | None = None,
-        **options,
-    ):
+        self, scenario: Scenario | Mapping[str, Any] | str | Path,
+        settings: PlannerSettings | None = None, *, progress: Progress = None, **options,
+    ):  # fmt: skip
         scenario = as_scenario(scenario)
         refuse_unreachable(scenario)  # at once, not after a search that cannot succeed
         self._setup(scenario, PlannerSettings.of_scenario(scenario, settings, **options), progress)
 
     @classmethod
     def unrefused(cls, scenario: Scenario, settings: PlannerSettings, progress=None) -> Planner:
-        """A planner of ``scenario`` with ``settings`` as they are, not refused where its
-        horizon is too short for the top speed (the free-time search probes such horizons)."""
+        """A planner of ``scenario`` with ``settings`` as they are, even where its horizon is
+        too short for the top speed (the free-time search probes such horizons)."""
         planner = cls.__new__(cls)
         planner._setup(scenario, settings, progress)
         return planner
@@ -67,49 +65,40 @@ class Planner:
         self.paths_deadline = float("inf")  # when building three-point turns stops
 
     @classmethod
-    def from_result(
-        cls, result: PlanResult, *, progress: Callable[[PlanEvent], None] | None = None, **options
-    ) -> Planner:
-        """A planner of the scenario ``result`` records, with every setting it records (they
-        rule over the scenario's ``[solver]`` table; no ``options``): its :meth:`plan` re-plans
-        the task, and gives the recorded answer bit for bit with the same versions on the same
-        machine."""
+    def from_result(cls, result: PlanResult, *, progress: Progress = None, **options) -> Planner:
+        """A planner of the scenario ``result`` records, with every setting it records (over
+        the scenario's ``[solver]``): its :meth:`plan` gives the recorded answer bit for bit
+        with the same versions on the same machine."""
         scenario, settings = recorded_task(result, options)
         return cls(scenario, settings, progress=progress)
 
     @property
-    def flow(self) -> Flow:
-        """The final solves' flow of :attr:`problem`."""
+    def flow(self) -> Flow:  # the final solves' flow of :attr:`problem`
         return self.runner.flow_of(self.problem)
 
     @property
-    def progress(self) -> Callable[[PlanEvent], None] | None:
-        """Called with each :class:`PlanEvent` (None: nothing is reported)."""
+    def progress(self) -> Progress:  # called with each PlanEvent
         return self.runner.progress
 
     @progress.setter
-    def progress(self, callback: Callable[[PlanEvent], None] | None) -> None:
+    def progress(self, callback: Progress) -> None:
         self.runner.progress = callback
 
     def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
-        """The paths a plan runs first, keeping ``margin`` (default: the settings') from the
-        obstacles: the ``initial_paths`` of least estimated cost, one per family
-        (:func:`.search.select_paths`), or fewer where fewer exist (waypoints fix the way round
-        the obstacles; two discs leave four ways): the plan's message then says so. How
-        three-point turns are ranked: :func:`.first_paths.first_paths`."""
+        """The paths a plan runs first, keeping ``margin`` (default: the settings'): the
+        ``initial_paths`` of least estimated cost, one per family, or fewer where fewer exist
+        (the plan's message then says so): :func:`.first_paths.first_paths`."""
         return self.path_selection(margin)[0]
 
     def path_selection(self, margin=None) -> tuple[list[InitialPath], list[InitialPath]]:
-        """The paths a plan runs first (:meth:`initial_paths`) and the extra ones it races
-        against them (:func:`.first_paths.first_paths`)."""
+        """The paths a plan runs first and the extra ones it races against them."""
         return first_paths(
             self.scenario, self.settings, self.problem, self.robot, margin, self.paths_deadline
         )
 
     def run_path(self, path: InitialPath) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) in the plan's
-        first round (fitted to the path's route: :func:`.search.route_round`), continued to the
-        robot's problem and validated (BLAS on one thread, as in :meth:`plan`: the same bits)."""
+        first round fitted to its route, continued to the robot's problem and validated."""
         rnd = route_round(self.first_round, self.scenario, self.settings, [path])
         weight = float(self.scenario.weight)
         request = RunRequest(path, rnd, "paths", "asked for", weight, label=path.label)
@@ -124,16 +113,14 @@ class Planner:
                 result = FixedHorizons(self).plan()
         return recorded(result, self.settings, "Planner.plan")
 
-    def deadline_after(self, t_begin: float) -> float:
-        """When a plan begun at ``t_begin`` must stop: the settings' time limit after it."""
+    def deadline_after(self, t_begin: float) -> float:  # the time limit after ``t_begin``
         limit = self.settings.time_limit
         return t_begin + limit if limit is not None else float("inf")
 
     def plan_fixed(self, asked: int | None = None, deadline: float | None = None) -> PlanResult:
-        """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for
-        (default: the settings'), a note in the message when fewer ran; ``deadline``: when
-        the plan should end (default: the settings' time limit from now), of which its paths
-        and runs take shares (:data:`.first_paths.PATHS_SHARE`, :data:`.runner.RUNS_SHARE`)."""
+        """The plan of a fixed horizon; ``asked``: the initial paths the caller asked for (a
+        note when fewer ran); ``deadline``: when the plan must end (default: the time limit
+        from now), of which paths and runs take shares (``PATHS_SHARE``, ``RUNS_SHARE``)."""
         t_begin = time.perf_counter()
         end = self.deadline_after(t_begin) if deadline is None else deadline
         self.runner.deadline = t_begin + RUNS_SHARE * (end - t_begin)
@@ -145,12 +132,12 @@ class Planner:
 
     def _planned(self, t_begin: float, asked: int | None) -> PlanResult:
         """:meth:`plan_fixed` once its deadlines are set."""
-        method, settings = self.settings.leapfrog.method, plain(self.settings)
+        s, method, settings = self.scenario, self.settings.leapfrog.method, plain(self.settings)
         try:
             paths = self.path_selection()
         except Unreachable as exc:
             wall = time.perf_counter() - t_begin
-            return unreachable_result(self.scenario, settings, method, self.problem, str(exc), wall)
+            return unreachable_result(s, settings, method, self.problem, str(exc), wall)
         paths_cut = time.perf_counter() >= self.paths_deadline
         searched = self._search(paths)
         chosen = self.choose(searched.runs)
@@ -158,15 +145,13 @@ class Planner:
         wall = time.perf_counter() - t_begin
         problem = self.runner.problem_of(self.first_round, chosen.run.weight)
         timing = Timing(paths_s=wall - searched.runs_s, runs_s=searched.runs_s, wall_s=wall)
-        asked, cut = asked or self.settings.initial_paths, searched.cut or paths_cut
-        notes = search_notes(self.scenario, self.settings, asked, len(paths[0]), cut)
-        runs = searched.runs
-        return plan_result(self.scenario, settings, method, runs, chosen, problem, timing, notes)
+        asked = asked or self.settings.initial_paths
+        notes = search_notes(s, self.settings, asked, len(paths[0]), searched.cut or paths_cut)
+        return plan_result(s, settings, method, searched.runs, chosen, problem, timing, notes)
 
     def _search(self, paths: tuple[list[InitialPath], list[InitialPath]]) -> Searched:
-        """The search's loop: each round's stages (:data:`.search.STAGES`) ask for runs until
-        none asks for more, then the next round (:func:`.search.next_round`), if any; the time
-        limit stops it after the runs under way, or before runs it leaves no time for."""
+        """The search's loop: each round's stages ask for runs until none asks for more, then
+        the next round, if any; the time limit stops it before runs it leaves no time for."""
         search = self.search(paths)
         runs: list[PathRun] = []
         runs_s, rnd = 0.0, search.first
@@ -184,8 +169,7 @@ class Planner:
         return Searched(runs, runs_s, cut=False)
 
     def search(self, paths: tuple[list[InitialPath], list[InitialPath]]) -> Search:
-        """What the search's stages read, of a plan whose paths are ``paths``
-        (:meth:`path_selection`)."""
+        """What the search's stages read, of a plan whose paths are ``paths``."""
         return Search(
             self.scenario, self.settings, paths, self.robot.model.aid,
             self.runner.problem_of, self.initial_paths, self.choose,
