@@ -327,3 +327,30 @@ def test_a_long_route_that_falls_short_runs_again_with_twice_the_fewest_arcs(tmp
     reasons = list(dict.fromkeys(q.round.reason for q in seen))
     assert "twice the fewest arcs, levels halved down to 32" in reasons[2]
     assert any(rec.label.endswith("q = 64 down to 32 arcs") for rec in r.search)
+
+
+def test_the_clearance_on_a_map_is_exact_between_sparse_samples(tmp_path):
+    """Between two samples the clearance is known only as a bound, up to half their spacing
+    low: validation integrates the stretches that hide a lower value again, so the clearance of
+    an extremal sampled at 5 points is that of 100,001 points, to CLEARANCE_TOLERANCE."""
+    from leapfrog_planner.integrate.flow import Flow
+    from leapfrog_planner.planning.leapfrog import Arcs
+    from leapfrog_planner.planning.planner import plan
+    from leapfrog_planner.planning.results import CLEARANCE_TOLERANCE, VALIDATION, validate_arcs
+
+    write_rooms(tmp_path, door=True)
+    (tmp_path / "task.toml").write_text(ROOMS + '\n[map]\nfile = "rooms.yaml"\n')
+    sc = load_scenario(tmp_path / "task.toml")
+    r = plan(sc, initial_paths=1, extra_paths=0)
+    assert r.success
+    problem = sc.problem()
+    world = problem.penalty.map
+    z0 = np.concatenate([sc.start, r.costate0])
+    dense = Flow(problem, VALIDATION)(0.0, z0, sc.horizon, samples=100_001).trajectory
+    exact = float(world.clearance_at(dense.x[:, :2]).min())
+    arcs = Arcs(np.array([0.0, sc.horizon]), np.array([sc.start, sc.goal]), r.costate0[None])
+    sparse = validate_arcs(problem, arcs, samples=5)
+    polyline = world.path_clearance(sparse.trajectory.x[:, :2])
+    assert polyline < exact - 10 * CLEARANCE_TOLERANCE  # the bound alone reads low
+    assert exact - 1.5 * CLEARANCE_TOLERANCE <= sparse.clearance[-1] <= exact + 1e-12
+    assert abs(r.min_clearance - exact) <= 1.5 * CLEARANCE_TOLERANCE
