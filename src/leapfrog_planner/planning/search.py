@@ -217,10 +217,11 @@ def ranked_paths(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunReq
     """The initial paths of least estimated cost (:meth:`.Planner.initial_paths`) and the
     extra ones (:func:`select_paths`, stage ``more paths``), raced against them: each extra
     stops at the first sweep that leaves it ``ABANDON_FACTOR`` times dearer than their cheapest
-    collision-free extremal. The extras queue behind the first paths in one batch and start as
-    threads free up; the bound is known when the first paths have all ended, and a run judged
-    then as if it had known it from its start (:class:`.leapfrog.stop.StopRule`): the
-    answer does not depend on which run ends first."""
+    collision-free extremal. The extras follow the first paths in one batch (with the default
+    ``threads``, one per run, all start at once; with fewer, as threads free up); the bound is
+    known when the first paths have all ended, and a run judged then as if it had known it
+    from its start (:class:`.leapfrog.stop.StopRule`): the answer does not depend on which run
+    ends first."""
     if runs:
         return []
     race = LeadersBound(len(search.paths), ABANDON_FACTOR) if search.extras else None
