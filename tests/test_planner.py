@@ -650,6 +650,8 @@ def test_unknown_option_is_named():
         ("long_route", -1.0, "long_route"),
         ("long_route", float("nan"), "long_route"),
         ("long_route", "far", "long_route"),
+        ("min_extra_paths", -1, "min_extra_paths"),
+        ("min_extra_paths", 1.5, "min_extra_paths"),
     ],
 )
 def test_bad_option_values_raise_settings_error(option, value, message):

@@ -238,6 +238,11 @@ def test_an_older_file_with_a_stale_solver_table_reruns_with_its_settings(result
     assert d["settings"].pop("long_route") == 64.0
     (tmp_path / "older.json").write_text(json.dumps(d))
     assert Planner.from_result(PlanResult.load(tmp_path / "older.json")).settings.long_route == 0
+    # Written before a few extra paths ran whatever their estimate: re-run as it was planned.
+    assert d["settings"].pop("min_extra_paths") == PlannerSettings().min_extra_paths > 0
+    (tmp_path / "oldest.json").write_text(json.dumps(d))
+    oldest = Planner.from_result(PlanResult.load(tmp_path / "oldest.json"))
+    assert oldest.settings.min_extra_paths == 0
 
 
 def test_a_rerun_of_bad_recorded_settings_names_the_file_and_the_scenario(results, tmp_path):

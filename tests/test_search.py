@@ -156,3 +156,19 @@ def test_an_optimum_behind_a_path_estimated_dearer_than_twice_the_cheapest_is_fo
     r = plan(sc)
     assert r.success and r.min_clearance > 0.0
     assert r.cost <= best_known * (1.0 + 1e-6)
+
+
+@pytest.mark.parametrize(
+    ("index", "best_known"),
+    [(66, 6.381612), (145, 5.010026), (186, 4.955723)],
+)
+def test_an_optimum_behind_a_path_the_estimate_gate_leaves_out_is_found(index, best_known):
+    """Metric layouts (a 10 m room) where the estimate gate lets no extra path through, and the
+    cheapest known optimum lies at the end of the next-ranked path: `min_extra_paths` (1) of
+    them run whatever their estimate (the gate alone: 8.2211, 5.4694 and 5.6013)."""
+    from leapfrog_planner.batch.generate import GeneratorSpec, generate
+
+    sc = list(generate(GeneratorSpec.preset("metric", n=index + 1, seed=1)))[index]
+    r = plan(sc)
+    assert r.success and r.min_clearance > 0.0
+    assert r.cost <= best_known * (1.0 + 1e-6)

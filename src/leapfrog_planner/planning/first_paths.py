@@ -57,7 +57,8 @@ def first_paths(
     if len(candidates) < 2:  # nothing to rank: the estimate took 0.6 ms of paper case 1's 9
         return candidates, []
     ranked = rank_paths(problem, candidates, s.horizon, (s.start, s.goal))
-    return select_paths(ranked, st.initial_paths, st.extra_paths, points_away(s.start, s.goal))
+    extra = (st.extra_paths, st.min_extra_paths)
+    return select_paths(ranked, st.initial_paths, extra, points_away(s.start, s.goal))
 
 
 def _drivable(s: Scenario, problem, robot, candidates: list[InitialPath]) -> list[InitialPath]:

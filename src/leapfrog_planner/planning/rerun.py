@@ -105,10 +105,12 @@ def recorded_task(result: PlanResult, options=None) -> tuple[Scenario, PlannerSe
 
 def recorded_settings(result: PlanResult) -> PlannerSettings:
     """The planner's settings ``result`` records, checked as settings (a
-    :class:`SettingsError` that names the result's scenario). A result written before the
-    ``long_route`` setting existed planned every route as a short one: ``long_route = 0``."""
+    :class:`SettingsError` that names the result's scenario). A result written before a
+    setting existed planned as its value 0 does: ``long_route`` (every route a short one) and
+    ``min_extra_paths`` (the extra paths only those the estimate gate let through)."""
     try:
-        return PlannerSettings.from_dict({"long_route": 0.0, **result.settings})
+        older = {"long_route": 0.0, "min_extra_paths": 0}
+        return PlannerSettings.from_dict({**older, **result.settings})
     except SettingsError as e:
         raise SettingsError(f"{result.scenario}: the recorded settings: {e}") from None
 

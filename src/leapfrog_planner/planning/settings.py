@@ -19,6 +19,9 @@ class PlannerSettings:
     # Paths run after those, while estimated within a factor of the cheapest, each stopped
     # when it turns out far dearer than the extremals found (see search.py); 0: none.
     extra_paths: int = 5
+    # Of those, this many run whatever their estimate (the next-ranked ones where the factor
+    # leaves fewer): an estimate can be more than ten times a path's optimum (search.py).
+    min_extra_paths: int = 1
     candidate_paths: int = 8  # homotopy classes planned, from which those are picked
     margin: float = 0.02  # obstacle inflation of the initial paths
     samples: int = 1001  # points of the returned dense trajectory
@@ -41,6 +44,7 @@ class PlannerSettings:
     def __post_init__(self):
         require_integer("initial_paths", self.initial_paths, 1, 32)
         require_integer("extra_paths", self.extra_paths, 0, 32)
+        require_integer("min_extra_paths", self.min_extra_paths, 0, 32)
         require_integer("candidate_paths", self.candidate_paths, 1, 64)
         require_integer("threads", self.threads, 0, 256)
         require_integer("finer_doublings", self.finer_doublings, 0, 7)
