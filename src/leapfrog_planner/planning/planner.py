@@ -98,7 +98,8 @@ class Planner:
 
     def run_path(self, path: InitialPath) -> PathRun:
         """Leapfrog from ``path`` (one of :meth:`initial_paths`, or a user's own) in the plan's
-        first round fitted to its route, continued to the robot's problem and validated."""
+        first round fitted to its route, continued to the robot's problem and validated (BLAS
+        on one thread, as in :meth:`plan`: the same bits)."""
         rnd = route_round(self.first_round, self.scenario, self.settings, [path])
         weight = float(self.scenario.weight)
         request = RunRequest(path, rnd, "paths", "asked for", weight, label=path.label)
@@ -151,7 +152,8 @@ class Planner:
 
     def _search(self, paths: tuple[list[InitialPath], list[InitialPath]]) -> Searched:
         """The search's loop: each round's stages ask for runs until none asks for more, then
-        the next round, if any; the time limit stops it before runs it leaves no time for."""
+        the next round, if any; the time limit stops it after the runs under way, or before
+        runs it leaves no time for."""
         search = self.search(paths)
         runs: list[PathRun] = []
         runs_s, rnd = 0.0, search.first
