@@ -75,15 +75,16 @@ class ObstaclePenalty:
         out = disc_penalty_values(flat, self.grid, float(self.weight), int(self.exponent))
         return base + out.reshape(xy.shape[:-1])[()]
 
-    def clearance(self, xy) -> np.ndarray:
+    def clearance(self, xy, map_entry: float | None = None) -> np.ndarray:
         """Per obstacle, the smallest distance from the path ``xy`` to its edge; with a map, a
         last entry: the least clearance of the polyline ``xy`` against the map's blocked cells
-        (exact at the points, a proven lower bound between them)."""
+        (exact at the points, a proven lower bound between them), or ``map_entry`` where the
+        caller measured it more finely."""
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         discs = clearance(xy, self.obstacles)
         if self.map is None:
             return discs
-        return np.append(discs, self.map.path_clearance(xy))
+        return np.append(discs, self.map.path_clearance(xy) if map_entry is None else map_entry)
 
     def with_weight(self, weight: float) -> ObstaclePenalty:
         """The same obstacles with another weight."""

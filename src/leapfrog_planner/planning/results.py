@@ -153,9 +153,9 @@ def validate_arcs(
         cost += r.cost
     tr = _joined(parts)
     H = tr.hamiltonian[tr.at_step]
-    clearance = problem.penalty.clearance(tr.x[:, :2])
-    if problem.penalty.map is not None:  # (both are lower bounds: the larger is kept)
-        clearance[-1] = max(clearance[-1], map_clearance(problem.penalty.map, flow, tr))
+    world = problem.penalty.map
+    on_map = None if world is None else map_clearance(world, flow, tr)
+    clearance = problem.penalty.clearance(tr.x[:, :2], map_entry=on_map)
     return Validation(
         trajectory=tr,
         cost=cost,
@@ -172,15 +172,18 @@ def map_clearance(world, flow: Flow, tr: Trajectory) -> float:
     """The clearance of the extremal ``tr`` (integrated by ``flow``) against the map ``world``
     (an :class:`~leapfrog_planner.world.ObstacleMap`): exact at its rows, and between rows
     whose bound hides a lower value, from that stretch integrated again more finely (see
-    :data:`CLEARANCE_TOLERANCE`); a lower bound of the clearance along the motion."""
+    :data:`CLEARANCE_TOLERANCE`); a lower bound of the clearance along the motion, and never
+    below the bound of the rows alone (``ObstacleMap.path_clearance``: both are lower bounds)."""
     keep = np.append(np.diff(tr.t) > 0, True)  # (a junction's time once)
     pieces = [(tr.t[keep], np.hstack([tr.x[keep], tr.lam[keep]]))]
     clear = [world.clearance_at(pieces[0][1][:, :2])]
-    low, bound = float(clear[0].min()), np.inf
+    low, bound, rows_bound = float(clear[0].min()), np.inf, None
     for level in range(REFINE_LEVELS + 1):
         finer = []
         for (t, z), c in zip(pieces, clear, strict=True):
             b = 0.5 * (c[:-1] + c[1:] - np.hypot(*np.diff(z[:, :2], axis=0).T))
+            if rows_bound is None:  # (the first piece: every row)
+                rows_bound = float(min(c.min(), b.min(initial=np.inf)))
             hides = b < low - CLEARANCE_TOLERANCE
             bound = min(bound, float(b[~hides].min(initial=np.inf)))
             for i0, i1 in _stretches(hides):  # rows i0 .. i1, each segment hiding
@@ -196,7 +199,7 @@ def map_clearance(world, flow: Flow, tr: Trajectory) -> float:
         points = world.clearance_at(np.vstack([z[:, :2] for _, z in pieces]))
         clear = np.split(points, np.cumsum([len(t) for t, _ in pieces])[:-1])
         low = min(low, float(points.min()))
-    return min(low, bound)
+    return max(rows_bound, min(low, bound))
 
 
 def _stretches(mask: np.ndarray) -> list[tuple[int, int]]:
