@@ -73,6 +73,15 @@ def test_a_saved_result_loads_back_field_for_field(case4, saved, name):
     assert r.settings["leapfrog"]["method"] == "modified-newton"
 
 
+def test_a_json_result_is_indented_with_each_column_on_one_line(case4, saved):
+    lines = (saved / "r.json").read_text(encoding="utf-8").splitlines()
+    assert lines[1] == ' "schema": 3,'  # the tables indented, one key to a line
+    answer = lines[lines.index(' "trajectory": {') :]
+    row = next(line for line in answer if line.startswith('  "t": ['))
+    column = json.loads(row.split(": ", 1)[1].rstrip(","))
+    assert column == case4.trajectory.t.tolist()  # every time of the answer, on one line
+
+
 def test_the_other_optima_are_kept_as_trajectories(case4):
     assert case4.alternatives
     for alt in case4.alternatives:
@@ -219,7 +228,7 @@ def test_a_damaged_result_file_is_refused_not_drawn(saved, tmp_path, how):
     """The tool's own files, read back damaged: one line, exit 2, nothing drawn or written."""
     text = (saved / "r.json").read_text()
     if how == "inf in t":
-        text = text.replace('"t": [\n   0.0', '"t": [\n   1e999', 1)
+        text = text.replace('"t": [0.0', '"t": [1e999', 1)
         assert "1e999" in text
     elif how == "nested 100000 deep":
         text = "[" * 100_000 + "]" * 100_000

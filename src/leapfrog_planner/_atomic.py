@@ -1,15 +1,17 @@
-"""Atomic file writes: a temporary file in the same folder, then a rename. Never half a file."""
+"""Atomic file writes: a temporary file in the same folder, then a rename. Never half a file.
+And the JSON text of the result files they write, as a person reads it."""
 
 from __future__ import annotations
 
 import errno
+import json
 import os
 import stat
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["write_atomic", "write_text_atomic"]
+__all__ = ["json_text", "write_atomic", "write_text_atomic"]
 
 
 def _umask() -> int:
@@ -60,3 +62,18 @@ def write_atomic(path, write: Callable[[str], None]) -> None:
 def write_text_atomic(path, text: str) -> None:
     """:func:`write_atomic` of ``text``, as it is (UTF-8, line ends untranslated)."""
     write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8", newline=""))
+
+
+def json_text(value, indent: str = "") -> str:
+    """``value`` (plain data) as indented JSON with each list of numbers or strings on one
+    line: a result's columns of thousands of rows read as columns, and are written by the
+    standard library's compiled encoder (an indented dump goes through its Python encoder,
+    several times slower: 0.08 s of paper case 4's 0.1 s)."""
+    inner = indent + " "
+    if isinstance(value, dict) and value:
+        items = (f"{inner}{json.dumps(str(k))}: {json_text(v, inner)}" for k, v in value.items())
+        return "{\n" + ",\n".join(items) + "\n" + indent + "}"
+    if isinstance(value, list) and any(isinstance(v, (dict, list)) for v in value):
+        items = (inner + json_text(v, inner) for v in value)
+        return "[\n" + ",\n".join(items) + "\n" + indent + "]"
+    return json.dumps(value, allow_nan=False)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .._atomic import write_atomic, write_text_atomic
+from .._atomic import json_text, write_atomic, write_text_atomic
 from ..errors import LeapfrogError
 from ..integrate.flow import Trajectory
 from .leapfrog import SweepRecord
@@ -401,8 +401,7 @@ def _check_trajectory(tr: Trajectory, label: str, bad) -> None:
 
 
 def save_json(r, path) -> None:
-    text = json.dumps(result_to_dict(r), indent=1, allow_nan=False)
-    write_text_atomic(path, text)
+    write_text_atomic(path, json_text(result_to_dict(r)))
 
 
 def save_npz(r, path) -> None:

@@ -43,6 +43,7 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from .._atomic import json_text
 from ..planning.scenario import builtin_scenarios, load_scenario
 from .maps import MAX_MAP_BYTES, MAX_UPLOAD_BYTES, MapStore, parse_upload
 from .pool import PoolError, SolvePool
@@ -272,7 +273,7 @@ def _named_map(body: bytes, req: PlanRequest) -> bytes:
     table = (data.get("scenario_file") or {}).get("map")
     if isinstance(table, dict) and "file" in table:
         table["file"] = req.map.name
-    return json.dumps(data, indent=1, allow_nan=False).encode()
+    return json_text(data).encode()
 
 
 def _download(body: bytes, media_type: str, name: str) -> Response:

@@ -93,6 +93,7 @@ def _csv(result) -> bytes:
 
 def answer(job, threads: int = 0) -> tuple[str, object]:
     """The answer to one job (see the module's documentation)."""
+    from .._atomic import json_text
     from ..errors import LeapfrogError
     from .view import result_view
 
@@ -103,7 +104,7 @@ def answer(job, threads: int = 0) -> tuple[str, object]:
             body = json.dumps(result_view(result), allow_nan=False, separators=(",", ":"))
             return "ok", body.encode()
         if kind == "json":
-            return "ok", json.dumps(result.to_dict(), indent=1, allow_nan=False).encode()
+            return "ok", json_text(result.to_dict()).encode()
         if kind == "csv":
             return "ok", _csv(result)
         return "error", f"unknown job {kind!r}"
