@@ -18,7 +18,7 @@ Every case: no traceback, no hang; bad input exits 2 with exactly one line ``err
 leaves every file as it was (no output written); valid input exits 0 or 1 and leaves its inputs
 as they were. A damaged result file or store is refused unless the damage is listed as harmless
 below, with the reason. Case counts (``test_the_corpus_is_large_enough`` keeps them):
-scenario 692, options 687 (this module), result 1491, store 284
+scenario 692, options 702 (this module), result 1491, store 284
 (tests/test_hostile_corpus_files.py): 3110 in all, and 18 of files cut short.
 """
 

@@ -257,10 +257,13 @@ def test_multiple_shooting_fallback_is_converged_coarse_then_polished(monkeypatc
         t,
         X,
         flow=planner.flow,
-        settings=LeapfrogSettings(final="multiple-shooting", final_retry_sweeps=0),
+        settings=LeapfrogSettings(
+            final="multiple-shooting", final_retry_sweeps=0, final_least_squares=0
+        ),
     )
-    # A failed coarse stage ends that level's attempt: then the refined level's (twice the
-    # junctions) is tried, coarse first too, and so on: 4, 8 and 16 arcs.
+    # A failed coarse stage ends that level's attempt (here without Levenberg-Marquardt after
+    # it): then the refined level's (twice the junctions) is tried, coarse first too, and so
+    # on: 4, 8 and 16 arcs.
     assert not failed.success and len(stages) == 3
     assert arcs == [4, 8, 16] == [4 * 2**k for k in range(LeapfrogSettings().final_refinements + 1)]
     assert all(rtol == local.integrator.rtol for rtol, *_ in stages)
@@ -288,14 +291,18 @@ def test_past_the_time_limit_the_final_solve_refines_no_more(monkeypatch):
     monkeypatch.setattr(lf, "solve_multiple_shooting", late)
     planner = Planner(CASES[4].name, threads=1)
     t, X = planner.initial_paths()[2].junctions(8, planner.scenario.horizon)
-    settings = LeapfrogSettings(final="multiple-shooting", final_retry_sweeps=0)
+    settings = LeapfrogSettings(
+        final="multiple-shooting", final_retry_sweeps=0, final_least_squares=0
+    )
     run = leapfrog(planner.problem, t, X, flow=planner.flow, settings=settings, deadline=deadline)
     assert not run.success and arcs == [4]  # without the limit: 4, 8 and 16 arcs
     # A run whose limit passed before its final solve (cut short, its arcs not merged) tries
     # simple shooting, and multiple shooting only on a level of a few arcs.
     from leapfrog_planner.planning.leapfrog.local import LocalSolver
 
-    local = LocalSolver(planner.problem, planner.flow, LeapfrogSettings(final="auto"))
+    local = LocalSolver(
+        planner.problem, planner.flow, LeapfrogSettings(final="auto", final_least_squares=0)
+    )
     ends = (planner.scenario.start, planner.scenario.goal, 0.0, planner.scenario.horizon)
 
     def level(q):
@@ -496,11 +503,17 @@ def test_failed_final_solves_are_retried_after_more_sweeps_at_the_last_level():
     path = planner.initial_paths()[0]
     t, X = path.junctions(planner.settings.leapfrog.partitions, sc.horizon)
     guide = PathGuide(planner.problem, path, sc.horizon)
-    settings = replace(planner.settings.leapfrog, final_retry_sweeps=0)
+    settings = replace(planner.settings.leapfrog, final_retry_sweeps=0, final_least_squares=0)
     # the path alone (a plan would go on to paths at a wider margin, and converge)
     without = leapfrog(planner.problem, t, X, guide=guide, settings=settings, flow=planner.flow)
     assert not without.success and "final solve failed" in without.message
-    r = plan(sc, method=NM, initial_paths=1, threads=1)
+    # (Levenberg-Marquardt, the default after Newton's multiple shooting fails, converges there
+    # without the retry: the retry is tested without it.)
+    trust = replace(settings, final_least_squares=LeapfrogSettings().final_least_squares)
+    lm = leapfrog(planner.problem, t, X, guide=guide, settings=trust, flow=planner.flow)
+    assert lm.success and lm.final_solver == "multiple-shooting"
+    assert len(lm.history) == len(without.history)
+    r = plan(sc, method=NM, initial_paths=1, threads=1, final_least_squares=0)
     assert r.initial_path == path.label
     assert r.success, r.message
     assert r.final_solver == "shooting" and "after the final solves had failed" in r.message
@@ -871,6 +884,8 @@ def test_a_bound_known_late_stops_a_run_as_if_known_from_its_start(case1, after)
     """A run raced against others in other threads learns their bound when they end: it is
     abandoned at the first sweep above the bound, with what it had then, whenever it learns
     it (after 0, 2 or 5 sweeps, or only before the final solve)."""
+    from leapfrog_planner.planning.leapfrog.stop import FIRST_JUDGED_SWEEP
+
     planner, path = case1
     t, X = path.junctions(8, 1.0)
 
@@ -882,7 +897,8 @@ def test_a_bound_known_late_stops_a_run_as_if_known_from_its_start(case1, after)
     assert len(costs) >= 8 and all(np.diff(costs) < 0)
     within = 0.5 * (costs[4] + costs[5])  # Leapfrog's cost falls: above it from the first
     abandoned = run(within)
-    assert abandoned.status.value == "abandoned" and len(abandoned.history) == 1
+    assert abandoned.status.value == "abandoned"
+    assert len(abandoned.history) == FIRST_JUDGED_SWEEP  # (the first sweep is never judged)
     _same_run(run(_LateBound(within, after)), abandoned)
     _same_run(run(_LateBound(2.0 * costs[0], after)), free)  # never above it
 
@@ -909,7 +925,7 @@ def test_no_refinement_is_begun_that_would_end_past_the_time_limit(monkeypatch):
 
     monkeypatch.setattr(lf, "solve_multiple_shooting", slow)
     planner = Planner(CASES[4].name, threads=1)
-    settings = LeapfrogSettings(final="multiple-shooting")
+    settings = LeapfrogSettings(final="multiple-shooting", final_least_squares=0)
     local = LocalSolver(planner.problem, planner.flow, settings)
     ends = (planner.scenario.start, planner.scenario.goal, 0.0, planner.scenario.horizon)
     t, X = planner.initial_paths()[2].junctions(4, planner.scenario.horizon)

@@ -354,3 +354,47 @@ def test_the_clearance_on_a_map_is_exact_between_sparse_samples(tmp_path):
     assert polyline < exact - 10 * CLEARANCE_TOLERANCE  # the bound alone reads low
     assert exact - 1.5 * CLEARANCE_TOLERANCE <= sparse.clearance[-1] <= exact + 1e-12
     assert abs(r.min_clearance - exact) <= 1.5 * CLEARANCE_TOLERANCE
+
+
+def test_levenberg_marquardt_converges_where_newtons_multiple_shooting_stalls(tmp_path):
+    """A long office route (72 length scales, T = 57 s): from a Leapfrog level of 20 arcs
+    (tests/data/office_level.json), Newton's multiple shooting (the final solves' settings at the
+    local problems' tolerance, as the final solver's first stage) stalls: its damped steps lower
+    |F| only by steps of a few hundredths of Newton's. Levenberg-Marquardt from the same start
+    converges, within the final solver's budget of evaluations, and the polish at the final
+    tolerance from there converges too: an extremal that the planner found this way."""
+    import json
+
+    from leapfrog_planner.bvp.multiple_shooting import (
+        MultipleShootingSystem,
+        solve_multiple_shooting,
+    )
+    from leapfrog_planner.integrate.flow import Flow
+    from leapfrog_planner.planning.planner import Planner
+    from leapfrog_planner.planning.scenario import scenario_from_dict
+    from leapfrog_planner.roots import RootStatus, solve_least_squares
+    from leapfrog_planner.world import office_maze, save_ros_map
+
+    data = json.loads((Path(__file__).parent / "data" / "office_level.json").read_text())
+    save_ros_map(office_maze(size=1000, seed=0), tmp_path / "office.yaml")
+    table = {**data["scenario"], "map": {"file": str(tmp_path / "office.yaml")}}
+    planner = Planner(scenario_from_dict(table))
+    s = planner.settings.leapfrog
+    steps = s.final_shooting.integrator.max_steps
+    flow = Flow(planner.problem, replace(s.shooting.integrator, max_steps=steps))
+    coarse = replace(s.final_solves().root, tol=s.shooting.root.tol)
+    t, X, lam0 = (np.array(data[k]) for k in ("t", "X", "lam0"))
+    ms = MultipleShootingSystem(flow, t, X[0], X[-1])
+    w0 = ms.pack(lam0[0], np.hstack([X[:-1], lam0]))
+
+    newton = solve_multiple_shooting(ms, w0, s.method, coarse)
+    assert newton.status is RootStatus.STALLED and newton.residual_norm > 100 * coarse.tol
+    lm = solve_least_squares(ms, w0, coarse, s.final_least_squares)
+    assert lm.status is RootStatus.CONVERGED and lm.residual_norm <= coarse.tol
+    assert lm.residual_norms[0] == pytest.approx(np.linalg.norm(ms.evaluate(w0, False)[0]))
+
+    fine = MultipleShootingSystem(
+        Flow(planner.problem, s.final_shooting.integrator), t, X[0], X[-1]
+    )
+    polish = solve_multiple_shooting(fine, lm.x, s.method, s.final_solves().root)
+    assert polish.success and polish.residual_norm <= 1e-10

@@ -17,6 +17,7 @@ from leapfrog_planner.roots import (
     ModifiedNewtonStep,
     RootSettings,
     RootStatus,
+    solve_least_squares,
     solve_root,
 )
 
@@ -312,3 +313,76 @@ def test_predicted_convergence_spares_jacobians_only(system, x0, method):
     assert fast.jac_evals < plain.jac_evals
     wrong = fast.f_evals - plain.f_evals  # predictions that failed: evaluated again with J
     assert 0 <= wrong < fast.iterations
+
+
+# --------------------------------------------------------------------------- Levenberg-Marquardt
+
+
+@pytest.mark.parametrize(
+    ("system", "x0", "root"),
+    [(ARCTAN, 2.0, 0.0), (ARCTAN, 10.0, 0.0), (SQRT2, 1.0, 2**0.5), (SQRT2, 50.0, 2**0.5)],
+)
+def test_levenberg_marquardt_converges_where_newton_diverges(system, x0, root):
+    """arctan from 2 and 10: Newton's full steps diverge; the trust region's do not. Its norms
+    start at |F(x0)|, one per iterate, and end within the tolerance."""
+    r = solve_least_squares(system, [x0], RootSettings(tol=1e-10), max_evaluations=100)
+    assert r.status is RootStatus.CONVERGED and r.success
+    assert abs(r.x[0] - root) < 1e-9 and r.residual_norm <= 1e-10
+    assert r.residual_norms[0] == pytest.approx(abs(system.fun(np.array([x0]))[0]))
+    assert r.residual_norms.size == r.iterations + 1 and r.residual_norms[-1] <= 1e-10
+    assert np.isnan(r.step_sizes).all() and r.step_sizes.size == r.iterations
+    assert r.f_evals >= r.jac_evals >= 1 and "<= 1e-10" in r.message
+
+
+def test_levenberg_marquardt_stops_at_the_tolerance_asked():
+    """A point within ``tol`` ends the solve (MINPACK alone would go on towards |F| = 0), and a
+    start within it is the answer, after one evaluation."""
+    loose = solve_least_squares(ARCTAN, [10.0], RootSettings(tol=1e-2), max_evaluations=100)
+    tight = solve_least_squares(ARCTAN, [10.0], RootSettings(tol=1e-12), max_evaluations=100)
+    assert loose.success and 1e-12 < loose.residual_norm <= 1e-2
+    assert loose.f_evals < tight.f_evals
+    at = solve_least_squares(SQRT2, [np.sqrt(2.0)], RootSettings(tol=1e-10), max_evaluations=9)
+    assert at.success and at.iterations == 0 and at.f_evals == 1 and at.jac_evals == 0
+
+
+def test_levenberg_marquardt_failure_codes():
+    """No root: the least-squares minimum (x^2 + 1 at 0; Freudenstein-Roth's valley at
+    (11.41, -0.8968), |F| = 7), said as such. Out of evaluations: max-iterations. F not
+    finite at the start: non-finite."""
+    settings = RootSettings(tol=1e-10)
+    r = solve_least_squares(NO_ROOT, [2.0], settings, max_evaluations=100)
+    assert r.status is RootStatus.STALLED and not r.success
+    assert abs(r.x[0]) < 1e-6 and r.residual_norm == pytest.approx(1.0)
+    assert "least-squares minimum" in r.message
+    r = solve_least_squares(FR, [0.5, -2.0], settings, max_evaluations=200)
+    assert r.status is RootStatus.STALLED and r.residual_norm == pytest.approx(7.0, rel=1e-3)
+    assert abs(r.x[1] + 0.8968) < 1e-3
+    r = solve_least_squares(FR, [0.5, -2.0], settings, max_evaluations=3)
+    assert r.status is RootStatus.MAX_ITERATIONS and r.residual_norm > 7.0
+    with np.errstate(invalid="ignore"):
+        r = solve_least_squares(scalar(np.log, lambda x: 1.0 / x), [-1.0], settings, 100)
+    assert r.status is RootStatus.NON_FINITE and r.iterations == 0 and np.isnan(r.F).all()
+
+
+def test_levenberg_marquardt_that_no_longer_lowers_f_has_stalled():
+    """1 + exp(-x / 50) / 100 falls towards 1 without end: after STALL_WINDOW iterates that
+    lowered |F| by less than 1%, the solve ends as stalled (the office maze's failing ones
+    stayed flat for hundreds of iterates), long before its budget of evaluations."""
+    from leapfrog_planner.roots.least_squares import STALL_WINDOW
+
+    creep = scalar(lambda x: 1.0 + 1e-2 * np.exp(-x / 50.0), lambda x: -2e-4 * np.exp(-x / 50.0))
+    r = solve_least_squares(creep, [0.5], RootSettings(), max_evaluations=500)
+    assert r.status is RootStatus.STALLED and r.iterations == STALL_WINDOW
+    assert r.f_evals < 50 and r.residual_norm == pytest.approx(1.0, abs=1e-2)
+
+
+def test_levenberg_marquardt_steps_back_from_points_it_cannot_evaluate():
+    """sqrt(x) - 0.1 from 4: trial points at x < 0 cannot be evaluated (F is None there); the
+    trust region shrinks and the solve still ends at the root 0.01."""
+
+    def fun(x):
+        return np.sqrt(x) - 0.1 if x[0] >= 0 else np.array([np.nan])
+
+    system = scalar(fun, lambda x: 0.5 / np.sqrt(x))
+    r = solve_least_squares(system, [4.0], RootSettings(tol=1e-12), max_evaluations=200)
+    assert r.success and r.x[0] == pytest.approx(0.01, rel=1e-9)

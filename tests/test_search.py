@@ -84,6 +84,27 @@ def test_an_answer_that_falls_short_is_sought_again_with_twice_the_partitions(mo
     assert {q.round.partitions for q in no_doubling} == {8}
 
 
+def test_an_answer_through_an_obstacle_after_the_weight_raises_is_sought_again_finer(monkeypatch):
+    """Every extremal made to collide (each run asked to keep a margin it cannot): the round's
+    weight raises find none that clears either, and the stages run again with twice the
+    partitions, as for an answer with no extremal (on an office maze's long route the finer
+    round found the clear optimum the first round's extremals through walls had hidden)."""
+    seen = []
+    real = Runner.run
+
+    def run(self, request, k=0, paths=1):
+        seen.append(request)
+        return replace(real(self, request, k, paths), margin=1e9)
+
+    monkeypatch.setattr(Runner, "run", run)
+    r = plan("paper-case-2", initial_paths=1, extra_paths=0)
+    assert r.status is PlanStatus.COLLIDES and not r.optimal
+    rounds = list(dict.fromkeys((q.round.partitions, q.round.reason) for q in seen))
+    assert [q for q, _ in rounds] == [8, 16]
+    assert "fell short (no extremal clears the obstacles)" in rounds[1][1]
+    assert {"weight raised"} <= {rec.stage for rec in r.search}
+
+
 def test_a_car_whose_runs_clear_nothing_runs_again_at_the_aids_next_value(monkeypatch):
     """The car's planning aid comes from its model: Leapfrog runs with the turn assist 1, then
     (no run clears) twice the partitions, then the assist 0.5; a unicycle has no such round."""
@@ -124,7 +145,8 @@ def test_extra_paths_raced_beside_the_first_give_the_same_search_whatever_the_th
     """The extra paths queue behind the first ones in one batch and learn their bound (three
     times the first paths' cheapest extremal) only when those end: each is judged as if it had
     known it from its start, so one thread, two, or one per path give the same runs, bit for
-    bit (a layout of the general preset whose extra path is abandoned after its first sweep)."""
+    bit (a layout of the general preset whose extra path is abandoned after its second sweep,
+    the first one judged)."""
     from leapfrog_planner.batch.generate import GeneratorSpec, generate
 
     sc = list(generate(GeneratorSpec.preset("general", n=10, seed=1)))[9]
@@ -135,7 +157,7 @@ def test_extra_paths_raced_beside_the_first_give_the_same_search_whatever_the_th
     ]
     assert records[0] == records[1] == records[2]
     extra = [q for q in results[0].search if q.stage == "more paths"]
-    assert any(q.message.startswith("abandoned after sweep 1") for q in extra)
+    assert any(q.message.startswith("abandoned after sweep 2") for q in extra)
     assert len({r.cost for r in results}) == 1 and results[0].success
 
 

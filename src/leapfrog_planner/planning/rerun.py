@@ -106,11 +106,14 @@ def recorded_task(result: PlanResult, options=None) -> tuple[Scenario, PlannerSe
 def recorded_settings(result: PlanResult) -> PlannerSettings:
     """The planner's settings ``result`` records, checked as settings (a
     :class:`SettingsError` that names the result's scenario). A result written before a
-    setting existed planned as its value 0 does: ``long_route`` (every route a short one) and
-    ``min_extra_paths`` (the extra paths only those the estimate gate let through)."""
+    setting existed planned as its value 0 does: ``long_route`` (every route a short one),
+    ``min_extra_paths`` (the extra paths only those the estimate gate let through) and
+    Leapfrog's ``final_least_squares`` (no Levenberg-Marquardt after a failed Newton)."""
     try:
-        older = {"long_route": 0.0, "min_extra_paths": 0}
-        return PlannerSettings.from_dict({**older, **result.settings})
+        recorded = {"long_route": 0.0, "min_extra_paths": 0, **result.settings}
+        if isinstance(recorded.get("leapfrog"), dict):
+            recorded["leapfrog"] = {"final_least_squares": 0, **recorded["leapfrog"]}
+        return PlannerSettings.from_dict(recorded)
     except SettingsError as e:
         raise SettingsError(f"{result.scenario}: the recorded settings: {e}") from None
 

@@ -9,8 +9,8 @@ round (:func:`next_round`) when the stages of a round are done:
 1. ``paths``: the initial paths of least estimated cost, one per family (:func:`select_paths`),
    and in the same batch ``more paths``: the next ones, while estimated within ``EXTRA_GATE``
    times the cheapest (and at least ``min_extra_paths`` of them), each stopped once a sweep
-   leaves it ``ABANDON_FACTOR`` times dearer than the cheapest collision-free extremal of the
-   first.
+   (its second or a later one) leaves it ``ABANDON_FACTOR`` times dearer than the cheapest
+   collision-free extremal of the first.
 2. ``wider margin``: initial paths at the penalty's own margin, where those at the robot's
    margin led to no extremal, or were estimated far dearer than the extremals they led to.
 3. ``penalty-timed``: still no extremal (an end in the penalty's grip): the paths followed at
@@ -227,12 +227,12 @@ def _asked(runs: list[PathRun], stage: str) -> list[PathRun]:
 def ranked_paths(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
     """The initial paths of least estimated cost (:meth:`.Planner.initial_paths`) and the
     extra ones (:func:`select_paths`, stage ``more paths``), raced against them: each extra
-    stops at the first sweep that leaves it ``ABANDON_FACTOR`` times dearer than their cheapest
-    collision-free extremal. The extras follow the first paths in one batch (with the default
-    ``threads``, one per run, all start at once; with fewer, as threads free up); the bound is
-    known when the first paths have all ended, and a run judged then as if it had known it
-    from its start (:class:`.leapfrog.stop.StopRule`): the answer does not depend on which run
-    ends first."""
+    stops at the first sweep (from its second) that leaves it ``ABANDON_FACTOR`` times dearer
+    than their cheapest collision-free extremal. The extras follow the first paths in one
+    batch (with the default ``threads``, one per run, all start at once; with fewer, as
+    threads free up); the bound is known when the first paths have all ended, and a run
+    judged then as if it had known it from its start (:class:`.leapfrog.stop.StopRule`): the
+    answer does not depend on which run ends first."""
     if runs:
         return []
     race = LeadersBound(len(search.paths), ABANDON_FACTOR) if search.extras else None
@@ -318,12 +318,15 @@ STAGES: tuple[Stage, ...] = (ranked_paths, wider_margin, timed_by_penalty, weigh
 
 
 def falls_short(runs: list[PathRun], chosen: Chosen) -> str:
-    """Why the answer of ``runs`` falls short (empty when it does not): no extremal at all, a
+    """Why the answer of ``runs`` falls short (empty when it does not): no extremal at all, none
+    that clears the obstacles (also after the round's weight raises: office maze query 26, whose
+    first round found only extremals through walls and whose finer one found the optimum), a
     collision-free iterate cheaper than the best extremal, or no extremal from a path of a
-    homotopy class (a three-point turn's alone). (Extremals that only pass through obstacles
-    are the weight raises' to mend.)"""
+    homotopy class (a three-point turn's alone)."""
     if chosen.status is PlanStatus.FAILED:
         return "no extremal"
+    if chosen.status is PlanStatus.COLLIDES:
+        return "no extremal clears the obstacles"
     if chosen.answer.cheaper is not None:
         return "a collision-free iterate is cheaper than the extremal"
     if not any(r.extremal for r in runs if not r.path.modes.cusp):

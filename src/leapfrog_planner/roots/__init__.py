@@ -1,6 +1,7 @@
 """Newton-type root solvers: one loop, interchangeable step strategies."""
 
 from ..compiled.status import RootStatus
+from .least_squares import solve_least_squares
 from .loop import RootSettings, solve_root
 from .result import RootResult
 from .steps import STRATEGIES, ModifiedNewtonStep, NewtonStep, NleqErrStep, get_strategy
@@ -17,5 +18,6 @@ __all__ = [
     "RootStatus",
     "RootSystem",
     "get_strategy",
+    "solve_least_squares",
     "solve_root",
 ]

@@ -140,7 +140,7 @@ def leapfrog(
     stop = StopRule(stop_above)
     while not terminate(state, settings) and time.perf_counter() < deadline:
         step(state, local, settings, progress)
-        if stop.asks(state.last_cost()):
+        if stop.asks(state.last_cost(), len(state.history)):
             lost = stop.judge(_snapshot(state, local, time.perf_counter() - t_start))
             if lost is not None:
                 return _abandoned(lost, stop.bound)

@@ -51,6 +51,9 @@ class LeapfrogSettings:
     # Multiple shooting's arcs: those of the last level with q > 2, then every arc split in
     # two, at most this many times (4, 8, 16 arcs from a level of 4).
     final_refinements: int = 2
+    # Where Newton's multiple shooting over the last level fails, Levenberg-Marquardt from the
+    # same start, at most this many trial points (0: none; docs/tuning.md).
+    final_least_squares: int = 200
     max_split_depth: int = 4  # a failing initial segment is split in two at most this deep
     max_refinements: int = 2  # levels that end with a failing local problem are refined
     attempt_iterations: int = 10  # per attempt at a local problem before the next strategy
@@ -96,6 +99,7 @@ class LeapfrogSettings:
             raise SettingsError("reduce_tol, jump_tol and final_retry_jump must be > 0")
         require_integer("final_retry_sweeps", self.final_retry_sweeps, 0, 1000)
         require_integer("final_refinements", self.final_refinements, 0, 6)
+        require_integer("final_least_squares", self.final_least_squares, 0, 100_000)
         if self.final not in FINAL_MODES:
             raise SettingsError(
                 f"final must be one of {', '.join(FINAL_MODES)}, got {self.final!r}"
