@@ -177,7 +177,11 @@ def test_a_failure_is_an_answer_with_its_message_and_best_motion(client):
     v = r.json()
     assert v["status"] == "collides" and not v["optimal"] and not v["success"]
     assert v["message"].startswith("every extremal found passes through an obstacle")
-    assert v["trajectory_source"] == "initial path, not optimal"
+    # the best collision-free motion computed: a Leapfrog iterate or the initial path
+    assert (
+        v["trajectory_source"].endswith(", not optimal")
+        and "extremal" not in v["trajectory_source"]
+    )
     assert len(v["path"]["x"]) == 401 and v["cost"] > 0
 
 

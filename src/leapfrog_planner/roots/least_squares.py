@@ -13,7 +13,6 @@ step towards steepest descent inside a trust region instead, and keeps making pr
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..compiled.status import RootStatus
 from .loop import RootSettings
@@ -87,6 +86,8 @@ def solve_least_squares(
     the Jacobians at the iterates it accepts come on top). Its
     ``residual_norms`` are ``|F|`` at the iterates where it evaluated the Jacobian (the first is
     ``x0``) and at the last; ``step_sizes`` are NaN (a trust region has no damping factor)."""
+    from scipy.optimize import least_squares  # here: SciPy's optimize takes 0.1 s to import
+
     x0 = np.array(x0, dtype=float, copy=True).reshape(-1)
     F0, _ = system.evaluate(x0, False)
     if F0 is None:
