@@ -374,6 +374,7 @@ def test_levenberg_marquardt_that_no_longer_lowers_f_has_stalled():
     r = solve_least_squares(creep, [0.5], RootSettings(), max_evaluations=500)
     assert r.status is RootStatus.STALLED and r.iterations == STALL_WINDOW
     assert r.f_evals < 50 and r.residual_norm == pytest.approx(1.0, abs=1e-2)
+    assert "did not fall below 0.99 times the largest of the last 10" in r.message
 
 
 def test_levenberg_marquardt_steps_back_from_points_it_cannot_evaluate():

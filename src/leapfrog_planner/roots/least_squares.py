@@ -16,13 +16,13 @@ import numpy as np
 
 from ..compiled.status import RootStatus
 from .loop import RootSettings
-from .messages import converged, max_iterations, non_finite
+from .messages import converged, max_iterations, non_finite, stalled
 from .result import RootResult
 from .steps import vnorm
 from .system import RootSystem
 
-#: A solve whose |F| at its last ``STALL_WINDOW`` iterates fell by less than 1% (above
-#: ``STALL_FACTOR`` times the norm before them) has stalled: on the office maze's runs whose
+#: A solve whose |F| is above ``STALL_FACTOR`` times the largest of its ``STALL_WINDOW``
+#: iterates before (fell by less than 1% in 10) has stalled: on the office maze's runs whose
 #: Levenberg-Marquardt failed, |F| stayed flat for hundreds of iterates (0.064 for 370 of them),
 #: where every one that converged lowered it by 5% or more in each 10.
 STALL_WINDOW = 10
@@ -69,7 +69,7 @@ class _Counted:
             return np.eye(x.size)
         self.norms.append(vnorm(self.F))
         n, w = self.norms, STALL_WINDOW
-        if len(n) > w and n[-1] > STALL_FACTOR * n[-1 - w]:
+        if len(n) > w and n[-1] > STALL_FACTOR * max(n[-1 - w : -1]):  # (as the Newton loop)
             raise _Stalled
         return self.J
 
@@ -83,9 +83,9 @@ def solve_least_squares(
 ) -> RootResult:
     """``F(x) = 0`` by Levenberg-Marquardt from ``x0``: converged when ``|F| <= settings.tol``
     at its last iterate, after at most ``max_evaluations`` trial points (SciPy's ``max_nfev``;
-    the Jacobians at the iterates it accepts come on top). Its
-    ``residual_norms`` are ``|F|`` at the iterates where it evaluated the Jacobian (the first is
-    ``x0``) and at the last; ``step_sizes`` are NaN (a trust region has no damping factor)."""
+    the Jacobians at the iterates it accepts come on top). Its ``residual_norms`` are ``|F|``
+    at the iterates where it evaluated the Jacobian (the first is ``x0``) and at the last;
+    ``step_sizes`` are NaN (a trust region has no damping factor)."""
     from scipy.optimize import least_squares  # here: SciPy's optimize takes 0.1 s to import
 
     x0 = np.array(x0, dtype=float, copy=True).reshape(-1)
@@ -99,9 +99,11 @@ def solve_least_squares(
             counted.fun, x0, jac=counted.jac, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15,
             max_nfev=max_evaluations,
         )  # fmt: skip
-        x, out_of_evaluations = fit.x, fit.status == 0
-    except (_Root, _Stalled):
-        x, out_of_evaluations = counted.x, False
+        x, out_of_evaluations, creeping = fit.x, fit.status == 0, False
+    except _Root:
+        x, out_of_evaluations, creeping = counted.x, False, False
+    except _Stalled:
+        x, out_of_evaluations, creeping = counted.x, False, True
     same = np.array_equal(x, counted.x)
     F = counted.F if same else system.evaluate(x, False)[0]
     evals, jacs = counted.f_evals + (not same), counted.jac_evals
@@ -116,7 +118,9 @@ def solve_least_squares(
         status, message = RootStatus.CONVERGED, converged(norm, settings.tol, its)
     elif out_of_evaluations:
         status, message = RootStatus.MAX_ITERATIONS, max_iterations(norm, its)
-    else:  # near a local minimum of |F|^2 that is no root
+    elif creeping:
+        status, message = RootStatus.STALLED, stalled(norm, STALL_FACTOR, STALL_WINDOW)
+    else:  # MINPACK's own end: a local minimum of |F|^2 that is no root
         status = RootStatus.STALLED
         message = f"|F| = {norm:.3g}: a least-squares minimum that is no root, {its} iterations"
     return _result(x, F, status, message, norms, evals, jacs)
