@@ -57,6 +57,7 @@ import numpy as np
 
 from ..integrate.flow import Flow, FlowStatus, IntegratorSettings, Trajectory
 from ..integrate.problem import OptimalControlProblem
+from ..world.obstacle_map import polyline_bound, segment_bounds
 from .export import interpolate_columns, resample_columns, result_html
 from .leapfrog import Arcs, SweepRecord
 from .result_files import load_result, result_to_dict, save_json, save_npz, trajectory_columns
@@ -177,13 +178,12 @@ def map_clearance(world, flow: Flow, tr: Trajectory) -> float:
     keep = np.append(np.diff(tr.t) > 0, True)  # (a junction's time once)
     pieces = [(tr.t[keep], np.hstack([tr.x[keep], tr.lam[keep]]))]
     clear = [world.clearance_at(pieces[0][1][:, :2])]
-    low, bound, rows_bound = float(clear[0].min()), np.inf, None
+    rows_bound = polyline_bound(pieces[0][1][:, :2], clear[0])
+    low, bound = float(clear[0].min()), np.inf
     for level in range(REFINE_LEVELS + 1):
         finer = []
         for (t, z), c in zip(pieces, clear, strict=True):
-            b = 0.5 * (c[:-1] + c[1:] - np.hypot(*np.diff(z[:, :2], axis=0).T))
-            if rows_bound is None:  # (the first piece: every row)
-                rows_bound = float(min(c.min(), b.min(initial=np.inf)))
+            b = segment_bounds(z[:, :2], c)
             hides = b < low - CLEARANCE_TOLERANCE
             bound = min(bound, float(b[~hides].min(initial=np.inf)))
             for i0, i1 in _stretches(hides):  # rows i0 .. i1, each segment hiding

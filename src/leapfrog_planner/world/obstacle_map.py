@@ -100,12 +100,21 @@ class ObstacleMap:
         on a segment of length ``L`` whose ends have clearances ``a`` and ``b`` it is at least
         ``(a + b - L) / 2`` (and at least ``min(a, b) - L / 2``)."""
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-        c = self.clearance_at(xy)
-        if c.size < 2:
-            return float(c.min(initial=np.inf))
-        seg = np.hypot(*np.diff(xy, axis=0).T)
-        between = 0.5 * (c[:-1] + c[1:] - seg)
-        return float(min(c.min(), between.min()))
+        return polyline_bound(xy, self.clearance_at(xy))
+
+
+def segment_bounds(xy: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Lower bounds of the clearance on each segment of the polyline through ``xy``
+    (``(N, 2)``) whose points' clearances are ``c``: the distance to the blocked cells is
+    1-Lipschitz, so on a segment of length ``L`` with end clearances ``a`` and ``b`` it is at
+    least ``(a + b - L) / 2``."""
+    return 0.5 * (c[:-1] + c[1:] - np.hypot(*np.diff(xy, axis=0).T))
+
+
+def polyline_bound(xy: np.ndarray, c: np.ndarray) -> float:
+    """A lower bound of the clearance along the polyline through ``xy``, exact at its points
+    (clearances ``c``): the least of ``c`` and of :func:`segment_bounds`."""
+    return float(min(c.min(initial=np.inf), segment_bounds(xy, c).min(initial=np.inf)))
 
 
 def with_shapes(occupancy: OccupancyMap, shapes: Shapes) -> OccupancyMap:
