@@ -358,21 +358,21 @@ def test_the_clearance_on_a_map_is_exact_between_sparse_samples(tmp_path):
 
 def test_levenberg_marquardt_converges_where_newtons_multiple_shooting_stalls(tmp_path):
     """A long office route (72 length scales, T = 57 s): from a Leapfrog level of 20 arcs
-    (tests/data/office_level.json), Newton's multiple shooting (the final solves' settings at the
-    local problems' tolerance, as the final solver's first stage) stalls: its damped steps lower
-    |F| only by steps of a few hundredths of Newton's. Levenberg-Marquardt from the same start
-    converges, within the final solver's budget of evaluations, and the polish at the final
-    tolerance from there converges too: an extremal that the planner found this way."""
+    (tests/data/office_level.json), the final solver's multiple shooting with Newton alone
+    stalls: its damped steps lower |F| only by steps of a few hundredths of Newton's. With
+    Levenberg-Marquardt after it (the default), the same level converges within the final
+    solver's budget of evaluations, polished at the final tolerance: an extremal that the
+    planner found this way, its end state reached."""
     import json
 
-    from leapfrog_planner.bvp.multiple_shooting import (
-        MultipleShootingSystem,
-        solve_multiple_shooting,
-    )
+    from leapfrog_planner.bvp.multiple_shooting import MultipleShootingSystem
     from leapfrog_planner.integrate.flow import Flow
+    from leapfrog_planner.planning.leapfrog.arcs import Junctions
+    from leapfrog_planner.planning.leapfrog.final import FinalSolver
+    from leapfrog_planner.planning.leapfrog.local import LocalSolver
     from leapfrog_planner.planning.planner import Planner
     from leapfrog_planner.planning.scenario import scenario_from_dict
-    from leapfrog_planner.roots import RootStatus, solve_least_squares
+    from leapfrog_planner.roots import RootStatus
     from leapfrog_planner.world import office_maze, save_ros_map
 
     data = json.loads((Path(__file__).parent / "data" / "office_level.json").read_text())
@@ -380,21 +380,17 @@ def test_levenberg_marquardt_converges_where_newtons_multiple_shooting_stalls(tm
     table = {**data["scenario"], "map": {"file": str(tmp_path / "office.yaml")}}
     planner = Planner(scenario_from_dict(table))
     s = planner.settings.leapfrog
-    steps = s.final_shooting.integrator.max_steps
-    flow = Flow(planner.problem, replace(s.shooting.integrator, max_steps=steps))
-    coarse = replace(s.final_solves().root, tol=s.shooting.root.tol)
     t, X, lam0 = (np.array(data[k]) for k in ("t", "X", "lam0"))
-    ms = MultipleShootingSystem(flow, t, X[0], X[-1])
-    w0 = ms.pack(lam0[0], np.hstack([X[:-1], lam0]))
+    level = Junctions(t, X, lam0, lam0, np.zeros(len(lam0)))  # (only t, X, lam0 are read)
+    local = LocalSolver(planner.problem, Flow(planner.problem, s.shooting.integrator), s)
+    final = FinalSolver(local, planner.flow, X[0], X[-1], t[0], t[-1])
 
-    newton = solve_multiple_shooting(ms, w0, s.method, coarse)
-    assert newton.status is RootStatus.STALLED and newton.residual_norm > 100 * coarse.tol
-    lm = solve_least_squares(ms, w0, coarse, s.final_least_squares)
-    assert lm.status is RootStatus.CONVERGED and lm.residual_norm <= coarse.tol
-    assert lm.residual_norms[0] == pytest.approx(np.linalg.norm(ms.evaluate(w0, False)[0]))
-
-    fine = MultipleShootingSystem(
-        Flow(planner.problem, s.final_shooting.integrator), t, X[0], X[-1]
-    )
-    polish = solve_multiple_shooting(fine, lm.x, s.method, s.final_solves().root)
-    assert polish.success and polish.residual_norm <= 1e-10
+    newton = final.multiple_shooting(level, trust_region=False)
+    assert not newton.success and newton.root.status is RootStatus.STALLED
+    assert newton.root.residual_norm > 100 * final.coarse_root.tol
+    found = final.multiple_shooting(level, trust_region=True)
+    assert found.success and found.solver == "multiple-shooting"
+    assert found.root.residual_norm <= s.final_shooting.root.tol  # the polish at 1e-10
+    ms = MultipleShootingSystem(planner.flow, found.extremal.t, X[0], X[-1])
+    w = ms.pack(found.extremal.lam0[0], np.hstack([found.extremal.X[:-1], found.extremal.lam0]))
+    assert np.linalg.norm(ms.evaluate(w, False)[0]) <= 1e-9  # continuous, and at the goal
