@@ -56,6 +56,19 @@ def run_case1(case1, q: int, **settings):
     return run, records
 
 
+def final_levels(monkeypatch) -> list[int]:
+    """The arcs of the level each final solve of the test starts from, in order."""
+    seen = []
+    original = FinalSolver.solve
+
+    def solve(self, lam0, junctions):
+        seen.append(junctions.q)
+        return original(self, lam0, junctions)
+
+    monkeypatch.setattr(FinalSolver, "solve", solve)
+    return seen
+
+
 def final_cost(planner, costate0) -> float:
     v = validate(planner.problem, 0.0, CASE1.start, 1.0, CASE1.goal, costate0)
     assert v.end_state_error <= 1e-8
@@ -164,14 +177,7 @@ def test_halving_stops_at_the_fewest_arcs_and_the_final_solve_starts_there(case1
     """``fewest_arcs = 4`` from q = 16: levels of 16, 8 and 4, never 2, and the final solves
     start from the 4-arc level (simple shooting from its first arc, multiple shooting over its
     arcs): the same extremal as the default run that halved down to 2."""
-    seen = []
-    original = FinalSolver.solve
-
-    def solve(self, lam0, junctions):
-        seen.append(junctions.q)
-        return original(self, lam0, junctions)
-
-    monkeypatch.setattr(FinalSolver, "solve", solve)
+    seen = final_levels(monkeypatch)
     run, _ = run_case1(case1, 16, fewest_arcs=4, sweeps_per_level=3)
     assert run.success, run.message
     qs = [h.q for h in run.history]
@@ -188,6 +194,19 @@ def test_max_sweeps_caps_the_sweeps(case1):
     run, records = run_case1(case1, 8, max_sweeps=2)
     assert len(run.history) == len(records) == 2
     assert run.history[-1].cost < run.initial_cost
+
+
+def test_a_run_cut_by_max_sweeps_hands_the_final_solve_the_level_it_was_sweeping(
+    case1, monkeypatch
+):
+    """Cut by ``max_sweeps`` after a halving (q = 16, 16, then 8), the final solves start from
+    the level of q = 8 it swept last, not from the one of q = 16 before its halving."""
+    levels = final_levels(monkeypatch)
+    run, records = run_case1(case1, 16, max_sweeps=3, sweeps_per_level=2)
+    assert [r.q for r in records] == [16, 16, 8]
+    assert levels == [8]
+    assert run.success, run.message
+    assert run.arcs.t.size - 1 == 8
 
 
 def test_multiple_shooting_final_solve_reaches_the_same_extremal(case1):

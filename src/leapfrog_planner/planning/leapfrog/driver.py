@@ -208,7 +208,7 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
     one whose last sweep at that level moved no junction: another would repeat it; no retry
     sweep begins past the final solver's deadline, a plan's time limit.)"""
     sweep_time = time.perf_counter() - t_start
-    arcs, level = state.arcs, state.last_multi
+    arcs, level = state.arcs, _multi_level(state)
     final_jump = arcs.max_jump()
     t_final = time.perf_counter()
     retry_time, first_failure, swept = 0.0, None, len(state.history)
@@ -256,6 +256,14 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
         arcs=(arcs if arcs.q > 2 or arcs is level else level).frozen(),
         fit_strategies=dict(local.strategies.counts),
     )
+
+
+def _multi_level(state: State) -> Junctions:
+    """The junctions the final multiple shooting starts from: the level swept last, unless the
+    sweeps reached ``q = 2`` (then the level before). A run that ends by ``max_sweeps`` or its
+    deadline above the fewest arcs hands over the level it was sweeping, not the one before its
+    last halving or refinement (its sweeps since then are the run's best)."""
+    return state.arcs if state.arcs.q > 2 else state.last_multi
 
 
 def _message(found: FinalSolution, first_failure, more: int, q: int, state: State) -> str:
@@ -310,7 +318,7 @@ def _without_arcs(status, message: str, local: LocalSolver | None = None, sweep_
 
 def _snapshot(state: State, local: LocalSolver, time_s: float) -> Snapshot:
     """The run after a sweep, as much of it as an abandoned run reports."""
-    arcs = state.arcs if state.arcs.q > 2 else state.last_multi
+    arcs = _multi_level(state)
     return Snapshot(
         state.last_cost(), tuple(state.history), arcs.frozen(), arcs.max_jump(),
         state.initial_cost, state.increases, local.count.iterations, local.count.f_evals,
