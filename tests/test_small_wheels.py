@@ -10,6 +10,8 @@ import pytest
 
 from leapfrog_planner.bvp.multiple_shooting import MultipleShootingSystem, within_costate_scale
 from leapfrog_planner.planning.planner import Planner
+from leapfrog_planner.planning.scenario import Scenario
+from leapfrog_planner.planning.search import raised_weight
 from leapfrog_planner.roots import RootResult, RootStatus
 
 MAPS = Path(__file__).parent / "data" / "maps"
@@ -45,15 +47,45 @@ def test_a_polish_stalled_within_the_tolerance_times_the_costates_counts_as_conv
         assert within_costate_scale(root, ms, 1e-10) is root  # left failed
 
 
-@pytest.mark.slow  # about 20 s warm (a plan of 20 runs), more when the kernels compile
+@pytest.mark.slow  # about 25 s warm (a plan of 20 runs), more when the kernels compile
 def test_a_turtlebot3_on_its_map_finds_a_clear_extremal():
-    # On main every extremal passed through a wall: the polishes of two runs at weight 1 and
-    # of the only extremal at weight 4 stalled at 1e-10 to 7e-10, so the weight was raised no
-    # further than 4 ("collides"). Measured here: cost 861.955 at weight 64, clearance 0.071.
+    # Once every extremal passed through a wall: the polishes of two runs at weight 1 and of
+    # the only extremal at weight 4 stalled at 1e-10 to 7e-10, so the weight was raised no
+    # further than 4 ("collides"). Then: cost 861.955 at weight 64, clearance 0.071. With the
+    # raises by the wheels' effort (12.2, 150, 1836): cost 852.784 at weight 150.
     result = Planner(TB3).plan()
     assert result.status == "converged"
-    assert result.weight <= 64.0
+    assert result.weight <= 150.0
     assert result.min_clearance > 0.0
     assert result.end_state_error <= 1e-8
     assert result.max_dH_du <= 1e-8
     assert result.cost <= 862.0
+
+
+def test_an_extremal_through_a_disc_is_raised_by_the_wheels_effort_until_one_clears():
+    """The TurtleBot3's wheels pay 1836 times the unicycle's effort for the same motion
+    (``2 / r^2``), so at weight 1 its extremals drive through a disc, and so they did at the
+    unicycle's raises (4, 16, 64: ``collides``). The raises grow by ``1836^(1/3)`` instead:
+    the answer is a clear extremal at weight 1836^(2/3) = 150, and the message says so."""
+    sc = Scenario(
+        name="tb3-disc", horizon=4.0, start=np.zeros(3), goal=np.array([2.0, 0.0, 0.0]),
+        obstacles=np.array([[1.0, 0.05, 0.3]]), model="diff-drive",
+        model_parameters={"wheel_radius": 0.033, "axle_length": 0.16}, weight=1.0,
+    )  # fmt: skip
+    scale = 2.0 / 0.033**2
+    assert [raised_weight(sc, k) for k in range(4)] == pytest.approx(
+        [1.0, scale ** (1 / 3), scale ** (2 / 3), scale], rel=1e-9
+    )
+    result = Planner(sc).plan()
+    assert result.status == "converged" and result.min_clearance > 0.0
+    assert 1.0 < result.weight <= scale
+    assert f"raised from 1 to {result.weight:g}" in result.message
+    assert result.end_state_error <= 1e-8 and result.max_dH_du <= 1e-8
+
+
+def test_the_unicycle_and_the_car_keep_raises_of_four():
+    for model, n in [("unicycle", 3), ("car", 4), ("diff-drive", 3)]:
+        sc = Scenario(
+            name="x", horizon=1.0, start=np.zeros(n), goal=np.ones(n), model=model, weight=1.0
+        )
+        assert [raised_weight(sc, k) for k in range(4)] == [1.0, 4.0, 16.0, 64.0]

@@ -16,7 +16,8 @@ round (:func:`next_round`) when the stages of a round are done:
 3. ``penalty-timed``: still no extremal (an end in the penalty's grip): the paths followed at
    the pace the penalty sets.
 4. ``weight raised``: every extremal passes through an obstacle: their paths again with the
-   obstacle weight raised (x4, up to three times).
+   obstacle weight raised (x4, up to three times; by more for a model that drives dearer than
+   the unicycle: :func:`raised_weight`).
 
 Rounds: the first at the settings' partitions and the aid's first value (on a long route, more
 partitions, halved down to more arcs: :func:`route_round`); when its answer falls short, the
@@ -33,7 +34,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import ScenarioError
+from ..errors import ModelError, ScenarioError
 from ..integrate.problem import OptimalControlProblem
 from ..model.aid import PlanningAid
 from .answer import Chosen
@@ -49,7 +50,8 @@ log = logging.getLogger(__name__)
 
 #: When no extremal clears the obstacles and some passed through one, those initial paths are
 #: planned again with the obstacle weight raised by this factor, at most ``WEIGHT_RAISES`` times
-#: (64 W in all; see docs/tuning.md).
+#: (64 W in all; see docs/tuning.md), or by a larger factor for a model that drives dearer than
+#: the unicycle (:func:`raised_weight`).
 WEIGHT_FACTOR = 4.0
 WEIGHT_RAISES = 3
 
@@ -101,7 +103,7 @@ class Search:
         self.first = route_round(settings_round(settings, aid), scenario, settings, self.paths)
 
     def request(self, path, rnd: Round, stage: str, reason: str, raises: int = 0, **more):
-        weight = float(self.scenario.weight) * WEIGHT_FACTOR**raises
+        weight = raised_weight(self.scenario, raises)
         label = path.label + rnd.suffix(self.aid.parameter if self.aid else "")
         return RunRequest(path, rnd, stage, reason, weight, raises, label, **more)
 
@@ -119,6 +121,31 @@ class Search:
             label = f", margin {margin:.3g}"
             self._wider[margin] = [replace(p, label=p.label + label) for p in wide]
         return self._wider[margin]
+
+
+def raised_weight(scenario: Scenario, raises: int) -> float:
+    """The obstacle weight after ``raises`` raises: ``W f^k`` with ``f = max(4, s^(1/3))``,
+    where ``s`` (:func:`effort_scale`) is how much dearer the model drives straight ahead than
+    the unicycle, so the last raise reaches at least ``W s``. The penalty deflects a motion
+    only where it is large beside the control effort: a TurtleBot3's differential drive
+    (wheels of 3.3 cm) pays 1836 times the unicycle's effort for the same motion, and at 0.5
+    m/s on its own map its extremals at weights 4, 16 and 64 all passed through walls
+    (docs/tuning.md)."""
+    factor = max(WEIGHT_FACTOR, effort_scale(scenario) ** (1.0 / WEIGHT_RAISES)) if raises else 1.0
+    return float(scenario.weight) * factor**raises
+
+
+def effort_scale(scenario: Scenario) -> float:
+    """The model's least effort of driving straight ahead over the unicycle's (1/2): 1 for
+    the unicycle and the car, ``2 / r^2`` for the differential drive with wheels of radius
+    ``r`` (:mod:`..model.cruise`); 1 for a model that cannot drive straight ahead."""
+    from ..model import get_model  # SymPy: only when a weight is raised
+    from ..model.cruise import straight_effort
+
+    try:
+        return 2.0 * straight_effort(get_model(scenario.model), scenario.model_parameters)
+    except ModelError:
+        return 1.0
 
 
 def settings_round(settings: PlannerSettings, aid: PlanningAid | None) -> Round:
@@ -296,7 +323,8 @@ def weight_raised(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRe
     """No path clears at the scenario's weight, and some extremal passed through an obstacle:
     those paths again with the weight raised, until one clears (also where a path's run at the
     last raise failed: a higher weight may still clear), unless every run at the last raise
-    failed (the higher weights are stiffer still)."""
+    failed (the higher weights are stiffer still) at a weight that gives the penalty at least
+    the role it has for the unicycle (``W s``: :func:`raised_weight`)."""
     raises = 1 + max((r.raises for r in runs), default=0)
     if raises > WEIGHT_RAISES or any(r.clear for r in runs) or not search.scenario.weight > 0:
         return []
@@ -305,10 +333,12 @@ def weight_raised(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRe
     again = list(dict.fromkeys(r.path for r in last if any(r.path is c for c in collided)))
     if not again:
         return []
-    if raises > 1 and not any(r.extremal for r in last):
-        log.info("no extremal at weight x %g: not raised further", WEIGHT_FACTOR ** (raises - 1))
+    s = search.scenario
+    before = raised_weight(s, raises - 1)
+    if raises > 1 and not any(r.extremal for r in last) and before >= s.weight * effort_scale(s):
+        log.info("no extremal at weight %g: not raised further", before)
         return []
-    log.info("no extremal clears the obstacles: weight x %g", WEIGHT_FACTOR**raises)
+    log.info("no extremal clears the obstacles: weight %g", raised_weight(s, raises))
     why = "every extremal found passes through an obstacle"
     return [search.request(p, rnd, "weight raised", why, raises) for p in again]
 
