@@ -3,6 +3,7 @@
     python benchmarks/bench_map_plans.py [--n 100] [--maps depot,tb3_sandbox,office,...]
                                          [--weight 1.0] [--seed 0] [--size 1000] [--json out]
                                          [--cruise-speed V] [--option KEY=VALUE ...]
+                                         [--robot KEY=VALUE ...]
 
 Per map: ``--n`` random queries (``leapfrog generate --map``: start and goal at least 0.3 m from
 every blocked cell, more than 3 m apart, headings uniform, connected for the robot), robot
@@ -17,6 +18,10 @@ side). ``--cruise-speed V``: the same queries with a free final time at a cruise
 (the planner chooses how long to take; ``horizon`` in the rows is then the time it chose).
 ``--option KEY=VALUE`` (repeatable): a planner setting for every plan, as ``leapfrog solve
 --option`` takes it (``--option partitions=32 --option fewest_arcs=16`` for long horizons).
+``--robot KEY=VALUE`` (repeatable): the vehicle model and its parameters, as a scenario's
+``[robot]`` table gives them (``--robot model=diff-drive --robot wheel_radius=0.033 --robot
+axle_length=0.16``: a TurtleBot3's wheels). With ``--verbose`` each query's line gives the
+obstacle weight of its answer (raised where the extremals at the map's weight collided).
 No assertions.
 """
 
@@ -67,8 +72,25 @@ def run(scenarios, verbose: bool, options: dict) -> list[dict]:
         rows.append(row)
         if verbose:
             print(f"  {sc.name} T={horizon:.1f}: {row['status']} {row['cost']:.6g}"
-                  f" in {row['wall_s']:.2f} s", flush=True)  # fmt: skip
+                  f" (weight {r.weight:g}) in {row['wall_s']:.2f} s", flush=True)  # fmt: skip
     return rows
+
+
+def robot_fields(pairs: list[str]) -> dict:
+    """``--robot`` pairs as scenario fields: ``model`` and ``model_parameters``."""
+    fields: dict = {}
+    params = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep:
+            raise SystemExit(f"--robot {pair!r}: expected KEY=VALUE")
+        if key == "model":
+            fields["model"] = value
+        else:
+            params[key] = float(value)
+    if params:
+        fields["model_parameters"] = params
+    return fields
 
 
 def summary(name: str, rows: list[dict]) -> str:
@@ -97,8 +119,11 @@ def main(argv=None) -> int:
                         help="a free final time at this cruise speed (m/s)")  # fmt: skip
     parser.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                         help="a planner setting for every plan (repeatable)")  # fmt: skip
+    parser.add_argument("--robot", action="append", default=[], metavar="KEY=VALUE",
+                        help="the model (model=NAME) and its parameters (repeatable)")  # fmt: skip
     args = parser.parse_args(argv)
     options = planner_options(args.option)
+    robot = robot_fields(args.robot)
     out, warm = {}, False
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.maps.split(","):
@@ -109,6 +134,7 @@ def main(argv=None) -> int:
                 v = args.cruise_speed
                 free = FreeTime(v * v / 2, v)
                 scenarios = [dataclasses.replace(sc, free_time=free) for sc in scenarios]
+            scenarios = [dataclasses.replace(sc, **robot) for sc in scenarios]
             made = time.perf_counter() - t0
             if not warm:  # numba's kernels loaded before anything is timed
                 run(scenarios[:1], False, options)
