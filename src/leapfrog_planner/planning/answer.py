@@ -191,12 +191,7 @@ def plan_message(chosen: Chosen, runs: list[PathRun], margin: float) -> str:
     if status is PlanStatus.CONVERGED:
         msg = best.run.message
         if best.raises:
-            first = next(r for r in runs if r.same_line(best) and r.raises == 0)
-            msg += (
-                f"; the obstacle weight was raised from {first.weight:g} to"
-                f" {best.weight:g} to clear the obstacles (at {first.weight:g} the extremal"
-                f" {_too_close(first.validation.clearance.min(), margin)})"
-            )
+            msg += f"; {_raised(best, runs, margin)}"
         if answer.cheaper is not None:
             other, cost = answer.cheaper
             msg += (
@@ -220,6 +215,22 @@ def plan_message(chosen: Chosen, runs: list[PathRun], margin: float) -> str:
     else:
         what = f"no initial path led to an extremal ({_failures(runs)})"
     return f"{what}; returned: the {answer.source}"
+
+
+def _raised(best: PathRun, runs: list[PathRun], margin: float) -> str:
+    """How the answer ``best``, at a raised obstacle weight, came to be: what its path's
+    extremal did at the scenario's weight, or, for a path first ranked at a raised weight
+    (:func:`.search.weight_raised`), what every extremal did there."""
+    first = next((r for r in runs if r.same_line(best) and r.raises == 0), None)
+    w0 = min(r.weight for r in runs)
+    if first is not None and first.extremal:
+        why = f"the extremal {_too_close(first.validation.clearance.min(), margin)}"
+    else:
+        why = "every extremal found passed through an obstacle or too close to one"
+    return (
+        f"the obstacle weight was raised from {w0:g} to {best.weight:g} to clear the"
+        f" obstacles (at {w0:g} {why})"
+    )
 
 
 def _failures(runs: list[PathRun]) -> str:

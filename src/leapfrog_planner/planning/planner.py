@@ -84,16 +84,18 @@ class Planner:
     def progress(self, callback: Progress) -> None:
         self.runner.progress = callback
 
-    def initial_paths(self, margin: float | None = None) -> list[InitialPath]:
+    def initial_paths(self, margin: float | None = None, weight=None) -> list[InitialPath]:
         """The paths a plan runs first, keeping ``margin`` (default: the settings'): the
-        ``initial_paths`` of least estimated cost, one per family, or fewer where fewer exist
-        (the plan's message then says so): :func:`.first_paths.first_paths`."""
-        return self.path_selection(margin)[0]
+        ``initial_paths`` of least estimated cost (at obstacle weight ``weight``, by default
+        the scenario's), one per family, or fewer where fewer exist (the plan's message then
+        says so): :func:`.first_paths.first_paths`."""
+        return self.path_selection(margin, weight)[0]
 
-    def path_selection(self, margin=None) -> tuple[list[InitialPath], list[InitialPath]]:
+    def path_selection(self, margin=None, weight=None) -> tuple[list, list]:
         """The paths a plan runs first and the extra ones it races against them."""
+        problem = self.runner.problem_of(self.first_round, weight)  # (None: the scenario's)
         return first_paths(
-            self.scenario, self.settings, self.problem, self.robot, margin, self.paths_deadline
+            self.scenario, self.settings, problem, self.robot, margin, self.paths_deadline
         )
 
     def run_path(self, path: InitialPath) -> PathRun:

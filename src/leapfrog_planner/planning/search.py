@@ -93,13 +93,14 @@ class Search:
         paths: tuple[list[InitialPath], list[InitialPath]],
         aid: PlanningAid | None,
         problem_of: Callable[[Round], OptimalControlProblem],
-        paths_at: Callable[[float], list[InitialPath]],
+        paths_at: Callable[..., list[InitialPath]],
         choose: Callable[[list[PathRun]], Chosen],
     ):
         self.scenario, self.settings, self.aid = scenario, settings, aid
         self.paths, self.extras = paths
         self.problem_of, self.paths_at, self.choose = problem_of, paths_at, choose
         self._wider: dict[float, list[InitialPath]] = {}
+        self._weighted: dict[float, list[InitialPath]] = {}
         self.first = route_round(settings_round(settings, aid), scenario, settings, self.paths)
 
     def request(self, path, rnd: Round, stage: str, reason: str, raises: int = 0, **more):
@@ -121,6 +122,12 @@ class Search:
             label = f", margin {margin:.3g}"
             self._wider[margin] = [replace(p, label=p.label + label) for p in wide]
         return self._wider[margin]
+
+    def ranked_at(self, weight: float) -> list[InitialPath]:
+        """The initial paths of least estimated cost at obstacle weight ``weight``."""
+        if weight not in self._weighted:
+            self._weighted[weight] = self.paths_at(weight=weight)
+        return self._weighted[weight]
 
 
 def raised_weight(scenario: Scenario, raises: int) -> float:
@@ -322,9 +329,11 @@ def timed_by_penalty(search: Search, rnd: Round, runs: list[PathRun]) -> list[Ru
 def weight_raised(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRequest]:
     """No path clears at the scenario's weight, and some extremal passed through an obstacle:
     those paths again with the weight raised, until one clears (also where a path's run at the
-    last raise failed: a higher weight may still clear), unless every run at the last raise
-    failed (the higher weights are stiffer still) at a weight that gives the penalty at least
-    the role it has for the unicycle (``W s``: :func:`raised_weight`)."""
+    last raise failed: a higher weight may still clear), and, where a raise is by more than
+    :data:`WEIGHT_FACTOR`, the paths ranked first at the raised weight (the penalty's share of
+    the estimates changes their order); unless every run at the last raise failed (the higher
+    weights are stiffer still) at a weight that gives the penalty at least the role it has for
+    the unicycle (``W s``: :func:`raised_weight`)."""
     raises = 1 + max((r.raises for r in runs), default=0)
     if raises > WEIGHT_RAISES or any(r.clear for r in runs) or not search.scenario.weight > 0:
         return []
@@ -338,9 +347,16 @@ def weight_raised(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRe
     if raises > 1 and not any(r.extremal for r in last) and before >= s.weight * effort_scale(s):
         log.info("no extremal at weight %g: not raised further", before)
         return []
-    log.info("no extremal clears the obstacles: weight %g", raised_weight(s, raises))
+    weight = raised_weight(s, raises)
+    log.info("no extremal clears the obstacles: weight %g", weight)
     why = "every extremal found passes through an obstacle"
-    return [search.request(p, rnd, "weight raised", why, raises) for p in again]
+    asked = [search.request(p, rnd, "weight raised", why, raises) for p in again]
+    if weight > WEIGHT_FACTOR * before:  # a larger raise ranks the paths anew
+        why += f"; ranked first at weight {weight:.6g}"
+        run = {p.label for p in again}
+        ranked = [p for p in search.ranked_at(weight) if p.label not in run]
+        asked += [search.request(p, rnd, "weight raised", why, raises) for p in ranked]
+    return asked
 
 
 #: The stages of a round, in order; each is asked until it asks for nothing more.
