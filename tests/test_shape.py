@@ -310,3 +310,13 @@ def test_the_world_layer_needs_only_numpy_scipy_numba_pyyaml_and_pillow():
                 found.add(node.module.split(".")[0])
     third_party = found - set(sys.stdlib_module_names)
     assert {"numpy", "yaml"} <= third_party <= allowed, third_party
+
+
+def test_the_package_ships_its_type_hints():
+    """PEP 561: the ``py.typed`` marker sits in the package and its package data names it, so
+    an installed wheel carries it and mypy or an editor reads the package's hints."""
+    import tomllib
+
+    assert (PACKAGE / "py.typed").is_file()
+    pyproject = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    assert "py.typed" in pyproject["tool"]["setuptools"]["package-data"]["leapfrog_planner"]
