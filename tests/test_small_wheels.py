@@ -89,3 +89,31 @@ def test_the_unicycle_and_the_car_keep_raises_of_four():
             name="x", horizon=1.0, start=np.zeros(n), goal=np.ones(n), model=model, weight=1.0
         )
         assert [raised_weight(sc, k) for k in range(4)] == [1.0, 4.0, 16.0, 64.0]
+
+
+def test_a_raised_answer_says_what_the_scenario_weight_gave():
+    """The message of an answer at a raised weight: what its own path's extremal did at the
+    scenario's weight, or, for a path first run at the raise (ranked there), what they all did."""
+    from types import SimpleNamespace
+
+    from leapfrog_planner.planning import answer
+
+    class Run(SimpleNamespace):
+        def same_line(self, other):
+            return self.line == other.line
+
+    def run(line, raises, weight, inside=None):
+        clear = None if inside is None else SimpleNamespace(clearance=np.array([-inside]))
+        return Run(line=line, raises=raises, weight=weight, extremal=clear is not None,
+                   validation=clear)  # fmt: skip
+
+    runs = [run(1, 0, 1.0, 0.2), run(2, 0, 1.0), run(1, 1, 12.2, -0.01), run(3, 1, 12.2, -0.02)]
+    said = answer._raised(runs[2], runs, 0.0)
+    assert said == (
+        "the obstacle weight was raised from 1 to 12.2 to clear the obstacles"
+        " (at 1 the extremal passed 0.2 inside one)"
+    )
+    said = answer._raised(runs[3], runs, 0.0)
+    assert said.endswith(
+        "(at 1 every extremal found passed through an obstacle or too close to one)"
+    )
