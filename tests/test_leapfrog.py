@@ -546,6 +546,35 @@ def test_failed_final_solves_are_retried_after_more_sweeps_at_the_last_level():
     assert r.end_state_error <= 1e-8
 
 
+def test_a_run_that_ends_at_its_fewest_arcs_also_sweeps_on_when_the_final_solves_fail():
+    """The same path with ``fewest_arcs = 4`` (as a long route keeps its arcs short): the run's
+    last level is q = 4, not q = 2, and the final solves fail from it as they did above. That
+    level is swept on too, and the final solve converges (without: failed)."""
+    sc = generate_one(GeneratorSpec(n=500, seed=1, obstacles=(3, 10)), 250)
+    planner = Planner(sc, method=NM, initial_paths=1, threads=1)
+    path = planner.initial_paths()[0]
+    t, X = path.junctions(8, sc.horizon)
+    guide = PathGuide(planner.problem, path, sc.horizon)
+
+    def run(**options):
+        settings = replace(
+            planner.settings.leapfrog, fewest_arcs=4, final_least_squares=0, **options
+        )
+        return leapfrog(planner.problem, t, X, guide=guide, settings=settings, flow=planner.flow)
+
+    without = run(final_retry_sweeps=0)
+    assert not without.success and "final solve failed" in without.message
+    assert without.history[-1].q == 4
+    r = run()
+    assert r.success, r.message
+    assert "after the final solves had failed" in r.message
+    retry = r.history[len(without.history) :]
+    assert retry and all(h.q == 4 for h in retry)
+    assert [h.cost for h in r.history[: len(without.history)]] == [h.cost for h in without.history]
+    v = validate(planner.problem, 0.0, sc.start, sc.horizon, sc.goal, r.costate0)
+    assert v.end_state_error <= 1e-8
+
+
 # --------------------------------------------------------------------------- initial path
 
 

@@ -201,12 +201,13 @@ def step(state: State, local: LocalSolver, settings: LeapfrogSettings, progress)
 
 
 def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSolution:
-    """The final solve; if it fails after the sweeps reached ``q = 2`` from a level left with a
-    large costate jump, that level swept on (at most ``final_retry_sweeps`` more sweeps, until
-    its jump is below ``final_retry_jump`` or a sweep no longer lowers the cost) and the final
-    solve again. (A run that spent ``max_sweeps`` before reaching ``q = 2`` is not retried, nor
-    one whose last sweep at that level moved no junction: another would repeat it; no retry
-    sweep begins past the final solver's deadline, a plan's time limit.)"""
+    """The final solve; if it fails after the sweeps reached ``q = 2``, or the fewest arcs the
+    run keeps (``fewest_arcs``: a long route), from a level left with a large costate jump,
+    that level swept on (at most ``final_retry_sweeps`` more sweeps, until its jump is below
+    ``final_retry_jump`` or a sweep no longer lowers the cost) and the final solve again. (A
+    run that spent ``max_sweeps`` before reaching its last level is not retried, nor one whose
+    last sweep at that level moved no junction: another would repeat it; no retry sweep
+    begins past the final solver's deadline, a plan's time limit.)"""
     sweep_time = time.perf_counter() - t_start
     arcs, level = state.arcs, _multi_level(state)
     final_jump = arcs.max_jump()
@@ -218,8 +219,7 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
     if (
         not found.success
         and settings.final_retry_sweeps
-        and arcs.q == 2
-        and level.q > 2
+        and ((arcs.q == 2 and level.q > 2) or state.at_fewest)
         and not stuck
         and time.perf_counter() < final.deadline
     ):
