@@ -25,7 +25,10 @@ from pathlib import Path
 
 from leapfrog_planner.cli.main import main
 
-HANG = 180  # seconds: a case still running then is a hang, and ends the test run
+#: Seconds: a case still running then is a hang, and ends the test run. A case may compile a
+#: model's kernels (a cold cache): on 2 cores loaded with two other planning processes, the
+#: first cases of both workers passed 180 s doing so, and the run ended there.
+HANG = 420
 
 _QUIET = (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning)
 

@@ -105,6 +105,58 @@ def test_an_answer_through_an_obstacle_after_the_weight_raises_is_sought_again_f
     assert {"weight raised"} <= {rec.stage for rec in r.search}
 
 
+def _colliding(monkeypatch, seen: list, which):
+    """Every run made; the extremals of those ``which`` picks made to collide (each asked to
+    keep a margin it cannot, its last iterate dropped)."""
+    real = Runner.run
+
+    def run(self, request, k=0, paths=1):
+        seen.append(request)
+        done = real(self, request, k, paths)
+        if not which(request):
+            return done
+        return replace(done, margin=1e9, run=replace(done.run, arcs=None))
+
+    monkeypatch.setattr(Runner, "run", run)
+
+
+@pytest.mark.parametrize("fewest_arcs, rounds", [(2, [8]), (4, [8, 16])])
+def test_on_a_long_route_a_cheaper_extremal_through_an_obstacle_asks_for_a_finer_round(
+    monkeypatch, fewest_arcs, rounds
+):
+    """Paper case 4's optimum made to collide: the answer is a dearer clear extremal. Where the
+    levels are halved down to 2 arcs that answer stands; where they stop above (a long route on
+    a map), the cheaper extremal through an obstacle sends the stages again with twice the
+    partitions (on the office maze such rounds found cheaper clear optima)."""
+    best = plan("paper-case-4", fewest_arcs=fewest_arcs)
+    assert best.success
+    seen = []
+    _colliding(monkeypatch, seen, lambda q: q.path.label == best.initial_path)
+    r = plan("paper-case-4", fewest_arcs=fewest_arcs)
+    assert r.success and r.cost > best.cost
+    assert list(dict.fromkeys(q.round.partitions for q in seen)) == rounds
+    if fewest_arcs > 2:
+        why = next(q.round.reason for q in seen if q.round.partitions == 16)
+        assert "fell short (a cheaper extremal passes through an obstacle)" in why
+
+
+@pytest.mark.parametrize("fewest_arcs, rounds", [(2, [8]), (4, [8, 16])])
+def test_on_a_long_route_an_answer_at_a_raised_weight_asks_for_a_finer_round(
+    monkeypatch, fewest_arcs, rounds
+):
+    """Every extremal at the scenario's own weight made to collide: the raised weight's clears.
+    On a long route that answer falls short (a finer round may clear at the scenario's
+    weight); halved down to 2 arcs it stands."""
+    seen = []
+    _colliding(monkeypatch, seen, lambda q: q.raises == 0)
+    r = plan("paper-case-2", initial_paths=1, extra_paths=0, fewest_arcs=fewest_arcs)
+    assert r.success and r.weight > load_scenario("paper-case-2").weight
+    assert list(dict.fromkeys(q.round.partitions for q in seen)) == rounds
+    if fewest_arcs > 2:
+        why = next(q.round.reason for q in seen if q.round.partitions == 16)
+        assert "fell short (it clears only at a raised obstacle weight)" in why
+
+
 def test_a_car_whose_runs_clear_nothing_runs_again_at_the_aids_next_value(monkeypatch):
     """The car's planning aid comes from its model: Leapfrog runs with the turn assist 1, then
     (no run clears) twice the partitions, then the assist 0.5; a unicycle has no such round."""

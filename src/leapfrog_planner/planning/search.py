@@ -363,12 +363,15 @@ def weight_raised(search: Search, rnd: Round, runs: list[PathRun]) -> list[RunRe
 STAGES: tuple[Stage, ...] = (ranked_paths, wider_margin, timed_by_penalty, weight_raised)
 
 
-def falls_short(runs: list[PathRun], chosen: Chosen) -> str:
+def falls_short(runs: list[PathRun], chosen: Chosen, long_route: bool = False) -> str:
     """Why the answer of ``runs`` falls short (empty when it does not): no extremal at all, none
     that clears the obstacles (also after the round's weight raises: office maze query 26, whose
     first round found only extremals through walls and whose finer one found the optimum), a
     collision-free iterate cheaper than the best extremal, or no extremal from a path of a
-    homotopy class (a three-point turn's alone)."""
+    homotopy class (a three-point turn's alone). On a ``long_route`` (levels halved down to
+    more than 2 arcs) also: the answer clears only at a raised obstacle weight, or an extremal
+    at its weight that passes through an obstacle is cheaper (on the office maze a finer
+    round found a cheaper collision-free optimum beside such extremals: docs/tuning.md)."""
     if chosen.status is PlanStatus.FAILED:
         return "no extremal"
     if chosen.status is PlanStatus.COLLIDES:
@@ -377,6 +380,14 @@ def falls_short(runs: list[PathRun], chosen: Chosen) -> str:
         return "a collision-free iterate is cheaper than the extremal"
     if not any(r.extremal for r in runs if not r.path.modes.cusp):
         return "no extremal from a path of a homotopy class"
+    if long_route and chosen.run.raises:
+        return "it clears only at a raised obstacle weight"
+    best = chosen.run
+    if long_route and any(
+        r.collides and r.weight == best.weight and r.validation.cost < best.validation.cost
+        for r in runs
+    ):
+        return "a cheaper extremal passes through an obstacle"
     return ""
 
 
@@ -411,7 +422,7 @@ def finer_round(search: Search, rnd: Round, runs: list[PathRun]) -> Round | None
         finer, how = {"fewest_arcs": arcs}, f"twice the fewest arcs, levels halved down to {arcs}"
     else:
         return None
-    why = falls_short(runs, search.choose(runs))
+    why = falls_short(runs, search.choose(runs), first.fewest_arcs > 2)
     if not why:
         return None
     log.info("the answer falls short (%s): the stages again with %s", why, how)
