@@ -206,7 +206,9 @@ def test_timed_path_spans_the_horizon(plan):
 
 
 def test_dubins_goes_forward_only(ompl, clear):
-    s = OmplSettings(planner="RRTstar", space="dubins", turning_radius=TURN, time_limit=0.3)
+    # (a sampling planner within a time limit: 0.3 s found no exact path once on a loaded CI
+    # machine; the limit is a budget, not a measure)
+    s = OmplSettings(planner="RRTstar", space="dubins", turning_radius=TURN, time_limit=2.0, seed=5)
     p = ompl_plan(clear, START, GOAL, RADIUS, s)
     assert p.solved, p.message
     assert p.cusps == 0 and (p.direction == 1).all()
