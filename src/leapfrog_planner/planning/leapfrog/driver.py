@@ -203,7 +203,7 @@ def step(state: State, local: LocalSolver, settings: LeapfrogSettings, progress)
 def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSolution:
     """The final solve; if it fails after the sweeps reached ``q = 2``, or the fewest arcs the
     run keeps (``fewest_arcs``: a long route), from a level left with a large costate jump,
-    that level swept on (at most ``final_retry_sweeps`` more sweeps, until its jump is below
+    that level swept on (at most :func:`retry_sweeps` more sweeps, until its jump is below
     ``final_retry_jump`` or a sweep no longer lowers the cost) and the final solve again. (A
     run that spent ``max_sweeps`` before reaching its last level is not retried, nor one whose
     last sweep at that level moved no junction: another would repeat it; no retry sweep
@@ -225,7 +225,7 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
     ):
         t_more = time.perf_counter()
         first_failure = found.root
-        for _ in range(settings.final_retry_sweeps):
+        for _ in range(retry_sweeps(level.q, settings)):
             if time.perf_counter() >= final.deadline:
                 break
             before = state.last_cost()
@@ -256,6 +256,18 @@ def postprocess(state, local, final, settings, progress, t_start) -> LeapfrogSol
         arcs=(arcs if arcs.q > 2 or arcs is level else level).frozen(),
         fit_strategies=dict(local.strategies.counts),
     )
+
+
+#: A level of more than 4 arcs (a long route's fewest: ``fewest_arcs``) is swept on up to this
+#: many times ``final_retry_sweeps``: there Leapfrog converges slowly (its slowest error mode
+#: by about ``1 - c / q^2`` a sweep), and office maze routes needed 92 to 200 more sweeps
+#: (docs/tuning.md); at q = 4 the budget stays ``final_retry_sweeps``.
+LONG_LEVEL_RETRIES = 20
+
+
+def retry_sweeps(q: int, settings: LeapfrogSettings) -> int:
+    """The most sweeps a level of ``q`` arcs is swept on after failed final solves."""
+    return settings.final_retry_sweeps * (LONG_LEVEL_RETRIES if q > 4 else 1)
 
 
 def _multi_level(state: State) -> Junctions:

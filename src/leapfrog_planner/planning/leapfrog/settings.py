@@ -45,10 +45,10 @@ class LeapfrogSettings:
     jump_tol: float = 1e-6  # ...or below this relative costate jump
     final: str = "auto"  # "shooting", "multiple-shooting", or both in turn
     # When the final solves fail, the last level with q > 2 (or at fewest_arcs) is swept on (at
-    # most this many more sweeps, until its costate jump is below final_retry_jump or a sweep
-    # no longer lowers the cost) and they are tried again: on a long route's fewest arcs
-    # Leapfrog converges slowly (docs/tuning.md).
-    final_retry_sweeps: int = 200
+    # most this many more sweeps, 20 times as many on a level of more than 4 arcs, until its
+    # costate jump is below final_retry_jump or a sweep no longer lowers the cost) and they are
+    # tried again: on a long route's fewest arcs Leapfrog converges slowly (docs/tuning.md).
+    final_retry_sweeps: int = 10
     final_retry_jump: float = 1e-4
     # Multiple shooting's arcs: those of the last level with q > 2, then every arc split in
     # two, at most this many times (4, 8, 16 arcs from a level of 4).
