@@ -16,8 +16,8 @@ simple shooting over the whole horizon runs from the costate of the first arc; i
 multiple-shooting Newton solve over the junctions of the last level with ``q > 2`` takes over
 (then over those arcs split in two, ``final_refinements`` times). If both fail, that level (or
 the level at ``fewest_arcs`` where a long route stops halving) is swept on (at most
-``final_retry_sweeps`` more sweeps, until its jump is below ``final_retry_jump``) and both are
-tried again from there.
+``final_retry_sweeps`` more sweeps, 20 times as many on a level of more than 4 arcs, until its
+jump is below ``final_retry_jump``) and both are tried again from there.
 
 Local problems that fail are retried by other strategies (:mod:`.local`); in a sweep, a failed
 local problem leaves its junction where it is. A level that ends with a local problem still
