@@ -84,27 +84,6 @@ def test_an_answer_that_falls_short_is_sought_again_with_twice_the_partitions(mo
     assert {q.round.partitions for q in no_doubling} == {8}
 
 
-def test_an_answer_through_an_obstacle_after_the_weight_raises_is_sought_again_finer(monkeypatch):
-    """Every extremal made to collide (each run asked to keep a margin it cannot): the round's
-    weight raises find none that clears either, and the stages run again with twice the
-    partitions, as for an answer with no extremal (on an office maze's long route the finer
-    round found the clear optimum the first round's extremals through walls had hidden)."""
-    seen = []
-    real = Runner.run
-
-    def run(self, request, k=0, paths=1):
-        seen.append(request)
-        return replace(real(self, request, k, paths), margin=1e9)
-
-    monkeypatch.setattr(Runner, "run", run)
-    r = plan("paper-case-2", initial_paths=1, extra_paths=0)
-    assert r.status is PlanStatus.COLLIDES and not r.optimal
-    rounds = list(dict.fromkeys((q.round.partitions, q.round.reason) for q in seen))
-    assert [q for q, _ in rounds] == [8, 16]
-    assert "fell short (no extremal clears the obstacles)" in rounds[1][1]
-    assert {"weight raised"} <= {rec.stage for rec in r.search}
-
-
 def _colliding(monkeypatch, seen: list, which):
     """Every run made; the extremals of those ``which`` picks made to collide (each asked to
     keep a margin it cannot, its last iterate dropped)."""
@@ -118,6 +97,21 @@ def _colliding(monkeypatch, seen: list, which):
         return replace(done, margin=1e9, run=replace(done.run, arcs=None))
 
     monkeypatch.setattr(Runner, "run", run)
+
+
+def test_an_answer_through_an_obstacle_after_the_weight_raises_is_sought_again_finer(monkeypatch):
+    """Every extremal made to collide (each run asked to keep a margin it cannot): the round's
+    weight raises find none that clears either, and the stages run again with twice the
+    partitions, as for an answer with no extremal (on an office maze's long route the finer
+    round found the clear optimum the first round's extremals through walls had hidden)."""
+    seen = []
+    _colliding(monkeypatch, seen, lambda q: True)
+    r = plan("paper-case-2", initial_paths=1, extra_paths=0)
+    assert r.status is PlanStatus.COLLIDES and not r.optimal
+    rounds = list(dict.fromkeys((q.round.partitions, q.round.reason) for q in seen))
+    assert [q for q, _ in rounds] == [8, 16]
+    assert "fell short (no extremal clears the obstacles)" in rounds[1][1]
+    assert {"weight raised"} <= {rec.stage for rec in r.search}
 
 
 @pytest.mark.parametrize("fewest_arcs, rounds", [(2, [8]), (4, [8, 16])])

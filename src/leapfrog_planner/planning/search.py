@@ -380,10 +380,12 @@ def falls_short(runs: list[PathRun], chosen: Chosen, long_route: bool = False) -
         return "a collision-free iterate is cheaper than the extremal"
     if not any(r.extremal for r in runs if not r.path.modes.cusp):
         return "no extremal from a path of a homotopy class"
-    if long_route and chosen.run.raises:
-        return "it clears only at a raised obstacle weight"
     best = chosen.run
-    if long_route and any(
+    if not long_route:
+        return ""
+    if best.raises:
+        return "it clears only at a raised obstacle weight"
+    if any(
         r.collides and r.weight == best.weight and r.validation.cost < best.validation.cost
         for r in runs
     ):
