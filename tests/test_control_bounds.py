@@ -199,11 +199,12 @@ def test_a_failed_plan_hands_back_a_motion_to_the_goal_and_says_what_it_breaks()
     with the flow of the robot's own bounds: the motion handed back jumped by up to 0.57
     between samples and ended 0.62 from the goal. Each iterate is now integrated with its own
     problem; none is a motion the robot can make, nor is the cheapest initial path followed as
-    timed (it drives at up to 7.6), so the iterate is handed back, and its source says why."""
+    timed (it drives at up to 7.6), so the iterate is handed back, and its source says why.
+    One round (a failed plan's finer round fails too, in twice the time)."""
     spec = GeneratorSpec(n=35, seed=4, heading_spread=3.14159, min_distance=0.3)
     (base,) = [s for s in generate(spec) if s.name.endswith("00034")]
     sc = dataclasses.replace(base, control_bounds={"v": (0.0, 6.0)})
-    r = plan(sc)
+    r = plan(sc, finer_doublings=0)
     assert str(r.status) == "failed" and not r.optimal
     x = r.trajectory.x
     assert np.linalg.norm(x[-1] - sc.goal) < 1e-5 and np.abs(np.diff(x, axis=0)).max() < 0.05
@@ -216,9 +217,12 @@ def test_a_failed_plan_hands_back_a_motion_to_the_goal_and_says_what_it_breaks()
 def test_a_speed_too_low_for_every_path_fails_honestly():
     """Paper case 2's goal is 4.95 away, and every path around its obstacles is longer than 5
     (5.23 the shortest): with T = 1 and v <= 5 the planner runs and fails, saying so; with
-    v <= 4 not even the straight line can be driven, and the task is refused before planning."""
+    v <= 4 not even the straight line can be driven, and the task is refused before planning.
+    One round (a failed plan's finer round fails too, in twice the time)."""
     base = load_scenario("paper-case-2")
-    r = plan(dataclasses.replace(base, control_bounds={"v": (0.0, 5.0)}), threads=1)
+    r = plan(
+        dataclasses.replace(base, control_bounds={"v": (0.0, 5.0)}), threads=1, finer_doublings=0
+    )
     assert not r.success and str(r.status) == "failed"
     with pytest.raises(ScenarioError, match="it takes at least 1.23744 s, longer than T = 1"):
         plan(dataclasses.replace(base, control_bounds={"v": (0.0, 4.0)}))
