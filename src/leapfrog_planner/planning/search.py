@@ -380,9 +380,9 @@ def falls_short(runs: list[PathRun], chosen: Chosen, long_route: bool = False) -
         return "a collision-free iterate is cheaper than the extremal"
     if not any(r.extremal for r in runs if not r.path.modes.cusp):
         return "no extremal from a path of a homotopy class"
-    best = chosen.run
     if not long_route:
         return ""
+    best = chosen.run
     if best.raises:
         return "it clears only at a raised obstacle weight"
     if any(
@@ -417,14 +417,20 @@ def finer_round(search: Search, rnd: Round, runs: list[PathRun]) -> Round | None
     fewest arcs (the office maze's routes of 98 to 172 s: 3 of 20 more converge). None when
     the answer does not fall short or no finer round is left."""
     first, doubled, arcs = search.first, rnd.partitions * 2, rnd.fewest_arcs * 2
+    long_route = first.fewest_arcs > 2
     if rnd.doublings < search.settings.finer_doublings and doubled <= MAX_PARTITIONS:
         finer = {"partitions": doubled, "doublings": rnd.doublings + 1}
         how = f"twice the partitions, q = {doubled}"
-    elif rnd.doublings and rnd.fewest_arcs == first.fewest_arcs > 2 and arcs <= rnd.partitions:
+    elif (
+        long_route
+        and rnd.doublings
+        and rnd.fewest_arcs == first.fewest_arcs
+        and arcs <= rnd.partitions
+    ):
         finer, how = {"fewest_arcs": arcs}, f"twice the fewest arcs, levels halved down to {arcs}"
     else:
         return None
-    why = falls_short(runs, search.choose(runs), first.fewest_arcs > 2)
+    why = falls_short(runs, search.choose(runs), long_route)
     if not why:
         return None
     log.info("the answer falls short (%s): the stages again with %s", why, how)
