@@ -8,15 +8,13 @@ import signal
 import sys
 import threading
 import time
+from functools import partial
 from pathlib import Path
 
 import click
 
 from .common import EXIT_OK, console, err
 from .ctrl_c import interrupted, remember_ctrl_c
-
-#: Loading cached kernels takes about 0.3 s; a warm-up still running after this is compiling.
-COMPILING_AFTER_S = 1.5
 
 
 @contextlib.contextmanager
@@ -91,7 +89,7 @@ def ensure_compiled(models, show: bool = True, methods=None, timed: bool = False
 
 def _ensure_compiled(model: str, show: bool, methods, here: bool = False) -> None:
     from ..compiled import background
-    from ..planning.warmup import warm_up
+    from ..planning.warmup import said_when_compiling, warm_up
 
     what = f"{model} kernels"
     expected = 15 if background.in_background() and not here else 60  # measured: 15 s, 61 s
@@ -100,24 +98,16 @@ def _ensure_compiled(model: str, show: bool, methods, here: bool = False) -> Non
         with held_interrupts():
             warm_up(model, methods, here)
         return
-    if not err.is_terminal:  # a plain line, said when the loading turns out to be compiling
-        timer = threading.Timer(COMPILING_AFTER_S, lambda: _line(f"{note} ..."))
-        timer.start()
-        try:
-            with held_interrupts():
-                seconds = warm_up(model, methods, here)
-        finally:
-            timer.cancel()
-    else:
-        with err.status(f"loading the {what}") as status:
-            timer = threading.Timer(COMPILING_AFTER_S, lambda s=status: s.update(note))
-            timer.start()
-            try:
-                with held_interrupts():
-                    seconds = warm_up(model, methods, here)
-            finally:
-                timer.cancel()
-    if seconds > COMPILING_AFTER_S:
+    with contextlib.ExitStack() as stack:
+        if err.is_terminal:
+            status = stack.enter_context(err.status(f"loading the {what}"))
+            say = partial(status.update, note)
+        else:  # a plain line
+            say = partial(_line, f"{note} ...")
+        first = stack.enter_context(said_when_compiling(say))
+        stack.enter_context(held_interrupts())
+        seconds = warm_up(model, methods, here)
+    if first.started:
         _line(f"compiled the {what} in {seconds:.0f} s")
     if _loops_compiling(model):
         _line(

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections.abc import Callable, Iterator
 
 import numpy as np
+from numba.core import event
 
 from ..bvp.shooting import loops_cached, loops_ready
 from ..compiled import background
@@ -137,3 +139,30 @@ def _after_the_paths(scenario: Scenario, flow: Flow) -> None:
     scenario.problem().penalty(np.zeros((2, 2)))
     curve = SmoothCurve(np.array([[0.0, 0.0], [0.5, 0.2], [1.0, 0.3]]), 0.0, 0.5)
     curve.evaluate(np.linspace(0.0, 1.0, 5))
+
+
+class FirstCompile(event.Listener):
+    """Calls ``say`` when the first kernel starts compiling: numba's ``numba:compile`` events
+    fire where a kernel is missing from the disk cache, not where it is loaded from it (however
+    slowly a loaded machine loads it). ``started`` tells whether one did."""
+
+    def __init__(self, say: Callable[[], None]):
+        self.say = say
+        self.started = False
+
+    def on_start(self, ev) -> None:
+        if not self.started:
+            self.started = True
+            self.say()
+
+    def on_end(self, ev) -> None:
+        pass
+
+
+@contextlib.contextmanager
+def said_when_compiling(say: Callable[[], None]) -> Iterator[FirstCompile]:
+    """While the block runs, ``say`` is called when the first kernel starts compiling (in any
+    thread of this process: numba's events are global); the listener tells whether it did."""
+    listener = FirstCompile(say)
+    with event.install_listener("numba:compile", listener):
+        yield listener
