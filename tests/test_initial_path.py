@@ -309,6 +309,35 @@ def test_turn_in_place_then_drive_and_turn_again():
     assert np.array_equal(X[0], start) and np.array_equal(X[-1], goal)
 
 
+@pytest.mark.parametrize(
+    "start, goal",
+    [
+        ([0.0, 0.0, 0.0], [2.0, 0.5, PI - 1e-5]),  # the start turns about; it backs to the goal
+        ([0.0, 0.0, -PI + 1e-5], [2.0, 0.5, 2.2]),  # it backs away; the goal turns about
+        ([0.0, 0.0, 3.0], [2.0, -0.5, -3.0]),
+    ],
+)
+def test_whole_turns_the_goal_heading_asks_for_go_into_a_turn_in_place(start, goal):
+    """A path with a turn in place turns there by what the goal's heading asks for beyond the
+    drive's own turning: along the drive the heading stays the curve's direction (plus pi in
+    reverse), not turned sideways by whole turns spread over it (a TurtleBot3's reverse path
+    turned a whole turn across its route, and Leapfrog could not fit it)."""
+    paths = [p for p in initial_paths(start, goal, [], k=1) if not p.modes.cusp]
+    turning = [p for p in paths if p.modes.turn_start or p.modes.turn_goal]
+    assert turning
+    for path in turning:
+        s = np.linspace(0.0, 1.0, 4001)
+        xy, th = path.curve(s)
+        step = np.diff(xy, axis=0)
+        moving = np.linalg.norm(step, axis=1) > 1e-6 * path.length
+        direction = np.arctan2(step[moving, 1], step[moving, 0])
+        heading = th[:-1][moving] + (PI if path.modes.reverse else 0.0)
+        off = np.abs((heading - direction + PI) % (2 * PI) - PI)
+        assert off.max() < 0.05, path.label
+        t, X = path.junctions(16, 1.0)
+        assert np.array_equal(X[0], start) and np.array_equal(X[-1], goal)
+
+
 def test_modes_keep_the_homotopy_class_and_the_paper_cases_stay_forward():
     start, goal, obstacles = [0.0, 0.0, PI], [2.0, 0.0, PI], [[1.0, 0.0, 0.2]]
     paths = [p for p in initial_paths(start, goal, obstacles, k=2) if not p.modes.cusp]

@@ -149,9 +149,26 @@ def smooth_path(poly, S, G, obs, label, tol, signature=None, modes=FORWARD) -> I
     if modes.turn_goal and poly.shape[0] >= 2:
         h1 = near_branch(angle_of(poly[-1] - poly[-2]), h1)
     poly, sig = with_turns(poly, h0, h1, obs, tol, signature)
-    pieces = [Turn(S, S[2], h0 - offset), Drive(SmoothCurve(poly, h0, h1), offset)]
+    curve = SmoothCurve(poly, h0, h1)
+    if curve.delta and (modes.turn_start or modes.turn_goal):
+        h0, h1 = _turned_in_place(curve.delta, h0 - offset, h1 - offset, S[2], G[2], modes)
+        h0, h1 = h0 + offset, h1 + offset
+        curve = SmoothCurve(poly, h0, h1)
+    pieces = [Turn(S, S[2], h0 - offset), Drive(curve, offset)]
     pieces.append(Turn(G, h1 - offset, G[2]))
     return path_from_curve(poly, PoseCurve(pieces), S, G, obs, label, tol, sig, modes)
+
+
+def _turned_in_place(delta, a0, a1, start, goal, modes) -> tuple[float, float]:
+    """The headings ``(a0, a1)`` the drive starts and ends at, with the whole turns ``delta``
+    that the goal heading asks for beyond the curve's own turning moved into a turn in place
+    (at the start or the goal, whichever then turns less), not spread along the drive: there
+    they turned the robot across its direction of travel (a reverse drive on the TurtleBot3
+    map turned a whole turn sideways, and its initial segments failed every strategy)."""
+    at_start = (abs(a0 + delta - start), a0 + delta, a1) if modes.turn_start else None
+    at_goal = (abs(goal - (a1 - delta)), a0, a1 - delta) if modes.turn_goal else None
+    _, b0, b1 = min(x for x in (at_start, at_goal) if x is not None)
+    return b0, b1
 
 
 def path_from_curve(poly, curve, S, G, obs, label, tol, signature, modes) -> InitialPath:
