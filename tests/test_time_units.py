@@ -98,7 +98,10 @@ def test_penalty_timing_hurries_where_the_penalty_is_high():
     c = 0.5 * v**2 - pl.problem.penalty(0.5 * (xy[1:] + xy[:-1]))
     # constant but where the speed changes within a sample (measured: 99% within 1e-4)
     assert np.quantile(np.abs(c - np.median(c)), 0.95) <= 1e-3 * np.median(0.5 * v**2)
-    assert v[:4].mean() > 10.0 * np.median(v)  # out of the penalty's grip fast
+    # Out of the penalty's grip fast: at the start several times its typical speed (9.2 times
+    # on this first path, whose whole turn the goal heading asks for is made in its turn in
+    # place; 12 times when it was spread along the drive, a slower path).
+    assert v[:4].mean() > 5.0 * np.median(v)
 
 
 @pytest.mark.parametrize("name", ["random-s1-00018", "random-s1-00030"])
