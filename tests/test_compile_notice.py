@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import io
 import os
+import subprocess
+import sys
 import time
 
 import pytest
@@ -71,12 +73,9 @@ def test_the_loops_compiling_in_the_background_are_said(monkeypatch):
     assert "the same answers, bit for bit" in out.getvalue()
 
 
-def test_a_compile_is_heard_and_a_load_from_the_disk_cache_is_not(tmp_path, monkeypatch):
+def test_a_compile_is_heard_and_a_load_from_the_disk_cache_is_not(tmp_path):
     """The notice rests on numba's compile event: a function compiled anew raises it, the same
     function loaded from its disk cache in another process does not."""
-    import subprocess
-    import sys
-
     (tmp_path / "kernel_probe.py").write_text(
         "from numba import njit\n\n@njit(cache=True)\ndef twice(x):\n    return 2 * x\n"
     )
